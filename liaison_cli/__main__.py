@@ -1,0 +1,3 @@
+from liaison_cli.cli import app
+
+app(prog_name="liaison")

@@ -1,0 +1,1 @@
+"""Metrics, filter consistency and (later) observability analysis."""

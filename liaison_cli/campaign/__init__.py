@@ -1,0 +1,1 @@
+"""Scenario schema, problem preparation, seeding, fan-out and Parquet results."""

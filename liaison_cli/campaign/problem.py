@@ -1,0 +1,122 @@
+"""Scenario -> arrays: truth trajectories, noise-free measurements, filter matrices.
+
+Everything here is computed once per scenario and shared (read-only) by every Monte Carlo run.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from liaison_cli.campaign.schema import KEPLERIAN_ORBIT, Scenario
+from liaison_cli.dynamics.constants import LU_KM, MU, SECONDS_PER_DAY, TU_S, VU_KM_S
+from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.measurements.range import TwoWayRange
+from liaison_cli.orbits.catalog import CATALOG
+from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
+
+M_PER_LU = LU_KM * 1e3
+M_S_PER_VU = VU_KM_S * 1e3
+
+
+def initial_state_lu(spec) -> np.ndarray:
+    if spec.orbit == KEPLERIAN_ORBIT:
+        el = spec.elements
+        return lunar_orbiter_state_lu(el.a_km, el.e, el.i_deg, el.raan_deg, el.argp_deg, el.ta_deg)
+    return CATALOG[spec.orbit].state()
+
+
+def per_axis_block_diagonal(n_sc: int, position_value: float, velocity_value: float) -> np.ndarray:
+    """(6 n_sc, 6 n_sc) diagonal with the position value on position axes, velocity on velocity axes."""
+    one = np.array([position_value] * 3 + [velocity_value] * 3)
+    return np.diag(np.tile(one, n_sc))
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Arrays of one scenario, all in LU / TU unless a name says otherwise.
+
+    times_s (m,); truth (m, n) with n = 6 n_sc; measurements_true (m, L) noise-free (row 0 unused);
+    link_receiver / link_transponder (L,); sigma_lu (L,); bias_lu: constant range bias in the truth;
+    P0, Q (n, n); initial_error_sigma (n,) for the 'fixed_sigma' draw.
+    """
+
+    scenario: Scenario
+    spacecraft: tuple[str, ...]
+    times_s: np.ndarray
+    truth: np.ndarray
+    measurements_true: np.ndarray
+    link_receiver: np.ndarray
+    link_transponder: np.ndarray
+    sigma_m: float
+    sigma_lu: np.ndarray
+    bias_lu: float
+    P0: np.ndarray
+    Q: np.ndarray
+    initial_error_sigma: np.ndarray
+    dt_tu: float
+    substeps: int
+    mu: float
+    divergence_position_lu: float
+
+    @property
+    def n_steps(self) -> int:
+        return self.times_s.shape[0]
+
+
+def prepare_problem(scenario: Scenario) -> Problem:
+    names = scenario.spacecraft_names()
+    n_sc = len(names)
+    interval_s = scenario.measurement.interval_s
+    n_intervals = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval_s + 1e-9))
+    times_s = np.arange(n_intervals + 1) * interval_s
+    times_tu = times_s / TU_S
+
+    truth_by_sc = np.stack(
+        [propagate_states(initial_state_lu(sc), times_tu, MU) for sc in scenario.spacecraft], axis=1
+    )  # (m, n_sc, 6)
+
+    index = {name: i for i, name in enumerate(names)}
+    models = [TwoWayRange(index[link.receiver], index[link.transponder]) for link in scenario.links]
+    measurements = np.stack(
+        [model.simulate(truth_by_sc, MU, light_time=scenario.measurement.light_time) for model in models],
+        axis=1,
+    )
+    measurements[0, :] = np.nan  # the filter starts at t0 with no measurement
+
+    sigma_m = scenario.noise.resolved_sigma_m()
+    flt = scenario.filter
+    dt_tu = interval_s / TU_S
+    P0 = per_axis_block_diagonal(
+        n_sc, (flt.initial_sigma_position_m / M_PER_LU) ** 2, (flt.initial_sigma_velocity_m_s / M_S_PER_VU) ** 2
+    )
+    # State-noise compensation, one 6x6 block per spacecraft: white acceleration sigma_a on each
+    # velocity axis, q = (sigma_a dt)^2.
+    q_diag = []
+    for sc in scenario.spacecraft:
+        sigma_a = flt.process_noise_accel_m_s2 if sc.process_noise_accel_m_s2 is None else sc.process_noise_accel_m_s2
+        q_diag += [0.0] * 3 + [(sigma_a * interval_s / M_S_PER_VU) ** 2] * 3
+    Q = np.diag(q_diag)
+    ie = scenario.initial_error
+    initial_error_sigma = np.diag(
+        per_axis_block_diagonal(n_sc, ie.sigma_position_m / M_PER_LU, ie.sigma_velocity_m_s / M_S_PER_VU)
+    ).copy()
+
+    return Problem(
+        scenario=scenario,
+        spacecraft=tuple(names),
+        times_s=times_s,
+        truth=np.ascontiguousarray(truth_by_sc.reshape(len(times_s), 6 * n_sc)),
+        measurements_true=np.ascontiguousarray(measurements),
+        link_receiver=np.array([m.receiver for m in models], dtype=np.int64),
+        link_transponder=np.array([m.transponder for m in models], dtype=np.int64),
+        sigma_m=sigma_m,
+        sigma_lu=np.full(len(models), sigma_m / M_PER_LU),
+        bias_lu=scenario.noise.bias_m / M_PER_LU,
+        P0=P0,
+        Q=Q,
+        initial_error_sigma=initial_error_sigma,
+        dt_tu=dt_tu,
+        substeps=flt.rk4_substeps,
+        mu=MU,
+        divergence_position_lu=flt.divergence_position_km / LU_KM,
+    )

@@ -1,0 +1,201 @@
+"""Result tables and atomic Parquet I/O with provenance metadata."""
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from liaison_cli import __version__
+from liaison_cli.analysis.metrics import nees_band
+from liaison_cli.campaign.runner import CampaignResult
+from liaison_cli.errors import OutputExistsError
+
+METADATA_KEY = b"liaison"
+
+
+def provenance(result: CampaignResult, scenario_text: str, extra: dict | None = None) -> dict:
+    scenario = result.scenario
+    meta = {
+        "package": "liaison",
+        "package_version": __version__,
+        "scenario_name": scenario.name,
+        "scenario_yaml": scenario_text,
+        "scenario_effective": scenario.model_dump(mode="json"),
+        "seed": scenario.monte_carlo.seed,
+        "runs": len(result.outcomes),
+        "sigma_m": result.problem.sigma_m,
+        "seeding": "numpy SeedSequence(seed, spawn_key=(run,)); initial error drawn first, then noise",
+    }
+    meta.update(extra or {})
+    return meta
+
+
+def summary_table(result: CampaignResult) -> pd.DataFrame:
+    rows = []
+    for outcome in result.outcomes:
+        per_sc = outcome.summary or [{"spacecraft": name} for name in result.problem.spacecraft]
+        for row in per_sc:
+            rows.append(
+                {"run": outcome.run, **row, "status": outcome.status, "reason": outcome.reason,
+                 "fail_time_s": outcome.fail_time_s}
+            )
+    df = pd.DataFrame(rows)
+    return df.astype({"run": "int32"})
+
+
+def timeseries_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
+    """One row per (run, epoch, spacecraft): error norms, 3-sigma bounds, whole-state NEES."""
+    times = result.problem.times_s
+    names = result.problem.spacecraft
+    frames = []
+    for outcome in result.outcomes:
+        if not outcome.norms:
+            continue
+        m, n_sc = outcome.norms["position_error_m"].shape
+        frame = {
+            "run": np.full(m * n_sc, outcome.run, dtype=np.int32),
+            "t_s": np.repeat(times, n_sc),
+            "spacecraft": np.tile(np.array(names, dtype=object), m),
+        }
+        for key in ("position_error_m", "velocity_error_m_s", "position_3sigma_m", "velocity_3sigma_m_s"):
+            frame[key] = outcome.norms[key].reshape(-1).astype(float_dtype)
+        frame["nees"] = np.repeat(outcome.nees, n_sc).astype(float_dtype)
+        frames.append(pd.DataFrame(frame))
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+def residuals_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
+    """One row per (run, epoch, link): innovation (observed minus predicted, m) and its predicted std."""
+    problem = result.problem
+    times = problem.times_s[1:]
+    labels = [
+        f"{problem.spacecraft[r]}->{problem.spacecraft[t]}"
+        for r, t in zip(problem.link_receiver, problem.link_transponder)
+    ]
+    frames = []
+    for outcome in result.outcomes:
+        if outcome.innovation_m is None:
+            continue
+        m, n_links = outcome.innovation_m[1:].shape
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": np.full(m * n_links, outcome.run, dtype=np.int32),
+                    "t_s": np.repeat(times, n_links),
+                    "link": np.tile(np.array(labels, dtype=object), m),
+                    "innovation_m": outcome.innovation_m[1:].reshape(-1).astype(float_dtype),
+                    "innovation_std_m": outcome.innovation_std_m[1:].reshape(-1).astype(float_dtype),
+                }
+            )
+        )
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+def consistency_table(result: CampaignResult) -> pd.DataFrame:
+    """Run-averaged NEES per epoch over the runs that finished, with its 95 % chi-square band."""
+    good = [o for o in result.outcomes if o.status == "ok"]
+    if not good:
+        return pd.DataFrame()
+    nees = np.stack([o.nees for o in good])
+    state_size = result.problem.truth.shape[1]
+    lo, hi = nees_band(state_size, len(good))
+    mean = nees.mean(axis=0)
+    return pd.DataFrame(
+        {
+            "t_s": result.problem.times_s,
+            "mean_nees": mean,
+            "band_low": lo,
+            "band_high": hi,
+            "inside_band": (mean >= lo) & (mean <= hi),
+            "runs": len(good),
+            "state_size": state_size,
+        }
+    )
+
+
+def _temp_beside(path: Path) -> str:
+    """A temp file in the destination folder (so the rename is atomic) with normal permissions."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+    return tmp
+
+
+def write_parquet_atomic(df: pd.DataFrame, path, metadata: dict) -> None:
+    """Write a table with JSON metadata under the 'liaison' key: temp file in the same folder, then rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    merged = dict(table.schema.metadata or {})
+    merged[METADATA_KEY] = json.dumps(metadata, sort_keys=True).encode()
+    table = table.replace_schema_metadata(merged)
+    tmp = _temp_beside(path)
+    try:
+        pq.write_table(table, tmp)
+        with open(tmp, "rb") as handle:
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_text_atomic(text: str, path) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _temp_beside(path)
+    try:
+        with open(tmp, "w", encoding="utf-8") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def read_metadata(path) -> dict:
+    return json.loads(pq.read_schema(path).metadata[METADATA_KEY])
+
+
+def prepare_output_dir(path, overwrite: bool) -> Path:
+    path = Path(path)
+    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+        if not overwrite:
+            raise OutputExistsError(
+                f"{path}: output directory already exists and is not empty; pass --overwrite to replace it "
+                "or --output to choose another"
+            )
+        if path.is_dir():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> dict:
+    """Write summary / timeseries / residuals / consistency Parquet and the scenario text. Returns paths."""
+    out_dir = Path(out_dir)
+    meta = provenance(result, scenario_text, {"float_dtype": float_dtype})
+    paths = {
+        "summary": out_dir / "summary.parquet",
+        "timeseries": out_dir / "timeseries.parquet",
+        "residuals": out_dir / "residuals.parquet",
+        "consistency": out_dir / "consistency.parquet",
+    }
+    write_parquet_atomic(summary_table(result), paths["summary"], meta)
+    write_parquet_atomic(timeseries_table(result, float_dtype), paths["timeseries"], meta)
+    write_parquet_atomic(residuals_table(result, float_dtype), paths["residuals"], meta)
+    write_parquet_atomic(consistency_table(result), paths["consistency"], meta)
+    write_text_atomic(scenario_text, out_dir / "scenario.yaml")
+    return paths

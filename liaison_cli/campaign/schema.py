@@ -1,0 +1,294 @@
+"""Scenario schema: YAML (safe_load only) -> validated, frozen configuration.
+
+Every problem is reported as one line naming the file, the key, the bad value and what is allowed.
+"""
+
+import copy
+import re
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from liaison_cli.errors import ScenarioError
+from liaison_cli.orbits.catalog import catalog_names
+from liaison_cli.radio.link_budget import LinkLeg
+from liaison_cli.radio.ranging import sigma_from_link_budget
+
+KEPLERIAN_ORBIT = "lunar_keplerian"
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
+
+
+class StrictModel(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _reject_unknown_keys(cls, data):
+        if isinstance(data, dict):
+            allowed = set(cls.model_fields)
+            unknown = sorted(str(k) for k in data if k not in allowed)
+            if unknown:
+                raise ValueError(
+                    f"unknown key {unknown[0]!r}; allowed keys here: {', '.join(sorted(allowed))}"
+                )
+        return data
+
+
+class KeplerianElements(StrictModel):
+    """Moon-centred elements in inertial axes aligned with the rotating frame at t0."""
+
+    a_km: float = Field(gt=1737.4, description="semi-major axis, above the lunar radius")
+    e: float = Field(ge=0.0, lt=1.0)
+    i_deg: float = Field(ge=0.0, le=180.0)
+    raan_deg: float = 0.0
+    argp_deg: float = 0.0
+    ta_deg: float = 0.0
+
+    @model_validator(mode="after")
+    def _perilune_above_surface(self):
+        if self.a_km * (1.0 - self.e) <= 1737.4:
+            raise ValueError(
+                f"perilune a_km*(1-e) = {self.a_km * (1 - self.e):.1f} km is inside the Moon (radius 1737.4 km)"
+            )
+        return self
+
+
+class SpacecraftSpec(StrictModel):
+    name: str = Field(pattern=NAME_PATTERN)
+    orbit: str
+    elements: KeplerianElements | None = None
+    process_noise_accel_m_s2: float | None = Field(
+        None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
+    )
+
+    @field_validator("orbit")
+    @classmethod
+    def _known_orbit(cls, value):
+        allowed = [*catalog_names(), KEPLERIAN_ORBIT]
+        if value not in allowed:
+            raise ValueError(f"unknown orbit {value!r}; allowed: {', '.join(allowed)}")
+        return value
+
+    @model_validator(mode="after")
+    def _elements_iff_keplerian(self):
+        if self.orbit == KEPLERIAN_ORBIT and self.elements is None:
+            raise ValueError(f"orbit {KEPLERIAN_ORBIT!r} needs an 'elements' mapping")
+        if self.orbit != KEPLERIAN_ORBIT and self.elements is not None:
+            raise ValueError(f"'elements' is only allowed with orbit {KEPLERIAN_ORBIT!r}")
+        return self
+
+
+class LinkSpec(StrictModel):
+    """A crosslink: the receiver (mothercraft) times the two-way range through the transponder."""
+
+    receiver: str
+    transponder: str
+    observable: Literal["range"] = "range"
+
+
+class LinkLegSpec(StrictModel):
+    distance_km: float = Field(gt=0)
+    frequency_mhz: float = Field(gt=0)
+    tx_power_dbw: float
+    tx_losses_db: float = Field(ge=0)
+    tx_antenna_gain_dbi: float
+    data_rate_bps: float = Field(gt=0)
+    rx_losses_db: float = Field(ge=0)
+    rx_g_over_t_db_k: float
+    margin_db: float = Field(0.0, ge=0)
+    code_rate: float = Field(1.0, gt=0, le=1)
+
+    def leg(self) -> LinkLeg:
+        return LinkLeg(**self.model_dump())
+
+
+class LinkBudgetSpec(StrictModel):
+    uplink: LinkLegSpec
+    downlink: LinkLegSpec
+
+
+class NoiseSpec(StrictModel):
+    """Give either `sigma_m` directly, or `ranging_method` + `link_budget` to derive it (Eq. 1-4)."""
+
+    sigma_m: float | None = Field(None, gt=0)
+    ranging_method: Literal["time_derived", "telemetry", "pn"] | None = None
+    link_budget: LinkBudgetSpec | None = None
+    correlator_integration_s: float = Field(0.3, gt=0)
+    ranging_clock_hz: float | None = Field(None, gt=0)
+    loop_bandwidth_hz: float | None = Field(None, gt=0)
+    ranging_power_fraction_db: float | None = Field(None, le=0)
+    bias_m: float = 0.0
+
+    @model_validator(mode="after")
+    def _one_source_of_sigma(self):
+        derived = self.ranging_method is not None or self.link_budget is not None
+        if self.sigma_m is None and not derived:
+            raise ValueError("give 'sigma_m' or both 'ranging_method' and 'link_budget'")
+        if self.sigma_m is not None and derived:
+            raise ValueError("give either 'sigma_m' or 'ranging_method' + 'link_budget', not both")
+        if derived and (self.ranging_method is None or self.link_budget is None):
+            raise ValueError("'ranging_method' and 'link_budget' go together")
+        if self.ranging_method in ("telemetry", "pn"):
+            missing = [
+                k
+                for k in ("ranging_clock_hz", "loop_bandwidth_hz", "ranging_power_fraction_db")
+                if getattr(self, k) is None
+            ]
+            if missing:
+                raise ValueError(f"ranging_method {self.ranging_method!r} needs {', '.join(missing)}")
+        return self
+
+    def resolved_sigma_m(self) -> float:
+        if self.sigma_m is not None:
+            return self.sigma_m
+        return sigma_from_link_budget(
+            self.ranging_method,
+            self.link_budget.uplink.leg(),
+            self.link_budget.downlink.leg(),
+            self.correlator_integration_s,
+            self.ranging_clock_hz,
+            self.loop_bandwidth_hz,
+            self.ranging_power_fraction_db,
+        )
+
+
+class MeasurementSpec(StrictModel):
+    interval_s: float = Field(gt=0)
+    light_time: bool = True
+
+
+class FilterSpec(StrictModel):
+    initial_sigma_position_m: float = Field(1000.0, gt=0)
+    initial_sigma_velocity_m_s: float = Field(0.01, gt=0)
+    process_noise_accel_m_s2: float = Field(1e-7, ge=0)
+    divergence_position_km: float = Field(1e4, gt=0)
+    rk4_substeps: int = Field(8, ge=1, le=256)
+
+
+class InitialErrorSpec(StrictModel):
+    """`fixed_sigma`: independent normal errors with the sigmas below (the paper's Monte Carlo);
+    `from_covariance`: drawn from the filter's own P0 (for NEES consistency checks)."""
+
+    draw: Literal["fixed_sigma", "from_covariance"] = "fixed_sigma"
+    sigma_position_m: float = Field(500.0, ge=0)
+    sigma_velocity_m_s: float = Field(0.001, ge=0)
+
+
+class MonteCarloSpec(StrictModel):
+    runs: int = Field(ge=1, le=1_000_000)
+    seed: int = Field(ge=0)
+
+
+class Scenario(StrictModel):
+    name: str = Field(pattern=NAME_PATTERN)
+    description: str = ""
+    duration_days: float = Field(gt=0, le=365)
+    spacecraft: list[SpacecraftSpec] = Field(min_length=2)
+    links: list[LinkSpec] = Field(min_length=1)
+    measurement: MeasurementSpec
+    noise: NoiseSpec
+    filter: FilterSpec = FilterSpec()
+    initial_error: InitialErrorSpec = InitialErrorSpec()
+    monte_carlo: MonteCarloSpec
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        names = [sc.name for sc in self.spacecraft]
+        dupes = sorted({n for n in names if names.count(n) > 1})
+        if dupes:
+            raise ValueError(f"spacecraft names must be unique; repeated: {', '.join(dupes)}")
+        for i, link in enumerate(self.links):
+            for role in ("receiver", "transponder"):
+                who = getattr(link, role)
+                if who not in names:
+                    raise ValueError(
+                        f"links[{i}].{role} = {who!r} is not a spacecraft; defined: {', '.join(names)}"
+                    )
+            if link.receiver == link.transponder:
+                raise ValueError(f"links[{i}] links {link.receiver!r} to itself")
+        if self.measurement.interval_s > self.duration_days * 86400.0:
+            raise ValueError(
+                f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
+                f"{self.duration_days} d scenario"
+            )
+        return self
+
+    def spacecraft_names(self) -> list[str]:
+        return [sc.name for sc in self.spacecraft]
+
+
+def _format_loc(loc) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _one_line(source: str, error: ValidationError) -> str:
+    first = error.errors()[0]
+    key = _format_loc(first["loc"])
+    message = first["msg"].removeprefix("Value error, ")
+    if first["type"] in ("model_type", "model_attributes_type", "dict_type"):
+        message = "must be a mapping of keys (key: value lines)"
+    if first["type"] == "missing":
+        return f"{source}: key '{key}' is missing (required)"
+    value = first.get("input")
+    shown = "" if isinstance(value, (dict, list)) else f" = {value!r}"
+    where = f"key '{key}'{shown}: " if key else ""
+    return f"{source}: {where}{message}"
+
+
+def validate_scenario(data, source: str = "<scenario>") -> Scenario:
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{source}: the scenario must be a YAML mapping of keys, got {type(data).__name__}")
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(_one_line(source, exc)) from None
+
+
+def read_scenario_text(path) -> tuple[dict, str]:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such scenario file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: cannot read the scenario ({exc.__class__.__name__}: {exc})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ScenarioError(f"{path}: malformed YAML{where}: {problem}") from None
+    return data, text
+
+
+def load_scenario(path) -> tuple[Scenario, str]:
+    """Read and validate a scenario file. Returns (scenario, original text)."""
+    data, text = read_scenario_text(path)
+    return validate_scenario(data, str(path)), text
+
+
+def apply_overrides(scenario: Scenario, overrides: dict, source: str = "<override>") -> Scenario:
+    """Set dotted-path keys (e.g. {'noise.sigma_m': 300}) and re-validate."""
+    data = copy.deepcopy(scenario.model_dump(exclude_none=True))
+    for dotted, value in overrides.items():
+        node = data
+        parts = [int(p) if p.isdigit() else p for p in dotted.split(".")]
+        for part in parts[:-1]:
+            try:
+                node = node[part]
+            except (KeyError, IndexError, TypeError):
+                raise ScenarioError(f"{source}: key '{dotted}' does not exist in the scenario") from None
+        if isinstance(node, list) and not (isinstance(parts[-1], int) and parts[-1] < len(node)):
+            raise ScenarioError(f"{source}: key '{dotted}' does not exist in the scenario")
+        node[parts[-1]] = value
+    return validate_scenario(data, source)
+
+
+def scenario_slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.\-]+", "-", text).strip("-")

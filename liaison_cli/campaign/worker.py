@@ -1,0 +1,94 @@
+"""One Monte Carlo run as a work unit. A worker never raises: a failure is an outcome with a status."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from liaison_cli.analysis.metrics import error_norms, summary_rows
+from liaison_cli.campaign.problem import M_PER_LU, M_S_PER_VU, Problem
+from liaison_cli.campaign.seeding import run_rng
+from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
+
+
+@dataclass(frozen=True)
+class RunTask:
+    run_index: int
+
+
+@dataclass(frozen=True, eq=False)
+class RunOutcome:
+    """status: 'ok', 'diverged' (filter health check tripped) or 'error' (exception in the worker).
+
+    Arrays: norms[...] (m, n_sc) in m and m/s; nees (m,); innovation_m / innovation_std_m (m, L).
+    """
+
+    run: int
+    status: str
+    reason: str
+    fail_time_s: float
+    summary: list = field(default_factory=list)
+    norms: dict = field(default_factory=dict)
+    nees: np.ndarray | None = None
+    innovation_m: np.ndarray | None = None
+    innovation_std_m: np.ndarray | None = None
+
+
+def draw_run_inputs(problem: Problem, run_index: int):
+    """Initial estimate (n,) and observed measurements (m, L) of one run.
+
+    Draw order is part of the reproducibility contract: initial error first, then measurement noise.
+    """
+    rng = run_rng(problem.scenario.monte_carlo.seed, run_index)
+    n = problem.truth.shape[1]
+    if problem.scenario.initial_error.draw == "from_covariance":
+        dx0 = np.linalg.cholesky(problem.P0) @ rng.standard_normal(n)
+    else:
+        dx0 = problem.initial_error_sigma * rng.standard_normal(n)
+    m, n_links = problem.measurements_true.shape
+    noise = rng.standard_normal((m - 1, n_links)) * problem.sigma_lu
+    y_obs = problem.measurements_true.copy()
+    y_obs[1:] += noise + problem.bias_lu
+    return problem.truth[0] + dx0, y_obs
+
+
+def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
+    run = task.run_index
+    try:
+        x0_hat, y_obs = draw_run_inputs(problem, run)
+        err, sigma, nees, innovation, innovation_std, status, fail_step = run_ekf(
+            x0_hat,
+            problem.P0,
+            problem.Q,
+            problem.truth,
+            y_obs,
+            problem.link_receiver,
+            problem.link_transponder,
+            problem.sigma_lu,
+            problem.dt_tu,
+            problem.substeps,
+            problem.mu,
+            problem.divergence_position_lu,
+        )
+        summary, norms = summary_rows(problem.times_s, err, sigma, problem.spacecraft, M_PER_LU, M_S_PER_VU)
+        ok = status == STATUS_OK
+        return RunOutcome(
+            run=run,
+            status="ok" if ok else "diverged",
+            reason="" if ok else STATUS_NAMES[int(status)],
+            fail_time_s=float("nan") if ok else float(problem.times_s[fail_step]),
+            summary=summary if ok else _nan_summary(summary),
+            norms=norms,
+            nees=nees,
+            innovation_m=innovation * M_PER_LU,
+            innovation_std_m=innovation_std * M_PER_LU,
+        )
+    except Exception as exc:  # noqa: BLE001 - a worker reports, never raises
+        return RunOutcome(run=run, status="error", reason=f"{type(exc).__name__}: {exc}", fail_time_s=float("nan"))
+
+
+def _nan_summary(rows):
+    """A diverged run keeps its rows (with status) but no metrics, so it cannot be averaged in."""
+    return [{k: (v if k == "spacecraft" else float("nan")) for k, v in row.items()} for row in rows]
+
+
+__all__ = ["RunTask", "RunOutcome", "execute_run", "draw_run_inputs", "error_norms"]

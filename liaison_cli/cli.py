@@ -1,0 +1,154 @@
+"""Command-line interface (thin layer): parse, call the campaign code, print, map errors to exit codes."""
+
+import functools
+import sys
+from pathlib import Path
+
+import pandas as pd
+import typer
+
+from liaison_cli import __version__
+from liaison_cli.errors import LiaisonError
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="LiAISON Monte Carlo campaigns: crosslink-only orbit determination in cislunar space.",
+)
+
+
+def _fail(message: str, code: int) -> None:
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def user_errors(func):
+    """Turn typed errors into a one-line message and their exit code; never a traceback."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except LiaisonError as exc:
+            _fail(str(exc), exc.exit_code)
+
+    return wrapper
+
+
+def _format_summary(summary: pd.DataFrame, spacecraft) -> str:
+    ok = summary[summary.status == "ok"]
+    lines = [
+        f"{'spacecraft':<12}{'pos RMS m':>11}{'[>1 d]':>9}{'vel RMS mm/s':>14}{'[>1 d]':>9}"
+        f"{'in 2σ >1 d':>12}{'in 3σ >1 d':>12}"
+    ]
+    for name in spacecraft:
+        s = ok[ok.spacecraft == name]
+        lines.append(
+            f"{name:<12}{s.rms_position_m.mean():>11.1f}{s.rms_position_after_day1_m.mean():>9.1f}"
+            f"{1e3 * s.rms_velocity_m_s.mean():>14.3f}{1e3 * s.rms_velocity_after_day1_m_s.mean():>9.3f}"
+            f"{100 * s.frac_in_2sigma_after_day1.mean():>11.1f}%{100 * s.frac_in_3sigma_after_day1.mean():>11.1f}%"
+        )
+    return "\n".join(lines)
+
+
+def _status_line(summary: pd.DataFrame) -> str:
+    runs = summary.drop_duplicates("run")
+    bad = runs[runs.status != "ok"]
+    text = f"{len(runs) - len(bad)}/{len(runs)} runs ok"
+    if len(bad):
+        reasons = "; ".join(f"run {r.run}: {r.status} ({r.reason})" for r in bad.itertuples())
+        text += f"; excluded from the averages: {reasons}"
+    return text
+
+
+@app.command()
+@user_errors
+def run(
+    scenario: Path = typer.Argument(..., help="scenario YAML file"),
+    runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs (default: the scenario's)"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Run a scenario's Monte Carlo EKF campaign and write Parquet results."""
+    from liaison_cli.campaign.results import prepare_output_dir, summary_table, write_campaign
+    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.schema import load_scenario
+
+    config, text = load_scenario(scenario)
+    out_dir = prepare_output_dir(output or Path("results") / config.name, overwrite)
+    result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty())
+    write_campaign(result, out_dir, text, float_dtype="float64" if float64 else "float32")
+    summary = summary_table(result)
+    typer.echo(
+        f"{config.name}: {len(result.problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
+        f"sigma {result.problem.sigma_m:.1f} m, {config.duration_days:g} d, seed {config.monte_carlo.seed}"
+    )
+    typer.echo(_format_summary(summary, result.problem.spacecraft))
+    typer.echo(_status_line(summary))
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
+@user_errors
+def table3(
+    runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per case"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(Path("results/table3"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    scenarios: Path = typer.Option(Path("scenarios"), "--scenarios", help="folder holding the paper's scenario files"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
+    from liaison_cli.campaign.results import (
+        prepare_output_dir,
+        summary_table,
+        write_parquet_atomic,
+        write_text_atomic,
+    )
+    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.schema import apply_overrides, load_scenario
+    from liaison_cli.report.table3 import case_rows, cases, compare, ordering_checks, to_markdown
+
+    loaded = {}
+    for case in cases():
+        if case.formation not in loaded:
+            loaded[case.formation] = load_scenario(scenarios / f"{case.formation}.yaml")
+    out_dir = prepare_output_dir(output, overwrite)
+    rows, summaries, texts = [], [], {}
+    for case in cases():
+        base, text = loaded[case.formation]
+        config = apply_overrides(base, {"noise.sigma_m": case.sigma_m}, f"table3 case {case.label}")
+        result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
+                              description=case.label)
+        rows += case_rows(case.formation, case.sigma_m, result)
+        summaries.append(summary_table(result).assign(formation=case.formation, sigma_m=case.sigma_m))
+        texts[case.formation] = text
+    table = compare(pd.DataFrame(rows))
+    checks = ordering_checks(table)
+    meta = {
+        "package": "liaison",
+        "package_version": __version__,
+        "scenarios_yaml": texts,
+        "runs_per_case": runs,
+        "seeds": {f: loaded[f][0].monte_carlo.seed for f in loaded},
+        "ordering_checks": checks,
+    }
+    write_parquet_atomic(table, out_dir / "table3.parquet", meta)
+    write_parquet_atomic(pd.concat(summaries, ignore_index=True), out_dir / "summary.parquet", meta)
+    markdown = to_markdown(table, checks)
+    write_text_atomic(markdown, out_dir / "table3.md")
+    typer.echo(markdown)
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
+def version():
+    """Print the package version."""
+    typer.echo(__version__)
+
+
+def main():  # pragma: no cover - console entry point
+    app()

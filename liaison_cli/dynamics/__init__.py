@@ -1,0 +1,1 @@
+"""Pure-numeric dynamics (CRTBP). No I/O; floats and arrays in fixed nondimensional units."""

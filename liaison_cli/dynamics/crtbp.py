@@ -1,0 +1,128 @@
+"""Circular restricted three-body problem (Turan et al. 2022, Eq. 6-8) and its variational equations.
+
+State layout of one spacecraft: ``[x, y, z, vx, vy, vz]`` in LU and LU/TU, rotating barycentric frame.
+All functions are numba-compiled (cached on disk) and work on plain float64 arrays.
+"""
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def derivative(state, mu):
+    """Time derivative of one spacecraft state (6,) -> (6,). Eq. 6-8."""
+    x, y, z, vx, vy, vz = state[0], state[1], state[2], state[3], state[4], state[5]
+    dx1 = x + mu
+    dx2 = x - 1.0 + mu
+    r1_3 = (dx1 * dx1 + y * y + z * z) ** 1.5
+    r2_3 = (dx2 * dx2 + y * y + z * z) ** 1.5
+    k1 = (1.0 - mu) / r1_3
+    k2 = mu / r2_3
+    out = np.empty(6)
+    out[0] = vx
+    out[1] = vy
+    out[2] = vz
+    out[3] = 2.0 * vy + x - k1 * dx1 - k2 * dx2
+    out[4] = -2.0 * vx + y - k1 * y - k2 * y
+    out[5] = -k1 * z - k2 * z
+    return out
+
+
+@njit(cache=True)
+def gravity_gradient(position, mu):
+    """Symmetric 3x3 matrix d(acceleration)/d(position), centrifugal term included. (3,) -> (3, 3)."""
+    x, y, z = position[0], position[1], position[2]
+    d1 = np.array([x + mu, y, z])
+    d2 = np.array([x - 1.0 + mu, y, z])
+    r1_2 = d1[0] * d1[0] + y * y + z * z
+    r2_2 = d2[0] * d2[0] + y * y + z * z
+    r1_3 = r1_2**1.5
+    r2_3 = r2_2**1.5
+    r1_5 = r1_3 * r1_2
+    r2_5 = r2_3 * r2_2
+    g = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            g[i, j] = 3.0 * (1.0 - mu) * d1[i] * d1[j] / r1_5 + 3.0 * mu * d2[i] * d2[j] / r2_5
+        g[i, i] -= (1.0 - mu) / r1_3 + mu / r2_3
+    g[0, 0] += 1.0
+    g[1, 1] += 1.0
+    return g
+
+
+@njit(cache=True)
+def jacobian(state, mu):
+    """A = dF/dX for one spacecraft (Eq. 11 block), (6,) -> (6, 6)."""
+    a = np.zeros((6, 6))
+    a[0, 3] = 1.0
+    a[1, 4] = 1.0
+    a[2, 5] = 1.0
+    a[3:6, 0:3] = gravity_gradient(state[0:3], mu)
+    a[3, 4] = 2.0
+    a[4, 3] = -2.0
+    return a
+
+
+@njit(cache=True)
+def _stm_derivative(state, stm, mu):
+    """Phi_dot = A(t) Phi (Eq. 11), exploiting A's block structure: (6,), (6,6) -> (6,6)."""
+    g = gravity_gradient(state[0:3], mu)
+    d = np.empty((6, 6))
+    for j in range(6):
+        for i in range(3):
+            d[i, j] = stm[i + 3, j]
+        d[3, j] = g[0, 0] * stm[0, j] + g[0, 1] * stm[1, j] + g[0, 2] * stm[2, j] + 2.0 * stm[4, j]
+        d[4, j] = g[1, 0] * stm[0, j] + g[1, 1] * stm[1, j] + g[1, 2] * stm[2, j] - 2.0 * stm[3, j]
+        d[5, j] = g[2, 0] * stm[0, j] + g[2, 1] * stm[1, j] + g[2, 2] * stm[2, j]
+    return d
+
+
+@njit(cache=True)
+def rk4_state_stm(state, dt_tu, substeps, mu):
+    """Propagate one state (6,) and its STM over dt_tu with `substeps` fixed RK4 steps.
+
+    Returns (state_end (6,), phi (6, 6)) with phi = Phi(t + dt, t). The STM is integrated as extra
+    equations alongside the state, so the linearisation follows the propagated trajectory.
+    """
+    h = dt_tu / substeps
+    x = state.copy()
+    phi = np.eye(6)
+    for _ in range(substeps):
+        k1 = derivative(x, mu)
+        m1 = _stm_derivative(x, phi, mu)
+        x2 = x + 0.5 * h * k1
+        k2 = derivative(x2, mu)
+        m2 = _stm_derivative(x2, phi + 0.5 * h * m1, mu)
+        x3 = x + 0.5 * h * k2
+        k3 = derivative(x3, mu)
+        m3 = _stm_derivative(x3, phi + 0.5 * h * m2, mu)
+        x4 = x + h * k3
+        k4 = derivative(x4, mu)
+        m4 = _stm_derivative(x4, phi + h * m3, mu)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        phi = phi + (h / 6.0) * (m1 + 2.0 * m2 + 2.0 * m3 + m4)
+    return x, phi
+
+
+@njit(cache=True)
+def rk4_state(state, dt_tu, substeps, mu):
+    """Propagate one state (6,) over dt_tu with fixed RK4 steps (no STM). (6,) -> (6,)."""
+    h = dt_tu / substeps
+    x = state.copy()
+    for _ in range(substeps):
+        k1 = derivative(x, mu)
+        k2 = derivative(x + 0.5 * h * k1, mu)
+        k3 = derivative(x + 0.5 * h * k2, mu)
+        k4 = derivative(x + h * k3, mu)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x
+
+
+@njit(cache=True)
+def jacobi_constant(state, mu):
+    """C = 2U - v^2 with U = (x^2+y^2)/2 + (1-mu)/r1 + mu/r2. (6,) -> float."""
+    x, y, z = state[0], state[1], state[2]
+    r1 = np.sqrt((x + mu) ** 2 + y * y + z * z)
+    r2 = np.sqrt((x - 1.0 + mu) ** 2 + y * y + z * z)
+    u = 0.5 * (x * x + y * y) + (1.0 - mu) / r1 + mu / r2
+    return 2.0 * u - (state[3] ** 2 + state[4] ** 2 + state[5] ** 2)

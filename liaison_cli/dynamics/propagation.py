@@ -1,0 +1,32 @@
+"""High-accuracy propagation of truth trajectories (scipy DOP853 over the compiled CRTBP derivative)."""
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from liaison_cli.dynamics.crtbp import derivative
+
+TRUTH_RTOL = 1e-12
+TRUTH_ATOL = 1e-13
+
+
+def propagate_states(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
+    """Propagate one spacecraft state (6,) and sample it at times_tu (m,), times_tu[0] = epoch.
+
+    Returns an (m, 6) array. Raises RuntimeError if the integrator fails.
+    """
+    times_tu = np.asarray(times_tu, dtype=float)
+    state0_lu = np.asarray(state0_lu, dtype=float)
+    if times_tu.size == 1:
+        return state0_lu[None, :].copy()
+    sol = solve_ivp(
+        lambda t, s: derivative(s, mu),
+        (times_tu[0], times_tu[-1]),
+        state0_lu,
+        method="DOP853",
+        t_eval=times_tu,
+        rtol=rtol,
+        atol=atol,
+    )
+    if not sol.success:
+        raise RuntimeError(f"truth propagation failed: {sol.message}")
+    return sol.y.T.copy()

@@ -1,0 +1,15 @@
+"""Typed errors. The CLI maps each to an exit code and prints its one-line message; nothing else does."""
+
+
+class LiaisonError(Exception):
+    """A user-facing problem with clear wording; exit code 2 (bad input or usage)."""
+
+    exit_code = 2
+
+
+class ScenarioError(LiaisonError):
+    """The scenario file cannot be read or does not satisfy the schema."""
+
+
+class OutputExistsError(LiaisonError):
+    """The output directory exists and --overwrite was not given."""

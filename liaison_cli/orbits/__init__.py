@@ -1,0 +1,1 @@
+"""Orbit catalog and initial-state builders (pure numeric)."""

@@ -1,0 +1,69 @@
+"""Bad input: one line on stderr naming the file and key, exit code 2, no traceback."""
+
+import pytest
+
+from tests.conftest import SCENARIOS, run_cli
+
+GOOD = (SCENARIOS / "smoke.yaml").read_text()
+
+
+def _case(tmp_path, text):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    return path
+
+
+CASES = {
+    "malformed_yaml": (GOOD.replace("links:", "links: [oops"), ["malformed YAML", "line"]),
+    "unknown_orbit": (GOOD.replace("orbit: eml2_halo", "orbit: eml3_halo"),
+                      ["spacecraft[0].orbit", "'eml3_halo'", "eml2_halo", "lunar_keplerian"]),
+    "missing_key": (GOOD.replace("  seed: 7\n", ""), ["monte_carlo.seed", "missing"]),
+    "empty_section": (GOOD.replace("  interval_s: 187.5\n", ""), ["measurement", "mapping"]),
+    "extra_key": (GOOD.replace("noise:\n", "noise:\n  colour: pink\n"), ["noise", "'colour'", "sigma_m"]),
+    "negative_sigma": (GOOD.replace("sigma_m: 150", "sigma_m: -150"), ["noise.sigma_m", "-150", "greater than 0"]),
+    "zero_interval": (GOOD.replace("interval_s: 187.5", "interval_s: 0"),
+                      ["measurement.interval_s", "= 0", "greater than 0"]),
+    "unknown_link_spacecraft": (GOOD.replace("transponder: Lunar", "transponder: Gateway"),
+                                ["links[0].transponder", "'Gateway'", "EML2, Lunar"]),
+    "not_a_mapping": ("- just\n- a list\n", ["YAML mapping"]),
+    "bad_type": (GOOD.replace("runs: 2", "runs: many"), ["monte_carlo.runs", "'many'", "integer"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_bad_scenario_gives_one_line_and_exit_2(tmp_path, case):
+    text, expected = CASES[case]
+    path = _case(tmp_path, text)
+    proc = run_cli("run", path, "--output", tmp_path / "out")
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("error: ") and str(path) in lines[0]
+    for fragment in expected:
+        assert fragment in lines[0], (fragment, lines[0])
+    assert not (tmp_path / "out").exists()
+
+
+def test_missing_file(tmp_path):
+    proc = run_cli("run", tmp_path / "nope.yaml")
+    assert proc.returncode == 2 and "no such scenario file" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_existing_output_needs_overwrite(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.parquet").write_text("old")
+    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", out)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert str(out) in proc.stderr and "--overwrite" in proc.stderr
+    assert (out / "summary.parquet").read_text() == "old"
+    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", out, "--overwrite", "--runs", "1")
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_yaml_tags_are_not_executed(tmp_path):
+    path = _case(tmp_path, "!!python/object/apply:os.system ['echo pwned']\n")
+    proc = run_cli("run", path)
+    assert proc.returncode == 2 and "malformed YAML" in proc.stderr and "pwned" not in proc.stdout

@@ -1,0 +1,100 @@
+"""CRTBP physics: Jacobi constant, Jacobian and STM against finite differences, Table 1 periodicity."""
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from liaison_cli.dynamics.constants import MU, TU_S
+from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, jacobian, rk4_state, rk4_state_stm
+from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.orbits.catalog import CATALOG
+from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
+
+LUNAR = lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
+STATES = {"eml2_halo": CATALOG["eml2_halo"].state(), "eml1_halo": CATALOG["eml1_halo"].state(), "lunar": LUNAR}
+TEN_DAYS_TU = 10 * 86400.0 / TU_S
+DT_TU = 187.5 / TU_S
+
+
+def test_constants_give_the_papers_time_unit():
+    assert 0.01215 < MU < 0.012151
+    assert TU_S / 86400.0 == pytest.approx(4.3425, abs=1e-3)
+
+
+@pytest.mark.parametrize("name", STATES)
+def test_jacobi_constant_conserved_over_ten_days_by_truth_propagator(name):
+    states = propagate_states(STATES[name], np.linspace(0.0, TEN_DAYS_TU, 50), MU)
+    c = np.array([jacobi_constant(s, MU) for s in states])
+    assert np.max(np.abs(c - c[0])) < 1e-10
+
+
+@pytest.mark.parametrize("name", STATES)
+def test_filter_rk4_conserves_jacobi_and_tracks_truth_over_ten_days(name):
+    n_steps = int(round(TEN_DAYS_TU / DT_TU))
+    x = STATES[name].copy()
+    c0 = jacobi_constant(x, MU)
+    for _ in range(n_steps):
+        x = rk4_state(x, DT_TU, 8, MU)
+    truth = propagate_states(STATES[name], np.array([0.0, n_steps * DT_TU]), MU)[-1]
+    assert abs(jacobi_constant(x, MU) - c0) < 1e-10
+    assert np.linalg.norm(x[:3] - truth[:3]) * 384400e3 < 1.0  # metres
+
+
+@pytest.mark.parametrize("name", STATES)
+def test_jacobian_matches_central_differences(name):
+    x = STATES[name]
+    analytic = jacobian(x, MU)
+    numeric = np.empty((6, 6))
+    for j in range(6):
+        h = 1e-7 * max(1.0, abs(x[j]))
+        e = np.zeros(6)
+        e[j] = h
+        numeric[:, j] = (derivative(x + e, MU) - derivative(x - e, MU)) / (2 * h)
+    assert np.allclose(analytic, numeric, rtol=1e-6, atol=1e-7 * np.abs(analytic).max())
+
+
+@pytest.mark.parametrize("name", STATES)
+@pytest.mark.parametrize("span_steps", [1, 96])  # one measurement interval; ~5 hours chained
+def test_stm_matches_central_differences(name, span_steps):
+    x0 = STATES[name]
+    phi = np.eye(6)
+    x = x0.copy()
+    for _ in range(span_steps):
+        x, step_phi = rk4_state_stm(x, DT_TU, 8, MU)
+        phi = step_phi @ phi
+
+    def flow(state):
+        for _ in range(span_steps):
+            state = rk4_state(state, DT_TU, 8, MU)
+        return state
+
+    numeric = np.empty((6, 6))
+    for j in range(6):
+        h = 1e-6 if j < 3 else 1e-6 * 0.2
+        e = np.zeros(6)
+        e[j] = h
+        numeric[:, j] = (flow(x0 + e) - flow(x0 - e)) / (2 * h)
+    scale = np.abs(phi).max()
+    assert np.max(np.abs(phi - numeric)) < 1e-6 * scale
+
+
+def _y_crossings(state, t_max):
+    event = lambda t, s: s[1]  # noqa: E731
+    sol = solve_ivp(lambda t, s: derivative(s, MU), (0, t_max), state, method="DOP853",
+                    rtol=1e-12, atol=1e-13, events=event)
+    return sol.t_events[0][1:], sol.y_events[0][1:]
+
+
+@pytest.mark.parametrize(
+    "name, period_tu, closure_lu",
+    [("eml2_halo", 3.3974, 1e-5), ("eml1_halo", 2.752, 3e-4)],
+)
+def test_table1_halo_states_are_periodic(name, period_tu, closure_lu):
+    x0 = CATALOG[name].state()
+    times, states = _y_crossings(x0, 1.1 * period_tu)
+    assert len(times) == 2  # half period (far side) and the full period
+    assert times[-1] == pytest.approx(period_tu, abs=2e-3)
+    assert times[0] == pytest.approx(period_tu / 2, abs=2e-3)
+    assert np.max(np.abs(states[-1] - x0)) < closure_lu
+    # A symmetric periodic orbit crosses y = 0 perpendicularly at the half period.
+    assert abs(states[0][3]) < 1e-4 and abs(states[0][5]) < 1e-4
