@@ -64,17 +64,47 @@ def jacobian(state, mu):
 
 
 @njit(cache=True)
-def _stm_derivative(state, stm, mu):
-    """Phi_dot = A(t) Phi (Eq. 11), exploiting A's block structure: (6,), (6,6) -> (6,6)."""
-    g = gravity_gradient(state[0:3], mu)
-    d = np.empty((6, 6))
+def _state_stm_rhs(y, mu, out):
+    """In-place derivative of the 42-vector y = [state (6), Phi row-major (36)]: Eq. 6-8 and Eq. 11.
+
+    Written with scalars only (no temporaries): this is the innermost loop of every run.
+    """
+    x, yy, z = y[0], y[1], y[2]
+    dx1 = x + mu
+    dx2 = x - 1.0 + mu
+    r1_2 = dx1 * dx1 + yy * yy + z * z
+    r2_2 = dx2 * dx2 + yy * yy + z * z
+    r1_3 = r1_2 * np.sqrt(r1_2)
+    r2_3 = r2_2 * np.sqrt(r2_2)
+    k1 = (1.0 - mu) / r1_3
+    k2 = mu / r2_3
+    c1 = 3.0 * k1 / r1_2
+    c2 = 3.0 * k2 / r2_2
+    # Gravity gradient (symmetric), centrifugal terms included.
+    gxx = c1 * dx1 * dx1 + c2 * dx2 * dx2 - k1 - k2 + 1.0
+    gyy = (c1 + c2) * yy * yy - k1 - k2 + 1.0
+    gzz = (c1 + c2) * z * z - k1 - k2
+    gxy = (c1 * dx1 + c2 * dx2) * yy
+    gxz = (c1 * dx1 + c2 * dx2) * z
+    gyz = (c1 + c2) * yy * z
+    out[0] = y[3]
+    out[1] = y[4]
+    out[2] = y[5]
+    out[3] = 2.0 * y[4] + x - k1 * dx1 - k2 * dx2
+    out[4] = -2.0 * y[3] + yy - (k1 + k2) * yy
+    out[5] = -(k1 + k2) * z
     for j in range(6):
-        for i in range(3):
-            d[i, j] = stm[i + 3, j]
-        d[3, j] = g[0, 0] * stm[0, j] + g[0, 1] * stm[1, j] + g[0, 2] * stm[2, j] + 2.0 * stm[4, j]
-        d[4, j] = g[1, 0] * stm[0, j] + g[1, 1] * stm[1, j] + g[1, 2] * stm[2, j] - 2.0 * stm[3, j]
-        d[5, j] = g[2, 0] * stm[0, j] + g[2, 1] * stm[1, j] + g[2, 2] * stm[2, j]
-    return d
+        p0 = y[6 + j]
+        p1 = y[12 + j]
+        p2 = y[18 + j]
+        p3 = y[24 + j]
+        p4 = y[30 + j]
+        out[6 + j] = p3
+        out[12 + j] = p4
+        out[18 + j] = y[36 + j]
+        out[24 + j] = gxx * p0 + gxy * p1 + gxz * p2 + 2.0 * p4
+        out[30 + j] = gxy * p0 + gyy * p1 + gyz * p2 - 2.0 * p3
+        out[36 + j] = gxz * p0 + gyz * p1 + gzz * p2
 
 
 @njit(cache=True)
@@ -85,23 +115,30 @@ def rk4_state_stm(state, dt_tu, substeps, mu):
     equations alongside the state, so the linearisation follows the propagated trajectory.
     """
     h = dt_tu / substeps
-    x = state.copy()
-    phi = np.eye(6)
+    y = np.empty(42)
+    y[0:6] = state
+    y[6:] = 0.0
+    for i in range(6):
+        y[6 + 7 * i] = 1.0
+    k1 = np.empty(42)
+    k2 = np.empty(42)
+    k3 = np.empty(42)
+    k4 = np.empty(42)
+    tmp = np.empty(42)
     for _ in range(substeps):
-        k1 = derivative(x, mu)
-        m1 = _stm_derivative(x, phi, mu)
-        x2 = x + 0.5 * h * k1
-        k2 = derivative(x2, mu)
-        m2 = _stm_derivative(x2, phi + 0.5 * h * m1, mu)
-        x3 = x + 0.5 * h * k2
-        k3 = derivative(x3, mu)
-        m3 = _stm_derivative(x3, phi + 0.5 * h * m2, mu)
-        x4 = x + h * k3
-        k4 = derivative(x4, mu)
-        m4 = _stm_derivative(x4, phi + h * m3, mu)
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        phi = phi + (h / 6.0) * (m1 + 2.0 * m2 + 2.0 * m3 + m4)
-    return x, phi
+        _state_stm_rhs(y, mu, k1)
+        for i in range(42):
+            tmp[i] = y[i] + 0.5 * h * k1[i]
+        _state_stm_rhs(tmp, mu, k2)
+        for i in range(42):
+            tmp[i] = y[i] + 0.5 * h * k2[i]
+        _state_stm_rhs(tmp, mu, k3)
+        for i in range(42):
+            tmp[i] = y[i] + h * k3[i]
+        _state_stm_rhs(tmp, mu, k4)
+        for i in range(42):
+            y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
 
 @njit(cache=True)

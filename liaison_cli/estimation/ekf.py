@@ -22,14 +22,27 @@ def update_scalar(dx, P, y, H, R):
     dx (n,): state correction accumulated so far (relative to the linearisation point);
     P (n, n); y: pre-fit residual Y - G(X*); H (n,): partials at X*; R: variance.
     Returns (dx (n,), P (n, n), innovation, S) where innovation = y - H dx and S = H P H^T + R.
+
+    Joseph form P+ = (I - K H) P (I - K H)^T + K R K^T (cf. Eq. 23), evaluated without forming I - K H:
+    with h = P H^T and A = P - K h^T, P+ = A - (h - K (S - R)) K^T + R K K^T, which is the same
+    product regrouped (valid for any gain K), in O(n^2) instead of two n x n matrix products.
     """
     n = dx.shape[0]
-    PHt = P @ H
-    S = H @ PHt + R
-    K = PHt / S  # K = P H^T (H P H^T + R)^-1 (Eq. 21)
+    h = P @ H
+    S = H @ h + R
+    K = h / S  # K = P H^T (H P H^T + R)^-1 (Eq. 21)
     innovation = y - H @ dx
-    dx = dx + K * innovation  # Eq. 22, sequential form
-    IKH = np.eye(n) - np.outer(K, H)
-    # Joseph form (I - K H) P (I - K H)^T + K R K^T keeps P symmetric positive definite (cf. Eq. 23).
-    P = IKH @ P @ IKH.T + R * np.outer(K, K)
-    return dx, 0.5 * (P + P.T), innovation, S
+    P_new = np.empty((n, n))
+    new_dx = np.empty(n)
+    hs = S - R
+    for i in range(n):
+        new_dx[i] = dx[i] + K[i] * innovation  # Eq. 22, sequential form
+        u_i = h[i] - K[i] * hs
+        for j in range(n):
+            P_new[i, j] = P[i, j] - K[i] * h[j] - u_i * K[j] + R * K[i] * K[j]
+    for i in range(n):
+        for j in range(i + 1, n):
+            sym = 0.5 * (P_new[i, j] + P_new[j, i])
+            P_new[i, j] = sym
+            P_new[j, i] = sym
+    return new_dx, P_new, innovation, S
