@@ -4,7 +4,6 @@ Every problem is reported as one line naming the file, the key, the bad value an
 """
 
 import copy
-import re
 from pathlib import Path
 from typing import Literal
 
@@ -289,6 +288,3 @@ def apply_overrides(scenario: Scenario, overrides: dict, source: str = "<overrid
         node[parts[-1]] = value
     return validate_scenario(data, source)
 
-
-def scenario_slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.\-]+", "-", text).strip("-")

@@ -4,7 +4,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liaison_cli.analysis.metrics import error_norms, summary_rows
+from liaison_cli.analysis.metrics import summary_rows
 from liaison_cli.campaign.problem import M_PER_LU, M_S_PER_VU, Problem
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
@@ -91,4 +91,4 @@ def _nan_summary(rows):
     return [{k: (v if k == "spacecraft" else float("nan")) for k, v in row.items()} for row in rows]
 
 
-__all__ = ["RunTask", "RunOutcome", "execute_run", "draw_run_inputs", "error_norms"]
+__all__ = ["RunTask", "RunOutcome", "execute_run", "draw_run_inputs"]
