@@ -98,3 +98,17 @@ def test_table1_halo_states_are_periodic(name, period_tu, closure_lu):
     assert np.max(np.abs(states[-1] - x0)) < closure_lu
     # A symmetric periodic orbit crosses y = 0 perpendicularly at the half period.
     assert abs(states[0][3]) < 1e-4 and abs(states[0][5]) < 1e-4
+
+
+@pytest.mark.parametrize("name", STATES)
+def test_hot_loop_rhs_equals_derivative_and_jacobian(name):
+    # _state_stm_rhs restates Eq. 6-8 and Eq. 11 with scalars for speed; it must equal the plain forms.
+    from liaison_cli.dynamics.crtbp import _state_stm_rhs
+
+    rng = np.random.default_rng(4)
+    phi = rng.standard_normal((6, 6))
+    y = np.concatenate([STATES[name], phi.ravel()])
+    out = np.empty(42)
+    _state_stm_rhs(y, MU, out)
+    assert np.allclose(out[:6], derivative(STATES[name], MU), rtol=1e-13, atol=1e-15)
+    assert np.allclose(out[6:].reshape(6, 6), jacobian(STATES[name], MU) @ phi, rtol=1e-12, atol=1e-12)
