@@ -117,12 +117,12 @@ def table3(
         if case.formation not in loaded:
             loaded[case.formation] = load_scenario(scenarios / f"{case.formation}.yaml")
     out_dir = prepare_output_dir(output, overwrite)
-    rows, summaries, texts = [], [], {}
+    rows, summaries, texts, truth_cache = [], [], {}, {}
     for case in cases():
         base, text = loaded[case.formation]
         config = apply_overrides(base, {"noise.sigma_m": case.sigma_m}, f"table3 case {case.label}")
         result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
-                              description=case.label)
+                              description=case.label, truth_cache=truth_cache)
         rows += case_rows(case.formation, case.sigma_m, result)
         summaries.append(summary_table(result).assign(formation=case.formation, sigma_m=case.sigma_m))
         texts[case.formation] = text

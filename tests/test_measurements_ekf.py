@@ -5,7 +5,12 @@ import pytest
 
 from liaison_cli.dynamics.constants import LU_KM, MU, SPEED_OF_LIGHT_LU_TU, TU_S
 from liaison_cli.dynamics.propagation import propagate_states
-from liaison_cli.estimation.ekf import predict_covariance, update_scalar
+from liaison_cli.estimation.ekf import (
+    normalized_error_squared,
+    predict_covariance,
+    predict_covariance_block_diagonal,
+    update_scalar,
+)
 from liaison_cli.measurements.range import TwoWayRange
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
@@ -87,3 +92,28 @@ def test_predict_covariance():
     P = np.eye(6)
     Q = np.diag([0, 0, 0, 1e-3, 1e-3, 1e-3])
     assert np.allclose(predict_covariance(P, Phi, Q), Phi @ P @ Phi.T + Q)
+
+
+@pytest.mark.parametrize("n_sc", [1, 2, 3])
+def test_block_diagonal_predict_equals_full_product(n_sc):
+    rng = np.random.default_rng(n_sc)
+    n = 6 * n_sc
+    Phi = np.zeros((n, n))
+    for s in range(n_sc):
+        Phi[6 * s : 6 * s + 6, 6 * s : 6 * s + 6] = rng.standard_normal((6, 6))
+    A = rng.standard_normal((n, n))
+    P = A @ A.T + n * np.eye(n)
+    Q = np.diag(rng.uniform(0.0, 1e-3, n))
+    fast = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)))
+    assert np.allclose(fast, Phi @ P @ Phi.T + Q, rtol=1e-13, atol=1e-12)
+    assert np.array_equal(fast, fast.T)
+
+
+def test_nees_by_cholesky_matches_solve_and_flags_indefinite():
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((12, 12))
+    P = A @ A.T + 0.1 * np.eye(12)
+    e = rng.standard_normal(12)
+    assert normalized_error_squared(e, P, np.empty((12, 12))) == pytest.approx(e @ np.linalg.solve(P, e), rel=1e-10)
+    P[3, 3] = -1.0
+    assert np.isnan(normalized_error_squared(e, P, np.empty((12, 12))))

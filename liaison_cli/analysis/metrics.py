@@ -1,7 +1,6 @@
 """Per-run accuracy and consistency metrics from estimation errors and covariance diagonals."""
 
 import numpy as np
-from scipy.stats import chi2
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 
@@ -63,6 +62,8 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
 
 def nees_band(state_size: int, n_runs: int, confidence: float = 0.95):
     """Two-sided band for the run-averaged NEES: chi2(n_runs * state_size) / n_runs."""
+    from scipy.stats import chi2  # imported here: scipy.stats costs ~1 s and workers never need it
+
     dof = n_runs * state_size
     lo = chi2.ppf((1.0 - confidence) / 2.0, dof) / n_runs
     hi = chi2.ppf(1.0 - (1.0 - confidence) / 2.0, dof) / n_runs

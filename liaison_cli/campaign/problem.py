@@ -3,19 +3,17 @@
 Everything here is computed once per scenario and shared (read-only) by every Monte Carlo run.
 """
 
+import json
 from dataclasses import dataclass
 
 import numpy as np
 
 from liaison_cli.campaign.schema import KEPLERIAN_ORBIT, Scenario
-from liaison_cli.dynamics.constants import LU_KM, MU, SECONDS_PER_DAY, TU_S, VU_KM_S
+from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.dynamics.propagation import propagate_states
 from liaison_cli.measurements.range import TwoWayRange
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
-
-M_PER_LU = LU_KM * 1e3
-M_S_PER_VU = VU_KM_S * 1e3
 
 
 def initial_state_lu(spec) -> np.ndarray:
@@ -63,18 +61,29 @@ class Problem:
         return self.times_s.shape[0]
 
 
-def prepare_problem(scenario: Scenario) -> Problem:
+def truth_key(scenario: Scenario) -> str:
+    """The scenario fields that fix truth and noise-free measurements (not noise, filter or seed)."""
+    fields = {
+        "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump()}
+                       for sc in scenario.spacecraft],
+        "links": [link.model_dump(mode="json") for link in scenario.links],
+        "duration_days": scenario.duration_days,
+        "interval_s": scenario.measurement.interval_s,
+        "light_time": scenario.measurement.light_time,
+    }
+    return json.dumps(fields, sort_keys=True)
+
+
+def _truth_and_measurements(scenario: Scenario):
+    """times_s (m,), truth (m, n_sc, 6), noise-free measurements (m, L) with row 0 NaN, range models."""
     names = scenario.spacecraft_names()
-    n_sc = len(names)
     interval_s = scenario.measurement.interval_s
     n_intervals = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval_s + 1e-9))
     times_s = np.arange(n_intervals + 1) * interval_s
     times_tu = times_s / TU_S
-
     truth_by_sc = np.stack(
         [propagate_states(initial_state_lu(sc), times_tu, MU) for sc in scenario.spacecraft], axis=1
-    )  # (m, n_sc, 6)
-
+    )
     index = {name: i for i, name in enumerate(names)}
     models = [TwoWayRange(index[link.receiver], index[link.transponder]) for link in scenario.links]
     measurements = np.stack(
@@ -82,6 +91,22 @@ def prepare_problem(scenario: Scenario) -> Problem:
         axis=1,
     )
     measurements[0, :] = np.nan  # the filter starts at t0 with no measurement
+    return times_s, truth_by_sc, measurements, models
+
+
+def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
+    """Build the arrays of a scenario. Pass the same `truth_cache` dict to a series of scenarios that
+    differ only in noise / filter / seed (a sweep over sigma) and the truth is propagated once."""
+    names = scenario.spacecraft_names()
+    n_sc = len(names)
+    interval_s = scenario.measurement.interval_s
+    if truth_cache is None:
+        times_s, truth_by_sc, measurements, models = _truth_and_measurements(scenario)
+    else:
+        key = truth_key(scenario)
+        if key not in truth_cache:
+            truth_cache[key] = _truth_and_measurements(scenario)
+        times_s, truth_by_sc, measurements, models = truth_cache[key]
 
     sigma_m = scenario.noise.resolved_sigma_m()
     flt = scenario.filter

@@ -25,12 +25,13 @@ def _execute_batch(problem, tasks):
 
 
 def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
-                 description: str | None = None) -> CampaignResult:
+                 description: str | None = None, truth_cache: dict | None = None) -> CampaignResult:
     """Run `runs` (default: the scenario's) Monte Carlo runs; outcomes come back ordered by run index.
 
     The numbers of a run depend only on (scenario, seed, run index), never on `jobs`.
+    `truth_cache`: see `prepare_problem`.
     """
-    problem = prepare_problem(scenario)
+    problem = prepare_problem(scenario, truth_cache)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     tasks = [RunTask(i) for i in range(n_runs)]
     bar = tqdm(total=n_runs, desc=description or scenario.name, unit="run", disable=not progress, leave=False)

@@ -163,7 +163,7 @@ class FilterSpec(StrictModel):
     initial_sigma_velocity_m_s: float = Field(0.01, gt=0)
     process_noise_accel_m_s2: float = Field(1e-7, ge=0)
     divergence_position_km: float = Field(1e4, gt=0)
-    rk4_substeps: int = Field(8, ge=1, le=256)
+    rk4_substeps: int = Field(4, ge=1, le=256)
 
 
 class InitialErrorSpec(StrictModel):

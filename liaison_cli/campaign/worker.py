@@ -5,7 +5,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from liaison_cli.analysis.metrics import summary_rows
-from liaison_cli.campaign.problem import M_PER_LU, M_S_PER_VU, Problem
+from liaison_cli.campaign.problem import Problem
+from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
 

@@ -1,7 +1,6 @@
 """High-accuracy propagation of truth trajectories (scipy DOP853 over the compiled CRTBP derivative)."""
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.crtbp import derivative
 
@@ -14,6 +13,9 @@ def propagate_states(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
 
     Returns an (m, 6) array. Raises RuntimeError if the integrator fails.
     """
+    # Imported here so worker processes, which unpickle Problems but never propagate truth, skip ~0.5 s.
+    from scipy.integrate import solve_ivp
+
     times_tu = np.asarray(times_tu, dtype=float)
     state0_lu = np.asarray(state0_lu, dtype=float)
     if times_tu.size == 1:

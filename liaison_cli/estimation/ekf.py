@@ -16,6 +16,69 @@ def predict_covariance(P, Phi, Q):
 
 
 @njit(cache=True)
+def predict_covariance_block_diagonal(P, Phi, Q, out):
+    """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi of 6 x 6 blocks, written into `out`.
+
+    P, Phi, Q, out: (n, n), n = 6 n_sc. Only the diagonal blocks of Phi are read: each spacecraft's STM
+    is propagated on its own, so P_bar[a, b] = Phi_a P[a, b] Phi_b^T, half the flops of the full
+    product and no temporaries. The result is symmetric by construction (upper triangle mirrored).
+    """
+    n = P.shape[0]
+    n_sc = n // 6
+    tmp = np.empty((6, 6))
+    for a in range(n_sc):
+        ra = 6 * a
+        for b in range(a, n_sc):
+            rb = 6 * b
+            for i in range(6):  # tmp = Phi_a P[a, b]
+                for j in range(6):
+                    acc = 0.0
+                    for k in range(6):
+                        acc += Phi[ra + i, ra + k] * P[ra + k, rb + j]
+                    tmp[i, j] = acc
+            for i in range(6):  # out[a, b] = tmp Phi_b^T + Q[a, b]
+                j0 = i if a == b else 0
+                for j in range(j0, 6):
+                    acc = Q[ra + i, rb + j]
+                    for k in range(6):
+                        acc += tmp[i, k] * Phi[rb + j, rb + k]
+                    out[ra + i, rb + j] = acc
+                    out[rb + j, ra + i] = acc
+    return out
+
+
+@njit(cache=True)
+def normalized_error_squared(e, P, work):
+    """NEES e^T P^-1 e by an in-place Cholesky factor of P (no inverse, no allocation).
+
+    e (n,); P (n, n) symmetric positive definite; work (n, n) scratch. Returns NaN if P is not PD.
+    """
+    n = e.shape[0]
+    for j in range(n):  # work = L with P = L L^T (lower triangle)
+        d = P[j, j]
+        for k in range(j):
+            d -= work[j, k] * work[j, k]
+        if not d > 0.0:
+            return np.nan
+        d = np.sqrt(d)
+        work[j, j] = d
+        for i in range(j + 1, n):
+            s = P[i, j]
+            for k in range(j):
+                s -= work[i, k] * work[j, k]
+            work[i, j] = s / d
+    total = 0.0
+    z = np.empty(n)
+    for i in range(n):  # solve L z = e; NEES = |z|^2
+        s = e[i]
+        for k in range(i):
+            s -= work[i, k] * z[k]
+        z[i] = s / work[i, i]
+        total += z[i] * z[i]
+    return total
+
+
+@njit(cache=True)
 def update_scalar(dx, P, y, H, R):
     """One scalar measurement update in Joseph form.
 

@@ -9,7 +9,11 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.crtbp import rk4_state_stm
-from liaison_cli.estimation.ekf import predict_covariance, update_scalar
+from liaison_cli.estimation.ekf import (
+    normalized_error_squared,
+    predict_covariance_block_diagonal,
+    update_scalar,
+)
 from liaison_cli.measurements.range import geometric_range, geometric_range_gradient
 
 STATUS_OK = 0
@@ -23,12 +27,6 @@ STATUS_NAMES = {
     STATUS_COVARIANCE_NOT_POSITIVE: "diverged: covariance not positive definite",
     STATUS_ERROR_BEYOND_BOUND: "diverged: position error beyond the scenario bound",
 }
-
-
-@njit(cache=True)
-def _nees(err, P):
-    """e^T P^-1 e via a linear solve (no explicit inverse). (n,), (n, n) -> float."""
-    return err @ np.linalg.solve(P, err)
 
 
 @njit(cache=True)
@@ -71,7 +69,8 @@ def run_ekf(
     err[0] = x_hat - truth[0]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
-    nees[0] = _nees(err[0], P)
+    work = np.empty((n, n))
+    nees[0] = normalized_error_squared(err[0], P, work)
 
     x_bar = np.empty(n)
     Phi = np.zeros((n, n))
@@ -83,7 +82,8 @@ def run_ekf(
             xs, phis = rk4_state_stm(x_hat[a : a + 6], dt_tu, substeps, mu)
             x_bar[a : a + 6] = xs
             Phi[a : a + 6, a : a + 6] = phis
-        P = predict_covariance(P, Phi, Q)
+        # A fresh output buffer: P may still alias the previous one if no measurement came in.
+        P = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)))
 
         # Measurement update, one scalar range per link, all linearised at x_bar (Eq. 13, 17, 20-24).
         dx = np.zeros(n)
@@ -117,7 +117,7 @@ def run_ekf(
         err[k] = e
         for i in range(n):
             sig[k, i] = np.sqrt(P[i, i])
-        nees[k] = _nees(e, P)
+        nees[k] = normalized_error_squared(e, P, work)
         for s in range(n_sc):
             a = 6 * s
             if np.sqrt(e[a] ** 2 + e[a + 1] ** 2 + e[a + 2] ** 2) > divergence_position_lu:
