@@ -144,6 +144,76 @@ def table3(
     typer.echo(f"results: {out_dir}")
 
 
+PAPER_FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
+
+
+def _format_curve(curve: pd.DataFrame, grid_keys) -> str:
+    header = f"{'scenario':<12}{'spacecraft':<11}" + "".join(f"{k.split('.')[-1]:>12}" for k in grid_keys)
+    lines = [header + f"{'runs ok':>9}{'pos RMS m (p10-p90)':>26}{'vel RMS mm/s':>14}"]
+    for row in curve.to_dict("records"):
+        cells = "".join(f"{str(row[k]):>12}" for k in grid_keys)
+        band = f"{row['rms_position_m_mean']:.1f} ({row['rms_position_m_p10']:.0f}-{row['rms_position_m_p90']:.0f})"
+        lines.append(
+            f"{row['scenario']:<12}{row['spacecraft']:<11}{cells}{str(row['runs_ok']) + '/' + str(row['runs']):>9}"
+            f"{band:>26}{1e3 * row['rms_velocity_m_s_mean']:>14.3f}"
+        )
+    return "\n".join(lines)
+
+
+@app.command()
+@user_errors
+def sweep(
+    scenario_args: list[Path] = typer.Argument(None, metavar="[SCENARIO]...",
+                                               help="scenario YAML files (default: the paper's three formations)"),
+    scenario_opts: list[Path] = typer.Option(None, "--scenario", help="scenario YAML file (may repeat)"),
+    sigma: str = typer.Option(None, "--sigma", help="ranging sigma grid in m: start:stop[:step] (step 50) or a,b,c"),
+    grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2,... over any scenario field by dotted path "
+                                                        "(may repeat; full factorial)"),
+    runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per grid point"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes (joblib) or LocalCluster workers (dask)"),
+    backend: str = typer.Option("joblib", "--backend", help="joblib (local processes) or dask (dask.distributed)"),
+    scheduler: str = typer.Option(None, "--scheduler", help="dask scheduler address, e.g. tcp://host:8786"),
+    name: str = typer.Option(None, "--name", help="sweep name (default: fig15 for the paper's formations)"),
+    output: Path = typer.Option(None, "--output", help="result folder (default: results/sweep-<name>)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="discard an existing sweep in the folder"),
+    scenarios_dir: Path = typer.Option(Path("scenarios"), "--scenarios",
+                                       help="folder of the paper's scenario files (when none is named)"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
+    from liaison_cli.campaign.grid import parse_grid, parse_range
+    from liaison_cli.campaign.results import prepare_output_dir
+    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep
+
+    paths = list(scenario_args or []) + list(scenario_opts or [])
+    default_formations = not paths
+    if default_formations:
+        paths = [scenarios_dir / f"{formation}.yaml" for formation in PAPER_FORMATIONS]
+    axes = [parse_grid(text) for text in grid or []]
+    if sigma is not None:
+        axes.insert(0, (SIGMA_KEY, parse_range(sigma, "--sigma")))
+    if not axes:
+        raise LiaisonError("sweep: nothing to sweep; give --sigma and/or --grid KEY=V1,V2")
+    bases = [(*load_scenario(path), str(path)) for path in paths]
+    if name is None:
+        name = "fig15" if default_formations else "+".join(b[0].name for b in bases)
+    plan = plan_sweep(bases, axes, runs, name)
+    out_dir = output or Path("results") / f"sweep-{name}"
+    if overwrite or not (out_dir / "manifest.jsonl").exists():
+        prepare_output_dir(out_dir, overwrite)
+    result = run_sweep(plan, out_dir, backend=backend, jobs=jobs, scheduler=scheduler,
+                       progress=not quiet and sys.stderr.isatty())
+    typer.echo(_format_curve(result.curve_table, [k for k, _ in axes]))
+    excluded = int(result.curve_table.runs_excluded.sum())
+    total = len(plan.tasks)
+    typer.echo(f"{len(plan.points)} grid points x {runs} runs = {total} tasks: {result.computed} computed, "
+               f"{result.reused} reused from the manifest"
+               + (f"; {excluded} spacecraft-runs diverged or failed and are excluded from the curves"
+                  if excluded else ""))
+    typer.echo(f"results: {out_dir}")
+
+
 @app.command()
 def version():
     """Print the package version."""

@@ -273,7 +273,8 @@ def load_scenario(path) -> tuple[Scenario, str]:
 
 
 def apply_overrides(scenario: Scenario, overrides: dict, source: str = "<override>") -> Scenario:
-    """Set dotted-path keys (e.g. {'noise.sigma_m': 300}) and re-validate."""
+    """Set dotted-path keys (e.g. {'noise.sigma_m': 300}) and re-validate. A value of None removes the
+    key, so its default applies (e.g. {'noise.ranging_method': None} before setting 'noise.sigma_m')."""
     data = copy.deepcopy(scenario.model_dump(exclude_none=True))
     for dotted, value in overrides.items():
         node = data
@@ -285,6 +286,12 @@ def apply_overrides(scenario: Scenario, overrides: dict, source: str = "<overrid
                 raise ScenarioError(f"{source}: key '{dotted}' does not exist in the scenario") from None
         if isinstance(node, list) and not (isinstance(parts[-1], int) and parts[-1] < len(node)):
             raise ScenarioError(f"{source}: key '{dotted}' does not exist in the scenario")
-        node[parts[-1]] = value
+        if value is None:
+            if isinstance(node, dict):
+                node.pop(parts[-1], None)
+            else:
+                raise ScenarioError(f"{source}: key '{dotted}' is a list item and cannot be removed")
+        else:
+            node[parts[-1]] = value
     return validate_scenario(data, source)
 

@@ -1,0 +1,80 @@
+"""Sweep grids from the command line: `--sigma 50:700[:50]` or `50,150,300`, and `--grid key=v1,v2`.
+
+Values are parsed with YAML `safe_load` rules, so `60` is an int, `187.5` a float, `true` a bool and
+`null` removes a key (restoring its default).
+"""
+
+import math
+
+import yaml
+
+from liaison_cli.errors import LiaisonError
+
+RANGE_HELP = "start:stop[:step] with numbers (e.g. 50:700 or 50:700:25) or a comma list (e.g. 50,150,300)"
+
+
+class GridError(LiaisonError):
+    """A --sigma or --grid option cannot be parsed."""
+
+
+def _number(text: str, option: str, whole: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise GridError(f"{option} {whole!r}: {text!r} is not a number; expected {RANGE_HELP}") from None
+    if not math.isfinite(value):
+        raise GridError(f"{option} {whole!r}: {text!r} is not finite; expected {RANGE_HELP}")
+    return value
+
+
+def _tidy(value: float):
+    """Whole numbers become ints, so a grid value prints and hashes as the user typed it."""
+    return int(value) if float(value).is_integer() else value
+
+
+def parse_range(text: str, option: str = "--sigma", default_step: float = 50.0) -> list:
+    """'50:700' -> [50, 100, ..., 700] (stop included when on the grid); '50,150' -> [50, 150]."""
+    text = text.strip()
+    if not text:
+        raise GridError(f"{option} is empty; expected {RANGE_HELP}")
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) not in (2, 3):
+            raise GridError(f"{option} {text!r}: too many ':'; expected {RANGE_HELP}")
+        start, stop = _number(parts[0], option, text), _number(parts[1], option, text)
+        step = _number(parts[2], option, text) if len(parts) == 3 else default_step
+        if step <= 0:
+            raise GridError(f"{option} {text!r}: step must be > 0; expected {RANGE_HELP}")
+        if stop < start:
+            raise GridError(f"{option} {text!r}: stop {parts[1]} is below start {parts[0]}; expected {RANGE_HELP}")
+        count = int(math.floor((stop - start) / step + 1e-9)) + 1
+        if count > 10_000:
+            raise GridError(f"{option} {text!r}: {count} points is more than the 10000 allowed")
+        return [_tidy(round(start + i * step, 12)) for i in range(count)]
+    values = [_number(part.strip(), option, text) for part in text.split(",")]
+    return [_tidy(v) for v in values]
+
+
+def parse_grid(text: str) -> tuple[str, list]:
+    """'measurement.interval_s=60,187.5,600' -> ('measurement.interval_s', [60, 187.5, 600]).
+
+    A single numeric value with ':' is a range ('noise.sigma_m=50:300:50').
+    """
+    key, sep, values_text = text.partition("=")
+    key = key.strip()
+    if not sep or not key or not values_text.strip():
+        raise GridError(f"--grid {text!r}: expected key=value[,value...] (e.g. measurement.interval_s=60,187.5,600)")
+    if ":" in values_text and "," not in values_text:
+        return key, parse_range(values_text, f"--grid {key}=")
+    values = []
+    for part in values_text.split(","):
+        part = part.strip()
+        if not part:
+            raise GridError(f"--grid {text!r}: empty value in the list")
+        try:
+            values.append(yaml.safe_load(part))
+        except yaml.YAMLError:
+            raise GridError(f"--grid {text!r}: cannot read value {part!r}") from None
+    if len(set(map(repr, values))) != len(values):
+        raise GridError(f"--grid {text!r}: repeated value")
+    return key, values

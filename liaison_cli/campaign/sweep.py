@@ -1,0 +1,362 @@
+"""Resumable sweeps: scenarios x a full-factorial grid of overrides x Monte Carlo runs.
+
+Every (grid point, run index) is a task whose id is the hash of the point's effective scenario plus the
+run index, so the id is stable across invocations. A JSON-lines manifest (one header line, then one line
+per finished task) is the single source of truth: a killed sweep started again with the same command
+skips every task already in it, and the Parquet tables are always rebuilt from it in task order, so an
+interrupted-and-resumed sweep writes the same bytes as an uninterrupted one, whatever the backend.
+"""
+
+import hashlib
+import itertools
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from liaison_cli import __version__, core_source_hash
+from liaison_cli.campaign.backends import check_backend, map_batches
+from liaison_cli.campaign.problem import prepare_problem
+from liaison_cli.campaign.results import write_parquet_atomic, write_text_atomic
+from liaison_cli.campaign.schema import Scenario, apply_overrides
+from liaison_cli.campaign.worker import RunTask, execute_run
+from liaison_cli.errors import LiaisonError
+
+MANIFEST_FORMAT = 1
+METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
+SIGMA_KEY = "noise.sigma_m"
+
+
+class SweepError(LiaisonError):
+    """The output folder holds a different sweep, or the sweep definition is inconsistent."""
+
+
+def scenario_hash(scenario: Scenario) -> str:
+    """Hash of the effective (validated, defaults filled) configuration, not of the YAML text."""
+    canonical = json.dumps(scenario.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    index: int
+    scenario_name: str
+    base_hash: str
+    overrides: tuple[tuple[str, object], ...]
+    point_hash: str
+    sigma_m: float
+    spacecraft: tuple[str, ...]
+    scenario: Scenario = field(compare=False, repr=False)
+
+    def header_entry(self) -> dict:
+        return {
+            "point": self.index,
+            "scenario": self.scenario_name,
+            "base_hash": self.base_hash,
+            "overrides": [[k, v] for k, v in self.overrides],
+            "point_hash": self.point_hash,
+        }
+
+
+@dataclass(frozen=True)
+class SweepTask:
+    task_id: str
+    point: int
+    run: int
+
+
+@dataclass(frozen=True, eq=False)
+class SweepPlan:
+    name: str
+    grid: tuple[tuple[str, tuple], ...]
+    runs: int
+    points: tuple[SweepPoint, ...]
+    base_texts: dict
+
+    @property
+    def tasks(self) -> list[SweepTask]:
+        return [SweepTask(f"{p.point_hash}/{r}", p.index, r) for p in self.points for r in range(self.runs)]
+
+    def header(self) -> dict:
+        return {
+            "kind": "header",
+            "format": MANIFEST_FORMAT,
+            "sweep": self.name,
+            "core_hash": core_source_hash(),
+            "points": [p.header_entry() for p in self.points],
+        }
+
+
+def plan_sweep(bases: list[tuple[Scenario, str, str]], grid: list[tuple[str, list]], runs: int,
+               name: str) -> SweepPlan:
+    """bases: (scenario, yaml text, source path); grid: [(dotted key, values)] -> full factorial plan.
+
+    Setting `noise.sigma_m` on a scenario whose sigma comes from a link budget replaces that budget.
+    """
+    keys = [key for key, _ in grid]
+    repeated = sorted({k for k in keys if keys.count(k) > 1})
+    if repeated:
+        raise SweepError(f"--grid {repeated[0]}: given more than once (also by --sigma for {SIGMA_KEY})")
+    names = [scenario.name for scenario, _, _ in bases]
+    if len(set(names)) != len(names):
+        raise SweepError(f"scenario name {max(names, key=names.count)!r} given more than once")
+    points, seen = [], {}
+    for scenario, _, source in bases:
+        base_hash = scenario_hash(scenario)
+        for values in itertools.product(*[vals for _, vals in grid]):
+            overrides = tuple(zip(keys, values))
+            effective = dict(overrides)
+            if SIGMA_KEY in effective:
+                effective = {"noise.ranging_method": None, "noise.link_budget": None, **effective}
+            shown = ", ".join(f"{k}={v}" for k, v in overrides)
+            point = apply_overrides(scenario, effective, f"{source} with --grid {shown}") if overrides else scenario
+            point_hash = scenario_hash(point)
+            if point_hash in seen:
+                raise SweepError(f"{source}: grid point {shown} gives the same scenario as {seen[point_hash]}")
+            seen[point_hash] = shown or source
+            points.append(
+                SweepPoint(len(points), scenario.name, base_hash, overrides, point_hash,
+                           point.noise.resolved_sigma_m(), tuple(point.spacecraft_names()), point)
+            )
+    return SweepPlan(name, tuple((k, tuple(v)) for k, v in grid), runs, tuple(points),
+                     {scenario.name: text for scenario, text, _ in bases})
+
+
+# --- manifest -----------------------------------------------------------------------------------------
+
+
+def read_manifest(path: Path) -> tuple[dict | None, dict, int]:
+    """(header, {task_id: record}, byte length of the valid prefix). A torn last line (killed mid-write)
+    is ignored and later truncated away."""
+    if not path.exists():
+        return None, {}, 0
+    data = path.read_bytes()
+    header, records, valid = None, {}, 0
+    position = 0
+    for line in data.splitlines(keepends=True):
+        position += len(line)
+        if not line.endswith(b"\n"):
+            break
+        try:
+            entry = json.loads(line)
+        except json.JSONDecodeError:
+            break
+        if header is None:
+            header = entry
+        else:
+            records[entry["task"]] = entry
+        valid = position
+    return header, records, valid
+
+
+class Manifest:
+    """Append-only JSON lines: flushed and fsynced after every finished batch."""
+
+    def __init__(self, path: Path, header: dict):
+        self.path = path
+        existing, self.records, valid = read_manifest(path)
+        if existing is not None and existing != header:
+            raise SweepError(_header_mismatch(path, existing, header))
+        self.handle = open(path, "ab")
+        self.handle.truncate(valid)
+        if existing is None:
+            self._write([header])
+
+    def _write(self, entries):
+        self.handle.write(b"".join(json.dumps(e, sort_keys=True).encode() + b"\n" for e in entries))
+        self.handle.flush()
+        os.fsync(self.handle.fileno())
+
+    def append(self, records: list[dict]) -> None:
+        self._write(records)
+        for record in records:
+            self.records[record["task"]] = record
+
+    def close(self):
+        self.handle.close()
+
+
+def _header_mismatch(path, old, new) -> str:
+    if old.get("format") != new["format"] or old.get("kind") != "header":
+        what = "a manifest this version cannot read"
+    elif old.get("core_hash") != new["core_hash"]:
+        what = "results of a different numeric core (liaison was changed or upgraded since)"
+    elif old.get("sweep") != new["sweep"]:
+        what = f"sweep {old.get('sweep')!r}"
+    else:
+        what = "a sweep over other scenarios or grid points"
+    return (f"{path}: the folder holds {what}; resume needs the same scenarios and grid. "
+            "Pass --overwrite to start again or --output to choose another folder")
+
+
+# --- execution ----------------------------------------------------------------------------------------
+
+
+def execute_batch(problem, tasks: list[SweepTask]) -> list[dict]:
+    """Worker side: one JSON-ready record per task. Never raises (execute_run reports failures)."""
+    records = []
+    for task in tasks:
+        outcome = execute_run(problem, RunTask(task.run))
+        with np.errstate(all="ignore"):
+            mean_nees = float(np.nanmean(outcome.nees)) if outcome.nees is not None else float("nan")
+        records.append(
+            {
+                "task": task.task_id,
+                "point": task.point,
+                "run": task.run,
+                "status": outcome.status,
+                "reason": outcome.reason,
+                "fail_time_s": outcome.fail_time_s,
+                "mean_nees": mean_nees,
+                "rows": outcome.summary,
+            }
+        )
+    return records
+
+
+def _batches(pending: list[SweepTask], batch_runs: int) -> list[tuple[int, list[SweepTask]]]:
+    batches = []
+    for point, group in itertools.groupby(pending, key=lambda t: t.point):
+        group = list(group)
+        batches += [(point, group[i : i + batch_runs]) for i in range(0, len(group), batch_runs)]
+    return batches
+
+
+@dataclass(frozen=True, eq=False)
+class SweepResult:
+    runs_table: pd.DataFrame
+    curve_table: pd.DataFrame
+    computed: int
+    reused: int
+    paths: dict
+
+
+def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int = 2,
+              scheduler: str | None = None, progress: bool = True, batch_runs: int = 5) -> SweepResult:
+    """Run every task not yet in `out_dir/manifest.jsonl`, then (re)write the Parquet tables."""
+    from tqdm import tqdm
+
+    check_backend(backend, scheduler)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    manifest = Manifest(out_dir / "manifest.jsonl", plan.header())
+    try:
+        tasks = plan.tasks
+        pending = [t for t in tasks if t.task_id not in manifest.records]
+        reused = len(tasks) - len(pending)
+        truth_cache: dict = {}
+        needed = sorted({t.point for t in pending})
+        problems = {i: prepare_problem(plan.points[i].scenario, truth_cache) for i in needed}
+        del truth_cache
+        bar = tqdm(total=len(tasks), initial=reused, desc=f"sweep {plan.name}", unit="run",
+                   disable=not progress, smoothing=0.1)
+        for records in map_batches(execute_batch, problems, _batches(pending, batch_runs), backend, jobs, scheduler):
+            manifest.append(records)
+            bar.update(len(records))
+        bar.close()
+        _, records, _ = read_manifest(manifest.path)  # tables come from what is on disk, nothing else
+    finally:
+        manifest.close()
+    runs_table = build_runs_table(plan, records)
+    curve_table = build_curve_table(plan, runs_table)
+    paths = write_sweep_tables(plan, out_dir, runs_table, curve_table)
+    return SweepResult(runs_table, curve_table, computed=len(pending), reused=reused, paths=paths)
+
+
+# --- tables -------------------------------------------------------------------------------------------
+
+
+def _grid_columns(plan: SweepPlan, point: SweepPoint) -> dict:
+    values = dict(point.overrides)
+    return {key: values[key] for key, _ in plan.grid}
+
+
+def build_runs_table(plan: SweepPlan, records: dict) -> pd.DataFrame:
+    """One row per (grid point, run, spacecraft), in task order."""
+    rows = []
+    for task in plan.tasks:
+        record = records[task.task_id]
+        point = plan.points[task.point]
+        per_sc = record["rows"] or [{"spacecraft": name} for name in point.spacecraft]
+        for sc_row in per_sc:
+            row = {
+                "point": point.index,
+                "scenario": point.scenario_name,
+                **_grid_columns(plan, point),
+                "sigma_m": point.sigma_m,
+                "run": task.run,
+                "spacecraft": sc_row["spacecraft"],
+                "status": record["status"],
+                "reason": record["reason"],
+                "fail_time_s": record["fail_time_s"],
+                "mean_nees": record["mean_nees"],
+            }
+            for key, value in sc_row.items():
+                if key != "spacecraft":
+                    row[key] = value
+            rows.append(row)
+    table = pd.DataFrame(rows)
+    for metric in METRICS:
+        if metric not in table:
+            table[metric] = np.nan
+    return table.astype({"point": "int32", "run": "int32"})
+
+
+def build_curve_table(plan: SweepPlan, runs_table: pd.DataFrame) -> pd.DataFrame:
+    """Per (grid point, spacecraft): mean, median and 10/90 % quantiles of each RMS metric over the runs
+    that finished; `runs_excluded` counts the diverged / failed runs left out."""
+    rows = []
+    for point in plan.points:
+        mine = runs_table[runs_table.point == point.index]
+        for name in point.spacecraft:
+            sc = mine[mine.spacecraft == name]
+            ok = sc[sc.status == "ok"]
+            row = {
+                "point": point.index,
+                "scenario": point.scenario_name,
+                **_grid_columns(plan, point),
+                "sigma_m": point.sigma_m,
+                "spacecraft": name,
+                "runs": len(sc),
+                "runs_ok": len(ok),
+                "runs_excluded": len(sc) - len(ok),
+            }
+            for metric in METRICS:
+                values = ok[metric].to_numpy(dtype=float)
+                empty = values.size == 0
+                row[f"{metric}_mean"] = np.nan if empty else float(values.mean())
+                row[f"{metric}_median"] = np.nan if empty else float(np.median(values))
+                row[f"{metric}_p10"] = np.nan if empty else float(np.quantile(values, 0.1))
+                row[f"{metric}_p90"] = np.nan if empty else float(np.quantile(values, 0.9))
+            rows.append(row)
+    return pd.DataFrame(rows).astype({"point": "int32"})
+
+
+def sweep_metadata(plan: SweepPlan) -> dict:
+    """Provenance of a sweep; deliberately free of backend, worker count and timestamps."""
+    return {
+        "package": "liaison",
+        "package_version": __version__,
+        "core_hash": core_source_hash(),
+        "sweep": plan.name,
+        "runs_per_point": plan.runs,
+        "grid": [[key, list(values)] for key, values in plan.grid],
+        "scenarios_yaml": plan.base_texts,
+        "seeds": {p.scenario_name: p.scenario.monte_carlo.seed for p in plan.points},
+        "points": [p.header_entry() for p in plan.points],
+        "seeding": "numpy SeedSequence(scenario seed, spawn_key=(run,)) at every grid point, so grid points "
+                   "share random numbers (common random numbers: smoother curves in the swept value)",
+    }
+
+
+def write_sweep_tables(plan: SweepPlan, out_dir: Path, runs_table, curve_table) -> dict:
+    meta = sweep_metadata(plan)
+    paths = {"runs": out_dir / "runs.parquet", "curve": out_dir / "curve.parquet",
+             "manifest": out_dir / "manifest.jsonl"}
+    write_parquet_atomic(runs_table, paths["runs"], meta)
+    write_parquet_atomic(curve_table, paths["curve"], meta)
+    write_text_atomic(json.dumps(meta, indent=2, sort_keys=True) + "\n", out_dir / "sweep.json")
+    return paths
