@@ -214,6 +214,73 @@ def sweep(
     typer.echo(f"results: {out_dir}")
 
 
+plot_app = typer.Typer(no_args_is_help=True, help="Figures from result folders (PNG + SVG).")
+app.add_typer(plot_app, name="plot")
+
+
+@plot_app.command("fig15")
+@user_errors
+def plot_fig15(
+    sweep_dir: Path = typer.Argument(..., help="folder written by 'liaison sweep --sigma ...'"),
+    output: Path = typer.Option(None, "--output", help="file stem for .png/.svg (default: SWEEP_DIR/fig15)"),
+    title: str = typer.Option(None, "--title", help="figure title"),
+):
+    """Error vs ranging sigma (Fig. 15), one line per formation and spacecraft, Table 3 overlaid."""
+    from liaison_cli.report.fig15 import draw_fig15, load_curve, paper_points_vs_curve
+
+    curve = load_curve(sweep_dir)
+    paths = draw_fig15(curve, output or sweep_dir / "fig15", title)
+    check = paper_points_vs_curve(curve)
+    if len(check):
+        typer.echo("Turan et al. 2022 Table 3 against our curve (mean of run RMS, interpolated in sigma):")
+        for row in check.itertuples():
+            scale, unit = (1.0, "m") if row.metric == "rms_position_m" else (1e3, "mm/s")
+            typer.echo(f"  {row.scenario:<11}{row.spacecraft:<7}{row.sigma_m:>5.0f} m  {row.metric[4:12]:<9}"
+                       f"ours {scale * row.ours:9.2f} {unit:<5} paper {scale * row.paper:9.2f} {unit:<5}"
+                       f"ratio {row.ratio:5.2f}")
+    for path in paths:
+        typer.echo(f"wrote {path}")
+
+
+@app.command()
+@user_errors
+def budget(
+    link_file: Path = typer.Argument(..., help="link YAML: link_budget {uplink, downlink} + ranging parameters"),
+    sweep_dir: Path = typer.Option(None, "--sweep", help="a 'liaison sweep --sigma' folder to read errors from"),
+):
+    """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off)."""
+    from liaison_cli.campaign.schema import load_link_file
+    from liaison_cli.report.budget import METHOD_LABELS, expected_errors
+
+    link = load_link_file(link_file)
+    for leg_name in ("uplink", "downlink"):
+        leg = getattr(link.link_budget, leg_name).leg()
+        typer.echo(f"{leg_name:<9} {leg.distance_km:,.0f} km, {leg.data_rate_bps:,.0f} bps: free-space loss "
+                   f"{leg.free_space_loss_db:.2f} dB, C/N0 {leg.c_over_n0_dbhz:.2f} dB-Hz, "
+                   f"Es/N0 {leg.es_over_n0_db:.2f} dB (margin {leg.margin_db:g} dB held back)")
+    sigmas = link.sigma_by_method()
+    typer.echo(f"ranging sigma (1σ, correlator integration {link.correlator_integration_s:g} s):")
+    for method, sigma in sigmas.items():
+        shown = f"{sigma:10.1f} m" if sigma is not None else (
+            "   not computed: needs ranging_clock_hz, loop_bandwidth_hz, ranging_power_fraction_db")
+        typer.echo(f"  {METHOD_LABELS[method]:<22}{shown}")
+    if sweep_dir is None:
+        return
+    from liaison_cli.report.fig15 import load_curve
+
+    table = expected_errors(load_curve(sweep_dir), sigmas)
+    typer.echo(f"expected OD error from {sweep_dir} (mean of run RMS [90th percentile], interpolated in sigma):")
+    typer.echo(f"  {'method':<14}{'sigma m':>9}  {'scenario':<12}{'spacecraft':<11}{'position m':>20}"
+               f"{'velocity mm/s':>22}")
+    for row in table.itertuples():
+        if row.inside_swept_range:
+            pos = f"{row.rms_position_m_mean:.0f} [{row.rms_position_m_p90:.0f}]"
+            vel = f"{1e3 * row.rms_velocity_m_s_mean:.2f} [{1e3 * row.rms_velocity_m_s_p90:.2f}]"
+        else:
+            pos, vel = f"outside swept {row.swept_min_m:g}-{row.swept_max_m:g} m", ""
+        typer.echo(f"  {row.method:<14}{row.sigma_m:>9.1f}  {row.scenario:<12}{row.spacecraft:<11}{pos:>20}{vel:>22}")
+
+
 @app.command()
 def version():
     """Print the package version."""

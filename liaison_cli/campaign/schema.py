@@ -153,6 +153,32 @@ class NoiseSpec(StrictModel):
         )
 
 
+class RangingLinkFile(StrictModel):
+    """A crosslink for `liaison budget`: both legs' link budgets plus the ranging parameters. Methods whose
+    parameters are missing (telemetry / PN need the ranging clock) are reported as not computable."""
+
+    description: str = ""
+    link_budget: LinkBudgetSpec
+    correlator_integration_s: float = Field(0.3, gt=0)
+    ranging_clock_hz: float | None = Field(None, gt=0)
+    loop_bandwidth_hz: float | None = Field(None, gt=0)
+    ranging_power_fraction_db: float | None = Field(None, le=0)
+
+    def sigma_by_method(self) -> dict:
+        """{method: sigma_m or None when its parameters are missing}."""
+        clock = (self.ranging_clock_hz, self.loop_bandwidth_hz, self.ranging_power_fraction_db)
+        out = {}
+        for method in ("time_derived", "telemetry", "pn"):
+            if method != "time_derived" and None in clock:
+                out[method] = None
+                continue
+            out[method] = sigma_from_link_budget(
+                method, self.link_budget.uplink.leg(), self.link_budget.downlink.leg(),
+                self.correlator_integration_s, *clock,
+            )
+        return out
+
+
 class MeasurementSpec(StrictModel):
     interval_s: float = Field(gt=0)
     light_time: bool = True
@@ -239,11 +265,11 @@ def _one_line(source: str, error: ValidationError) -> str:
     return f"{source}: {where}{message}"
 
 
-def validate_scenario(data, source: str = "<scenario>") -> Scenario:
+def validate_scenario(data, source: str = "<scenario>", model=Scenario):
     if not isinstance(data, dict):
-        raise ScenarioError(f"{source}: the scenario must be a YAML mapping of keys, got {type(data).__name__}")
+        raise ScenarioError(f"{source}: the file must be a YAML mapping of keys, got {type(data).__name__}")
     try:
-        return Scenario.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(_one_line(source, exc)) from None
 
@@ -270,6 +296,12 @@ def load_scenario(path) -> tuple[Scenario, str]:
     """Read and validate a scenario file. Returns (scenario, original text)."""
     data, text = read_scenario_text(path)
     return validate_scenario(data, str(path)), text
+
+
+def load_link_file(path) -> RangingLinkFile:
+    """Read and validate a `liaison budget` link file."""
+    data, _ = read_scenario_text(path)
+    return validate_scenario(data, str(path), RangingLinkFile)
 
 
 def apply_overrides(scenario: Scenario, overrides: dict, source: str = "<override>") -> Scenario:
