@@ -1,0 +1,1 @@
+"""Benchmarks (not part of the test run); `reference` is also the yardstick of a CI accuracy test."""
