@@ -173,6 +173,8 @@ def sweep(
     jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes (joblib) or LocalCluster workers (dask)"),
     backend: str = typer.Option("joblib", "--backend", help="joblib (local processes) or dask (dask.distributed)"),
     scheduler: str = typer.Option(None, "--scheduler", help="dask scheduler address, e.g. tcp://host:8786"),
+    scheduler_timeout: float = typer.Option(20.0, "--scheduler-timeout", min=0.1,
+                                            help="seconds to wait for the dask scheduler"),
     name: str = typer.Option(None, "--name", help="sweep name (default: fig15 for the paper's formations)"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/sweep-<name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="discard an existing sweep in the folder"),
@@ -203,7 +205,7 @@ def sweep(
     if overwrite or not (out_dir / "manifest.jsonl").exists():
         prepare_output_dir(out_dir, overwrite)
     result = run_sweep(plan, out_dir, backend=backend, jobs=jobs, scheduler=scheduler,
-                       progress=not quiet and sys.stderr.isatty())
+                       progress=not quiet and sys.stderr.isatty(), connect_timeout_s=scheduler_timeout)
     typer.echo(_format_curve(result.curve_table, [k for k, _ in axes]))
     excluded = int(result.curve_table.runs_excluded.sum())
     total = len(plan.tasks)

@@ -67,21 +67,34 @@ def test_sigma_replaces_a_link_budget_noise_model(tmp_path):
 
 
 def test_backends_give_identical_bytes(tmp_path):
-    """joblib 1 worker, joblib 2 workers and a dask LocalCluster: byte-identical Parquet."""
-    pytest.importorskip("distributed")
+    """joblib 1 worker, joblib 2 workers, and dask: a LocalCluster started here and reached through its
+    scheduler address (as a user reaches a remote cluster) -> byte-identical Parquet."""
+    distributed = pytest.importorskip("distributed")
     plan = _smoke_plan(runs=4, sigmas=(100, 200, 300))
     outputs = {}
-    for label, kwargs in {"serial": dict(jobs=1), "joblib2": dict(jobs=2),
-                          "dask": dict(backend="dask", jobs=2)}.items():
-        result = run_sweep(plan, tmp_path / label, progress=False, batch_runs=3, **kwargs)
-        assert result.computed == 12 and result.reused == 0
-        outputs[label] = {name: (tmp_path / label / f"{name}.parquet").read_bytes() for name in ("runs", "curve")}
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        runs = {"serial": dict(jobs=1), "joblib2": dict(jobs=2),
+                "dask": dict(backend="dask", scheduler=cluster.scheduler_address)}
+        for label, kwargs in runs.items():
+            result = run_sweep(plan, tmp_path / label, progress=False, batch_runs=3, **kwargs)
+            assert result.computed == 12 and result.reused == 0
+            outputs[label] = {name: (tmp_path / label / f"{name}.parquet").read_bytes() for name in ("runs", "curve")}
     assert outputs["serial"] == outputs["joblib2"] == outputs["dask"]
     curve = pd.read_parquet(tmp_path / "serial" / "curve.parquet")
     assert list(curve.columns[:4]) == ["point", "scenario", "noise.sigma_m", "sigma_m"]
     assert (curve.runs_ok == 4).all()
     assert (curve.rms_position_m_p10 <= curve.rms_position_m_median).all()
     assert (curve.rms_position_m_median <= curve.rms_position_m_p90).all()
+
+
+def test_unreachable_scheduler_is_one_line_exit_3(tmp_path):
+    pytest.importorskip("distributed")
+    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--backend", "dask",
+                   "--scheduler", "tcp://127.0.0.1:9", "--scheduler-timeout", "2", "--quiet", "--output", tmp_path / "o")
+    assert proc.returncode == 3 and "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "tcp://127.0.0.1:9" in lines[0] and "cannot connect" in lines[0], proc.stderr
 
 
 def test_resume_after_torn_manifest_line_recomputes_only_missing(tmp_path):

@@ -37,13 +37,13 @@ def check_backend(backend: str, scheduler: str | None) -> None:
 
 
 def map_batches(fn: Callable, shared: dict, batches: list, backend: str = "joblib", jobs: int = 2,
-                scheduler: str | None = None) -> Iterator:
+                scheduler: str | None = None, connect_timeout_s: float = 20.0) -> Iterator:
     """batches: list of (key, tasks); yields fn(shared[key], tasks) in completion order."""
     check_backend(backend, scheduler)
     if not batches:
         return iter(())
     if backend == "dask":
-        return _dask(fn, shared, batches, jobs, scheduler)
+        return _dask(fn, shared, batches, jobs, scheduler, connect_timeout_s)
     if jobs == 1:
         return (fn(shared[key], tasks) for key, tasks in batches)
     from joblib import Parallel, delayed
@@ -52,13 +52,13 @@ def map_batches(fn: Callable, shared: dict, batches: list, backend: str = "jobli
     return parallel(delayed(fn)(shared[key], tasks) for key, tasks in batches)
 
 
-def _dask(fn, shared, batches, jobs, scheduler):
+def _dask(fn, shared, batches, jobs, scheduler, connect_timeout_s):
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
     try:
         if scheduler:
-            client = Client(scheduler, timeout="20s")
+            client = Client(scheduler, timeout=f"{connect_timeout_s}s")
         else:
             cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
             client = Client(cluster)

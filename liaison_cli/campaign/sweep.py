@@ -235,7 +235,8 @@ class SweepResult:
 
 
 def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int = 2,
-              scheduler: str | None = None, progress: bool = True, batch_runs: int = 5) -> SweepResult:
+              scheduler: str | None = None, progress: bool = True, batch_runs: int = 5,
+              connect_timeout_s: float = 20.0) -> SweepResult:
     """Run every task not yet in `out_dir/manifest.jsonl`, then (re)write the Parquet tables."""
     from tqdm import tqdm
 
@@ -253,7 +254,8 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
         del truth_cache
         bar = tqdm(total=len(tasks), initial=reused, desc=f"sweep {plan.name}", unit="run",
                    disable=not progress, smoothing=0.1)
-        for records in map_batches(execute_batch, problems, _batches(pending, batch_runs), backend, jobs, scheduler):
+        for records in map_batches(execute_batch, problems, _batches(pending, batch_runs), backend, jobs, scheduler,
+                                   connect_timeout_s):
             manifest.append(records)
             bar.update(len(records))
         bar.close()
