@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from liaison_cli.errors import ScenarioError
 from liaison_cli.orbits.catalog import catalog_names
+from liaison_cli.orbits.families import FAMILIES, family_names
 from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import sigma_from_link_budget
 
@@ -58,6 +59,7 @@ class SpacecraftSpec(StrictModel):
     name: str = Field(pattern=NAME_PATTERN)
     orbit: str
     elements: KeplerianElements | None = None
+    period_days: float | None = Field(None, gt=0, description="member of an orbit family (orbit: <family>)")
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
     )
@@ -65,7 +67,7 @@ class SpacecraftSpec(StrictModel):
     @field_validator("orbit")
     @classmethod
     def _known_orbit(cls, value):
-        allowed = [*catalog_names(), KEPLERIAN_ORBIT]
+        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names()]
         if value not in allowed:
             raise ValueError(f"unknown orbit {value!r}; allowed: {', '.join(allowed)}")
         return value
@@ -76,6 +78,10 @@ class SpacecraftSpec(StrictModel):
             raise ValueError(f"orbit {KEPLERIAN_ORBIT!r} needs an 'elements' mapping")
         if self.orbit != KEPLERIAN_ORBIT and self.elements is not None:
             raise ValueError(f"'elements' is only allowed with orbit {KEPLERIAN_ORBIT!r}")
+        if self.orbit in FAMILIES and self.period_days is None:
+            raise ValueError(f"orbit family {self.orbit!r} needs 'period_days' to pick a member")
+        if self.orbit not in FAMILIES and self.period_days is not None:
+            raise ValueError(f"'period_days' is only allowed with an orbit family ({', '.join(family_names())})")
         return self
 
 
@@ -269,9 +275,28 @@ def validate_scenario(data, source: str = "<scenario>", model=Scenario):
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: the file must be a YAML mapping of keys, got {type(data).__name__}")
     try:
-        return model.model_validate(data)
+        validated = model.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(_one_line(source, exc)) from None
+    if isinstance(validated, Scenario):
+        _check_family_periods(validated, source)
+    return validated
+
+
+def _check_family_periods(scenario: Scenario, source: str) -> None:
+    """A family member must exist: its period has to lie in the family's generated range."""
+    from liaison_cli.campaign.family_store import load_or_generate
+
+    for i, sc in enumerate(scenario.spacecraft):
+        if sc.orbit not in FAMILIES:
+            continue
+        frame, _ = load_or_generate(sc.orbit)
+        lo, hi = float(frame.period_days.min()), float(frame.period_days.max())
+        if not lo <= sc.period_days <= hi:
+            raise ScenarioError(
+                f"{source}: key 'spacecraft[{i}].period_days' = {sc.period_days!r}: outside orbit family "
+                f"{sc.orbit!r}; valid {lo:.3f} to {hi:.3f} days"
+            )
 
 
 def read_scenario_text(path) -> tuple[dict, str]:

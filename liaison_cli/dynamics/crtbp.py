@@ -108,6 +108,14 @@ def _state_stm_rhs(y, mu, out):
 
 
 @njit(cache=True)
+def state_stm_derivative(y, mu):
+    """Derivative of [state (6), Phi row-major (36)] as a new (42,) array (for scipy integrators)."""
+    out = np.empty(42)
+    _state_stm_rhs(y, mu, out)
+    return out
+
+
+@njit(cache=True)
 def rk4_state_stm(state, dt_tu, substeps, mu):
     """Propagate one state (6,) and its STM over dt_tu with `substeps` fixed RK4 steps.
 

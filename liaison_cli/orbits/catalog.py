@@ -33,7 +33,7 @@ CATALOG: dict[str, CatalogOrbit] = {
             "eml1_halo",
             (0.8614062, 0.0, 0.03140426, 0.0, -0.1608423, 0.0),
             2.75211,
-            "Turan et al. 2022, Table 1 (northern EML1 halo, ~11.95 d)",
+            "Turan et al. 2022, Table 1 (southern EML1 halo, ~11.95 d; z < 0 at its far crossing)",
         ),
     )
 }

@@ -1,0 +1,142 @@
+"""Periodic-orbit families: the corrector against Table 1, the 9:2 NRHO, closure, continuity, the cache."""
+
+import numpy as np
+import pytest
+
+from liaison_cli.dynamics.constants import MU
+from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.orbits.catalog import CATALOG
+from liaison_cli.orbits.families import FAMILIES, FamilyError, member_by_period
+from liaison_cli.orbits.periodic import correct, lagrange_point_x
+from tests.conftest import SCENARIOS, run_cli
+
+SYNODIC_MONTH_DAYS = 29.530589
+
+
+@pytest.fixture(scope="module")
+def families(tmp_path_factory):
+    """Every family generated once into a private cache (the first call of each generates)."""
+    import os
+
+    from liaison_cli.campaign import family_store
+
+    cache = tmp_path_factory.mktemp("cache")
+    old = os.environ.get("LIAISON_ORBIT_CACHE_DIR")
+    os.environ["LIAISON_ORBIT_CACHE_DIR"] = str(cache)
+    try:
+        assert family_store.cached_families() == []
+        tables = {name: family_store.load_or_generate(name) for name in sorted(FAMILIES)}
+        again = {name: family_store.load_or_generate(name)[1] for name in FAMILIES}
+    finally:
+        if old is None:
+            os.environ.pop("LIAISON_ORBIT_CACHE_DIR")
+        else:
+            os.environ["LIAISON_ORBIT_CACHE_DIR"] = old
+    assert not tables["l2_nrho_south"][1] or tables["l2_nrho_north"][1] is False  # started from an empty cache
+    assert all(again.values())  # the second call reads the cache
+    return {name: frame for name, (frame, _) in tables.items()}, cache
+
+
+@pytest.mark.parametrize("name,fixed_x0", [("eml2_halo", 1.1785868), ("eml1_halo", 0.8614062)])
+def test_corrector_reproduces_table1_from_a_nearby_guess(name, fixed_x0):
+    table1 = CATALOG[name].state()
+    guess = np.array([fixed_x0, table1[2] * 1.02, table1[4] + 5e-4, CATALOG[name].period_tu / 2 * 1.01])
+    X, iterations = correct(guess, planar=False, fixed=0)
+    assert iterations <= 8
+    # Table 1 gives 7 significant digits.
+    assert X[1] == pytest.approx(table1[2], abs=2e-7)
+    assert X[2] == pytest.approx(table1[4], abs=2e-7)
+
+
+def test_lagrange_points():
+    for point, expected in ((1, 0.83691513), (2, 1.15568217)):
+        assert lagrange_point_x(point, MU) == pytest.approx(expected, abs=1e-6)
+
+
+def test_every_member_recloses_and_families_are_continuous(families):
+    tables, _ = families
+    for name, frame in tables.items():
+        assert len(frame) == 30, name
+        assert frame.closure_lu.max() < 1e-9, name
+        for row in frame.itertuples():  # independent check with the truth propagator
+            state0 = np.array([row.x0, row.y0, row.z0, row.vx0, row.vy0, row.vz0])
+            end = propagate_states(state0, np.array([0.0, row.period_tu]), MU)[-1]
+            assert np.max(np.abs(end - state0)) < 1e-9, (name, row.member)
+        jacobi = frame.jacobi.to_numpy()
+        span = jacobi.max() - jacobi.min()
+        assert np.max(np.abs(np.diff(jacobi))) < min(0.1, 0.35 * span), name  # no jump to another family
+        assert np.all(np.abs(np.diff(frame.x0)) < 0.05), name
+
+
+def test_north_is_the_mirror_of_south(families):
+    tables, _ = families
+    for kind in ("l1_halo", "l2_halo", "l2_nrho"):
+        south, north = tables[f"{kind}_south"], tables[f"{kind}_north"]
+        assert (south.z0 < 0).all() and (north.z0 > 0).all()
+        assert np.allclose(south.z0, -north.z0) and np.allclose(south.period_days, north.period_days)
+
+
+def test_table1_orbits_lie_on_the_southern_halo_families(families):
+    tables, _ = families
+    for name, family in (("eml2_halo", "l2_halo_south"), ("eml1_halo", "l1_halo_south")):
+        days = CATALOG[name].period_tu * 375190.26 / 86400.0
+        frame = tables[family]
+        assert frame.period_days.min() < days < frame.period_days.max() + 0.01
+
+
+def test_nine_two_nrho(families):
+    tables, _ = families
+    from liaison_cli.campaign.family_store import from_frame
+
+    period = 2.0 * SYNODIC_MONTH_DAYS / 9.0  # 9 revolutions in 2 synodic months: 6.5624 d
+    orbit = member_by_period("l2_nrho_south", from_frame(tables["l2_nrho_south"]), period)
+    assert orbit.period_tu * 375190.26 / 86400.0 == pytest.approx(period, abs=1e-6)
+    assert 3000 < orbit.perilune_km < 3700 and 68000 < orbit.apolune_km < 73000  # published: ~3,200 / ~71,000 km
+    assert orbit.stability_index < 2.0  # NRHOs are nearly stable
+    assert orbit.closure_lu < 1e-9
+
+
+def test_period_outside_family_names_the_range(families):
+    tables, _ = families
+    from liaison_cli.campaign.family_store import from_frame
+
+    with pytest.raises(FamilyError, match=r"valid 6\.0\d\d to [78]\.\d\d\d days"):
+        member_by_period("l2_nrho_south", from_frame(tables["l2_nrho_south"]), 9.5)
+
+
+def _family_scenario(tmp_path, orbit_lines):
+    text = (SCENARIOS / "smoke.yaml").read_text().replace("    orbit: eml2_halo\n", orbit_lines)
+    path = tmp_path / "family.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_scenario_names_an_orbit_by_family_and_period(families, tmp_path):
+    _, cache = families
+    path = _family_scenario(tmp_path, "    orbit: l2_nrho_south\n    period_days: 6.5624\n")
+    import os
+    import subprocess
+    import sys
+
+    from tests.conftest import REPO
+
+    env = {**os.environ, "LIAISON_ORBIT_CACHE_DIR": str(cache)}
+    proc = subprocess.run([sys.executable, "-m", "liaison_cli", "run", path, "--output", tmp_path / "o", "--jobs", "1",
+                           "--quiet"], capture_output=True, text=True, cwd=REPO, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert "2/2 runs ok" in proc.stdout
+    bad = _family_scenario(tmp_path, "    orbit: l2_nrho_south\n    period_days: 12\n")
+    proc = subprocess.run([sys.executable, "-m", "liaison_cli", "run", bad, "--output", tmp_path / "b"],
+                          capture_output=True, text=True, cwd=REPO, env=env)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    line = proc.stderr.strip()
+    assert "\n" not in line and "spacecraft[0].period_days" in line and "= 12" in line and "valid 6.0" in line
+
+
+def test_unknown_family_is_one_line(tmp_path):
+    proc = run_cli("orbits", "generate", "l3_halo_south")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "unknown orbit family 'l3_halo_south'" in proc.stderr and "l2_nrho_south" in proc.stderr
+    path = _family_scenario(tmp_path, "    orbit: l3_halo\n    period_days: 10\n")
+    proc = run_cli("run", path, "--output", tmp_path / "o")
+    assert proc.returncode == 2 and "l2_halo_south" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
