@@ -370,6 +370,36 @@ def orbits_plot(
 
 
 @app.command()
+@user_errors
+def observability(
+    scenario: Path = typer.Argument(..., help="scenario YAML file"),
+    output: Path = typer.Option(None, "--output", help="result folder (default: results/observability-<name>)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    range_rate_sigma_m_s: float = typer.Option(1e-3, "--range-rate-sigma", min=1e-9,
+                                               help="range-rate 1-sigma in m/s for the range-rate weights"),
+    no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
+):
+    """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
+    from liaison_cli.campaign.results import prepare_output_dir
+    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.report.observability_report import observability_report
+
+    config, text = load_scenario(scenario)
+    out_dir = prepare_output_dir(output or Path("results") / f"observability-{config.name}", overwrite)
+    summary = observability_report(config, text, out_dir, range_rate_sigma_m_s, taylor=not no_taylor)
+    for observable, values in summary["observables"].items():
+        least = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["least_observable"])
+        most = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["most_observable"])
+        typer.echo(f"{observable:<11} condition number {values['condition_number']:.3e}   unobservability index "
+                   f"{values['unobservability_index']:.3e}")
+        typer.echo(f"{'':<11} most observable: {most}; least observable: {least}")
+    for row in summary.get("taylor_stm", []):
+        typer.echo(f"Taylor STM vs integrated, {row['spacecraft']:<8} step {row['step_s']:>4} s: relative error "
+                   f"RMS {row['relative_error_rms']:.2e}, std {row['relative_error_std']:.2e}")
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
 def version():
     """Print the package version."""
     typer.echo(__version__)
