@@ -400,6 +400,29 @@ def observability(
 
 
 @app.command()
+@user_errors
+def geometry(
+    output: Path = typer.Option(Path("results/geometry"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    count: int = typer.Option(7, "--count", min=2, max=30, help="orbits per family"),
+    interval_s: float = typer.Option(600.0, "--interval", min=10.0, help="sampling interval of the links, s"),
+):
+    """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter."""
+    from liaison_cli.campaign.results import prepare_output_dir
+    from liaison_cli.report.geometry import run_study
+
+    out_dir = prepare_output_dir(output, overwrite)
+    tables = run_study(out_dir, count, interval_s)
+    for key, table in tables.items():
+        for observable in ("range", "range_rate"):
+            col = table[f"{observable}_condition_number"]
+            best, worst = table.loc[col.idxmin()], table.loc[col.idxmax()]
+            typer.echo(f"{key:<14}{observable:<11} cond {col.min():.2e} ({best['first']} / {best['second']}) to "
+                       f"{col.max():.2e} ({worst['first']} / {worst['second']})")
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
 def version():
     """Print the package version."""
     typer.echo(__version__)

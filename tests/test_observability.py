@@ -112,3 +112,15 @@ def test_observability_command_writes_tables_and_plot(tmp_path):
     assert (tmp_path / "o" / "effectiveness.png").stat().st_size > 30_000
     assert len(pd.read_parquet(tmp_path / "o" / "singular.parquet")) == 24
     assert set(pd.read_parquet(tmp_path / "o" / "taylor_stm.parquet").step_s) == {10, 60, 100, 600}
+
+
+def test_vectorised_partials_equal_the_measurement_models():
+    from liaison_cli.analysis.observability import _link_partials
+
+    names, states0, times, links = _inputs("eml2_lunar")
+    states, _ = stm_from_t0(states0, times[:50])
+    rate = _link_partials(states, 0, 1, "range_rate")
+    rng = _link_partials(states, 0, 1, "range")
+    for k in (0, 17, 49):
+        assert np.allclose(rate[k], range_rate_gradient(states[k, 0], states[k, 1]), rtol=1e-12, atol=1e-15)
+        assert np.allclose(rng[k, :3], geometric_range_gradient(states[k, 0, :3], states[k, 1, :3]), rtol=1e-12)

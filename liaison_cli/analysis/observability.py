@@ -17,8 +17,6 @@ import numpy as np
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import jacobian, rk4_state_stm
 from liaison_cli.dynamics.propagation import propagate_state_stm
-from liaison_cli.measurements.range import geometric_range_gradient
-from liaison_cli.measurements.range_rate import range_rate_gradient
 
 AXES = ("x", "y", "z", "vx", "vy", "vz")
 OBSERVABLES = ("range", "range_rate")
@@ -63,42 +61,52 @@ def stm_from_t0(states0, times_tu, mu=MU):
     return np.stack([p[0] for p in pairs], axis=1), np.stack([p[1] for p in pairs], axis=1)
 
 
+def _link_partials(states, receiver, transponder, observable):
+    """d(observable)/d(receiver state) at every epoch: (m, 6); the transponder's is its negative."""
+    r = states[:, receiver, :3] - states[:, transponder, :3]
+    rho = np.linalg.norm(r, axis=1)
+    u = r / rho[:, None]
+    if observable == "range":
+        return np.concatenate([u, np.zeros_like(u)], axis=1)
+    v = states[:, receiver, 3:] - states[:, transponder, 3:]
+    rho_dot = np.einsum("ij,ij->i", u, v)
+    return np.concatenate([(v - rho_dot[:, None] * u) / rho[:, None], u], axis=1)
+
+
 def analyse(states0, times_tu, links, sigma, observable: str = "range", names=None, mu=MU,
-            skip_first: bool = True) -> ObservabilityResult:
+            skip_first: bool = True, propagated=None) -> ObservabilityResult:
     """states0 (n_sc, 6) at t0; times_tu (m,); links: (receiver, transponder) index pairs; sigma (LU or
-    LU/TU) of the observable."""
+    LU/TU) of the observable. `propagated`: optional (states (m, n_sc, 6), phis (m, n_sc, 6, 6)) to reuse."""
     if observable not in OBSERVABLES:
         raise ValueError(f"observable {observable!r}; allowed: {', '.join(OBSERVABLES)}")
     states0 = np.asarray(states0, dtype=float)
     n_sc = states0.shape[0]
     n = 6 * n_sc
     names = names or [f"sc{i}" for i in range(n_sc)]
-    states, phis = stm_from_t0(states0, times_tu, mu)
+    states, phis = propagated if propagated is not None else stm_from_t0(states0, times_tu, mu)
+    first = 1 if skip_first else 0
+    states, phis = states[first:], phis[first:]
+    m = states.shape[0]
     weight = 1.0 / sigma**2
     information = np.zeros((n, n))
     gramian = np.zeros((n, n))
-    m = len(times_tu)
-    eff_pos = np.full((m, n_sc), np.nan)
-    eff_vel = np.full((m, n_sc), np.nan)
-    for k in range(1 if skip_first else 0, m):
-        info_k = np.zeros((n, n))
-        for receiver, transponder in links:
-            H = np.zeros(n)  # H~_k, then mapped: H_k = H~_k Phi(t_k, t0), block by block (Eq. 25)
-            if observable == "range":
-                g = geometric_range_gradient(states[k, receiver, :3], states[k, transponder, :3])
-                g6 = np.concatenate([g, np.zeros(3)])
-            else:
-                g6 = range_rate_gradient(states[k, receiver], states[k, transponder])
-            H[6 * receiver : 6 * receiver + 6] = g6 @ phis[k, receiver]
-            H[6 * transponder : 6 * transponder + 6] = -g6 @ phis[k, transponder]
-            outer = np.outer(H, H)
-            info_k += weight * outer
-            gramian += outer
-        information += info_k
+    block_pos = np.zeros((m, n_sc, 3, 3))
+    block_vel = np.zeros((m, n_sc, 3, 3))
+    for receiver, transponder in links:
+        g = _link_partials(states, receiver, transponder, observable)
+        H = np.zeros((m, n))  # rows H_k = H~_k Phi(t_k, t0), spacecraft block by block (Eq. 25)
+        H[:, 6 * receiver : 6 * receiver + 6] = np.einsum("mi,mij->mj", g, phis[:, receiver])
+        H[:, 6 * transponder : 6 * transponder + 6] = -np.einsum("mi,mij->mj", g, phis[:, transponder])
+        gramian += H.T @ H
+        information += weight * (H.T @ H)
         for s in range(n_sc):
-            a = 6 * s
-            eff_pos[k, s] = np.sqrt(max(np.linalg.eigvalsh(info_k[a : a + 3, a : a + 3])[-1], 0.0))
-            eff_vel[k, s] = np.sqrt(max(np.linalg.eigvalsh(info_k[a + 3 : a + 6, a + 3 : a + 6])[-1], 0.0))
+            hp = H[:, 6 * s : 6 * s + 3]
+            hv = H[:, 6 * s + 3 : 6 * s + 6]
+            block_pos[:, s] += weight * np.einsum("mi,mj->mij", hp, hp)
+            block_vel[:, s] += weight * np.einsum("mi,mj->mij", hv, hv)
+    pad = np.full((first, n_sc), np.nan)
+    eff_pos = np.vstack([pad, np.sqrt(np.clip(np.linalg.eigvalsh(block_pos)[..., -1], 0.0, None))])
+    eff_vel = np.vstack([pad, np.sqrt(np.clip(np.linalg.eigvalsh(block_vel)[..., -1], 0.0, None))])
     _, singular, vt = np.linalg.svd(information)
     labels = tuple(f"{name}.{axis}" for name in names for axis in AXES)
     return ObservabilityResult(labels, information, gramian, singular, vt.T, eff_pos, eff_vel)
