@@ -423,6 +423,37 @@ def geometry(
 
 
 @app.command()
+@user_errors
+def compare(
+    scenarios: list[Path] = typer.Argument(..., help="scenario YAML files to run side by side"),
+    runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs per scenario (default: each scenario's)"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(Path("results/compare"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
+    from liaison_cli.campaign.results import prepare_output_dir, summary_table
+    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.report.compare import compare_rows, write_compare
+
+    loaded = [(path, *load_scenario(path)) for path in scenarios]
+    out_dir = prepare_output_dir(output, overwrite)
+    rows, summaries, texts = [], [], {}
+    for path, config, text in loaded:
+        result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
+                              description=config.name)
+        summary = summary_table(result)
+        rows.append(compare_rows(config, summary))
+        summaries.append(summary.assign(scenario=config.name))
+        texts[config.name] = text
+    table, markdown = write_compare(rows, summaries, texts, out_dir)
+    typer.echo(markdown)
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
 def version():
     """Print the package version."""
     typer.echo(__version__)

@@ -59,6 +59,7 @@ class Problem:
     substeps: int
     mu: float
     divergence_position_lu: float
+    light_time_model: bool = False
 
     @property
     def n_steps(self) -> int:
@@ -148,4 +149,5 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         substeps=flt.rk4_substeps,
         mu=MU,
         divergence_position_lu=flt.divergence_position_km / LU_KM,
+        light_time_model=flt.range_model == "light_time",
     )

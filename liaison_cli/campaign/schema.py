@@ -93,6 +93,43 @@ class LinkSpec(StrictModel):
     observable: Literal["range"] = "range"
 
 
+class TopologySpec(StrictModel):
+    """`star`: the hub (mothercraft) receives from every other spacecraft; `mesh`: every pair is linked,
+    the spacecraft listed first receiving. Expanded into `links` when the scenario is read."""
+
+    kind: Literal["star", "mesh"]
+    hub: str | None = None
+
+
+def _expand_topology(data: dict) -> dict:
+    """Before validation: turn `topology` into the explicit link list (kept beside it for provenance)."""
+    topology = data.get("topology")
+    if not isinstance(topology, dict) or not isinstance(data.get("spacecraft"), list):
+        return data
+    names = [sc.get("name") for sc in data["spacecraft"] if isinstance(sc, dict)]
+    kind, hub = topology.get("kind"), topology.get("hub")
+    if kind == "star":
+        if hub is None:
+            raise ValueError(f"topology star needs a 'hub' (the mothercraft); spacecraft: {', '.join(map(str, names))}")
+        if hub not in names:
+            raise ValueError(f"topology hub {hub!r} is not a spacecraft; defined: {', '.join(map(str, names))}")
+        links = [{"receiver": hub, "transponder": name} for name in names if name != hub]
+    elif kind == "mesh":
+        if hub is not None:
+            raise ValueError("topology mesh takes no 'hub' (every pair is linked)")
+        links = [{"receiver": a, "transponder": b} for i, a in enumerate(names) for b in names[i + 1 :]]
+    else:
+        raise ValueError(f"topology kind {kind!r} is not allowed; allowed: star, mesh")
+    given = data.get("links")
+    if given is not None:
+        normalised = [{"receiver": li.get("receiver"), "transponder": li.get("transponder")}
+                      for li in given if isinstance(li, dict)]
+        if normalised != links:
+            raise ValueError("give either 'links' or 'topology', not both")
+        return data
+    return {**data, "links": links}
+
+
 class LinkLegSpec(StrictModel):
     distance_km: float = Field(gt=0)
     frequency_mhz: float = Field(gt=0)
@@ -196,6 +233,9 @@ class FilterSpec(StrictModel):
     process_noise_accel_m_s2: float = Field(1e-7, ge=0)
     divergence_position_km: float = Field(1e4, gt=0)
     rk4_substeps: int = Field(4, ge=1, le=256)
+    range_model: Literal["geometric", "light_time"] = Field(
+        "geometric", description="filter's two-way range: geometric (paper Eq. 17) or light-time corrected"
+    )
 
 
 class InitialErrorSpec(StrictModel):
@@ -218,11 +258,17 @@ class Scenario(StrictModel):
     duration_days: float = Field(gt=0, le=365)
     spacecraft: list[SpacecraftSpec] = Field(min_length=2)
     links: list[LinkSpec] = Field(min_length=1)
+    topology: TopologySpec | None = None
     measurement: MeasurementSpec
     noise: NoiseSpec
     filter: FilterSpec = FilterSpec()
     initial_error: InitialErrorSpec = InitialErrorSpec()
     monte_carlo: MonteCarloSpec
+
+    @model_validator(mode="before")
+    @classmethod
+    def _topology_to_links(cls, data):
+        return _expand_topology(data) if isinstance(data, dict) else data
 
     @model_validator(mode="after")
     def _consistent(self):

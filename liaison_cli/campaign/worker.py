@@ -69,6 +69,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             problem.substeps,
             problem.mu,
             problem.divergence_position_lu,
+            problem.light_time_model,
         )
         summary, norms = summary_rows(problem.times_s, err, sigma, problem.spacecraft, M_PER_LU, M_S_PER_VU)
         ok = status == STATUS_OK

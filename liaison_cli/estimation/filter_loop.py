@@ -14,7 +14,9 @@ from liaison_cli.estimation.ekf import (
     predict_covariance_block_diagonal,
     update_scalar,
 )
+from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_LU_TU
 from liaison_cli.measurements.range import geometric_range, geometric_range_gradient
+from liaison_cli.measurements.range_rate import range_rate
 
 STATUS_OK = 0
 STATUS_NONFINITE = 1
@@ -43,13 +45,16 @@ def run_ekf(
     substeps,
     mu,
     divergence_position_lu,
+    light_time_model=False,
 ):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate, n = 6 * n_sc; P0 (n, n); Q (n, n) added at every step (Eq. 12);
     truth (m, n) true states at the m epochs t_k = k * dt_tu; y_obs (m, L) observed ranges in LU
     (row 0 unused, NaN = no measurement); link_receiver / link_transponder (L,) spacecraft indices;
-    sigma_lu (L,) measurement 1-sigma.
+    sigma_lu (L,) measurement 1-sigma. light_time_model: predict the two-way range as
+    rho - rho_dot * rho / c (Eq. 14-15 to first order in the light time) instead of the geometric Eq. 17;
+    the partials stay geometric (the correction changes them by ~1e-6 relative).
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, L), innovation_std (m, L), status,
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
@@ -94,6 +99,8 @@ def run_ekf(
             ra = 6 * link_receiver[l]
             ta = 6 * link_transponder[l]
             rho = geometric_range(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
+            if light_time_model:
+                rho -= range_rate(x_bar[ra : ra + 6], x_bar[ta : ta + 6]) * rho / SPEED_OF_LIGHT_LU_TU
             g = geometric_range_gradient(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
             H[:] = 0.0
             H[ra : ra + 3] = g
