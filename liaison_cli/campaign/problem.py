@@ -39,6 +39,8 @@ class Problem:
 
     times_s (m,); truth (m, n) with n = 6 n_sc; measurements_true (m, L) noise-free (row 0 unused);
     link_receiver / link_transponder (L,); sigma_lu (L,); bias_lu: constant range bias in the truth;
+    bias_sigma_lu: sigma of the per-run random bias of each link; n_bias: bias states in the filter (0 or L),
+    bias_mode: 0 ignore, 1 estimate, 2 consider (P0 / Q then have n_bias extra rows);
     P0, Q (n, n); initial_error_sigma (n,) for the 'fixed_sigma' draw.
     """
 
@@ -60,6 +62,13 @@ class Problem:
     mu: float
     divergence_position_lu: float
     light_time_model: bool = False
+    bias_sigma_lu: float = 0.0
+    n_bias: int = 0
+    bias_mode: int = 0
+
+    @property
+    def n_spacecraft(self) -> int:
+        return len(self.spacecraft)
 
     @property
     def n_steps(self) -> int:
@@ -131,6 +140,14 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         per_axis_block_diagonal(n_sc, ie.sigma_position_m / M_PER_LU, ie.sigma_velocity_m_s / M_S_PER_VU)
     ).copy()
 
+    bias_mode = {"ignore": 0, "estimate": 1, "consider": 2}[flt.bias]
+    n_bias = len(models) if bias_mode else 0
+    if n_bias:
+        apriori = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
+        P0 = np.block([[P0, np.zeros((len(P0), n_bias))], [np.zeros((n_bias, len(P0))), apriori * np.eye(n_bias)]])
+        Q = np.block([[Q, np.zeros((len(Q), n_bias))], [np.zeros((n_bias, len(Q))), np.zeros((n_bias, n_bias))]])
+        initial_error_sigma = np.concatenate([initial_error_sigma, np.zeros(n_bias)])
+
     return Problem(
         scenario=scenario,
         spacecraft=tuple(names),
@@ -150,4 +167,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         mu=MU,
         divergence_position_lu=flt.divergence_position_km / LU_KM,
         light_time_model=flt.range_model == "light_time",
+        bias_sigma_lu=scenario.noise.bias_sigma_m / M_PER_LU,
+        n_bias=n_bias,
+        bias_mode=bias_mode,
     )

@@ -97,6 +97,24 @@ def residuals_table(result: CampaignResult, float_dtype="float32") -> pd.DataFra
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
+def bias_table(result: CampaignResult) -> pd.DataFrame:
+    """One row per (run, link): true range bias, the filter's final value and 1-sigma (m)."""
+    problem = result.problem
+    labels = [f"{problem.spacecraft[r]}->{problem.spacecraft[t]}"
+              for r, t in zip(problem.link_receiver, problem.link_transponder)]
+    rows = []
+    for outcome in result.outcomes:
+        if outcome.bias_true_m is None:
+            continue
+        for l, label in enumerate(labels):
+            rows.append({"run": outcome.run, "link": label, "status": outcome.status,
+                         "bias_true_m": float(outcome.bias_true_m[l]),
+                         "bias_estimate_m": float(outcome.bias_estimate_m[l]),
+                         "bias_sigma_m": float(outcome.bias_sigma_m[l]),
+                         "treatment": problem.scenario.filter.bias})
+    return pd.DataFrame(rows)
+
+
 def consistency_table(result: CampaignResult) -> pd.DataFrame:
     """Run-averaged NEES per epoch over the runs that finished, with its 95 % chi-square band."""
     good = [o for o in result.outcomes if o.status == "ok"]
@@ -192,10 +210,12 @@ def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dt
         "timeseries": out_dir / "timeseries.parquet",
         "residuals": out_dir / "residuals.parquet",
         "consistency": out_dir / "consistency.parquet",
+        "bias": out_dir / "bias.parquet",
     }
     write_parquet_atomic(summary_table(result), paths["summary"], meta)
     write_parquet_atomic(timeseries_table(result, float_dtype), paths["timeseries"], meta)
     write_parquet_atomic(residuals_table(result, float_dtype), paths["residuals"], meta)
     write_parquet_atomic(consistency_table(result), paths["consistency"], meta)
+    write_parquet_atomic(bias_table(result), paths["bias"], meta)
     write_text_atomic(scenario_text, out_dir / "scenario.yaml")
     return paths

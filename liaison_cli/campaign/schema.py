@@ -162,6 +162,7 @@ class NoiseSpec(StrictModel):
     loop_bandwidth_hz: float | None = Field(None, gt=0)
     ranging_power_fraction_db: float | None = Field(None, le=0)
     bias_m: float = 0.0
+    bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a N(0, bias_sigma_m) bias is added")
 
     @model_validator(mode="after")
     def _one_source_of_sigma(self):
@@ -236,6 +237,16 @@ class FilterSpec(StrictModel):
     range_model: Literal["geometric", "light_time"] = Field(
         "geometric", description="filter's two-way range: geometric (paper Eq. 17) or light-time corrected"
     )
+    bias: Literal["ignore", "estimate", "consider"] = Field(
+        "ignore", description="range bias per link: not modelled, estimated (augmented state) or considered"
+    )
+    bias_apriori_sigma_m: float | None = Field(None, gt=0, description="a-priori 1-sigma of each link's bias")
+
+    @model_validator(mode="after")
+    def _bias_needs_apriori(self):
+        if self.bias != "ignore" and self.bias_apriori_sigma_m is None:
+            raise ValueError(f"bias {self.bias!r} needs 'bias_apriori_sigma_m' (the a-priori 1-sigma, m)")
+        return self
 
 
 class InitialErrorSpec(StrictModel):

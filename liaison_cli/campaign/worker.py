@@ -32,35 +32,47 @@ class RunOutcome:
     nees: np.ndarray | None = None
     innovation_m: np.ndarray | None = None
     innovation_std_m: np.ndarray | None = None
+    bias_true_m: np.ndarray | None = None  # (L,) per link
+    bias_estimate_m: np.ndarray | None = None  # (L,) final filter value (a-priori mean if not estimated)
+    bias_sigma_m: np.ndarray | None = None  # (L,) final 1-sigma (NaN if the filter has no bias state)
 
 
-def draw_run_inputs(problem: Problem, run_index: int):
-    """Initial estimate (n,) and observed measurements (m, L) of one run.
+def draw_run_inputs(problem: Problem, run_index: int, with_bias: bool = False):
+    """Initial estimate (n,) and observed measurements (m, L) of one run; with_bias also returns the true
+    range bias of each link (L,) in LU.
 
-    Draw order is part of the reproducibility contract: initial error first, then measurement noise.
+    Draw order is part of the reproducibility contract: initial error first, then measurement noise,
+    then the per-run random bias of each link.
     """
     rng = run_rng(problem.scenario.monte_carlo.seed, run_index)
     n = problem.truth.shape[1]
     if problem.scenario.initial_error.draw == "from_covariance":
-        dx0 = np.linalg.cholesky(problem.P0) @ rng.standard_normal(n)
+        dx0 = np.linalg.cholesky(problem.P0[:n, :n]) @ rng.standard_normal(n)
     else:
-        dx0 = problem.initial_error_sigma * rng.standard_normal(n)
+        dx0 = problem.initial_error_sigma[:n] * rng.standard_normal(n)
     m, n_links = problem.measurements_true.shape
     noise = rng.standard_normal((m - 1, n_links)) * problem.sigma_lu
+    bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(n_links)
     y_obs = problem.measurements_true.copy()
-    y_obs[1:] += noise + problem.bias_lu
-    return problem.truth[0] + dx0, y_obs
+    y_obs[1:] += noise + bias[None, :]
+    x0_hat = problem.truth[0] + dx0
+    if problem.n_bias:  # the filter starts its bias states at their a-priori mean, zero
+        x0_hat = np.concatenate([x0_hat, np.zeros(problem.n_bias)])
+    return (x0_hat, y_obs, bias) if with_bias else (x0_hat, y_obs)
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
     run = task.run_index
     try:
-        x0_hat, y_obs = draw_run_inputs(problem, run)
+        x0_hat, y_obs, bias = draw_run_inputs(problem, run, with_bias=True)
+        truth = problem.truth
+        if problem.n_bias:
+            truth = np.hstack([truth, np.repeat(bias[None, :], truth.shape[0], axis=0)])
         err, sigma, nees, innovation, innovation_std, status, fail_step = run_ekf(
             x0_hat,
             problem.P0,
             problem.Q,
-            problem.truth,
+            truth,
             y_obs,
             problem.link_receiver,
             problem.link_transponder,
@@ -70,8 +82,19 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             problem.mu,
             problem.divergence_position_lu,
             problem.light_time_model,
+            problem.n_spacecraft,
+            problem.bias_mode,
         )
-        summary, norms = summary_rows(problem.times_s, err, sigma, problem.spacecraft, M_PER_LU, M_S_PER_VU)
+        n_dyn = 6 * problem.n_spacecraft
+        summary, norms = summary_rows(problem.times_s, err[:, :n_dyn], sigma[:, :n_dyn], problem.spacecraft,
+                                      M_PER_LU, M_S_PER_VU)
+        last = fail_step - 1 if status != STATUS_OK else -1
+        if problem.n_bias:
+            bias_estimate = (err[last, n_dyn:] + bias) * M_PER_LU
+            bias_sigma = sigma[last, n_dyn:] * M_PER_LU
+        else:
+            bias_estimate = np.zeros_like(bias)
+            bias_sigma = np.full_like(bias, np.nan)
         ok = status == STATUS_OK
         return RunOutcome(
             run=run,
@@ -83,6 +106,9 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             nees=nees,
             innovation_m=innovation * M_PER_LU,
             innovation_std_m=innovation_std * M_PER_LU,
+            bias_true_m=bias * M_PER_LU,
+            bias_estimate_m=bias_estimate,
+            bias_sigma_m=bias_sigma,
         )
     except Exception as exc:  # noqa: BLE001 - a worker reports, never raises
         return RunOutcome(run=run, status="error", reason=f"{type(exc).__name__}: {exc}", fail_time_s=float("nan"))

@@ -16,15 +16,18 @@ def predict_covariance(P, Phi, Q):
 
 
 @njit(cache=True)
-def predict_covariance_block_diagonal(P, Phi, Q, out):
-    """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi of 6 x 6 blocks, written into `out`.
+def predict_covariance_block_diagonal(P, Phi, Q, out, n_sc=-1):
+    """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi, written into `out`.
 
-    P, Phi, Q, out: (n, n), n = 6 n_sc. Only the diagonal blocks of Phi are read: each spacecraft's STM
-    is propagated on its own, so P_bar[a, b] = Phi_a P[a, b] Phi_b^T, half the flops of the full
-    product and no temporaries. The result is symmetric by construction (upper triangle mirrored).
+    P, Phi, Q, out: (n, n). The first 6 n_sc states are spacecraft (one 6 x 6 STM block each; default
+    n_sc = n // 6); any further states are constant parameters (range biases) with identity transition.
+    Each spacecraft's STM is propagated on its own, so P_bar[a, b] = Phi_a P[a, b] Phi_b^T: half the flops
+    of the full product and no temporaries. Symmetric by construction (upper triangle mirrored).
     """
     n = P.shape[0]
-    n_sc = n // 6
+    if n_sc < 0:
+        n_sc = n // 6
+    n_dyn = 6 * n_sc
     tmp = np.empty((6, 6))
     for a in range(n_sc):
         ra = 6 * a
@@ -44,6 +47,17 @@ def predict_covariance_block_diagonal(P, Phi, Q, out):
                         acc += tmp[i, k] * Phi[rb + j, rb + k]
                     out[ra + i, rb + j] = acc
                     out[rb + j, ra + i] = acc
+        for j in range(n_dyn, n):  # spacecraft x parameter: Phi_a P[a, j]
+            for i in range(6):
+                acc = Q[ra + i, j]
+                for k in range(6):
+                    acc += Phi[ra + i, ra + k] * P[ra + k, j]
+                out[ra + i, j] = acc
+                out[j, ra + i] = acc
+    for i in range(n_dyn, n):
+        for j in range(i, n):
+            out[i, j] = P[i, j] + Q[i, j]
+            out[j, i] = out[i, j]
     return out
 
 
@@ -79,7 +93,7 @@ def normalized_error_squared(e, P, work):
 
 
 @njit(cache=True)
-def update_scalar(dx, P, y, H, R):
+def update_scalar(dx, P, y, H, R, n_gain=-1):
     """One scalar measurement update in Joseph form.
 
     dx (n,): state correction accumulated so far (relative to the linearisation point);
@@ -89,11 +103,17 @@ def update_scalar(dx, P, y, H, R):
     Joseph form P+ = (I - K H) P (I - K H)^T + K R K^T (cf. Eq. 23), evaluated without forming I - K H:
     with h = P H^T and A = P - K h^T, P+ = A - (h - K (S - R)) K^T + R K K^T, which is the same
     product regrouped (valid for any gain K), in O(n^2) instead of two n x n matrix products.
+
+    n_gain >= 0: only the first n_gain states are estimated; the rest are consider parameters whose gain
+    is set to zero (Schmidt-Kalman). Their covariance still enters S and, through the Joseph form (valid
+    for this suboptimal gain), the estimated states' covariance: the consider covariance.
     """
     n = dx.shape[0]
     h = P @ H
     S = H @ h + R
     K = h / S  # K = P H^T (H P H^T + R)^-1 (Eq. 21)
+    if n_gain >= 0:
+        K[n_gain:] = 0.0
     innovation = y - H @ dx
     P_new = np.empty((n, n))
     new_dx = np.empty(n)

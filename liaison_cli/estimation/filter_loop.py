@@ -46,6 +46,8 @@ def run_ekf(
     mu,
     divergence_position_lu,
     light_time_model=False,
+    n_sc=-1,
+    bias_mode=0,
 ):
     """Run one EKF pass.
 
@@ -56,13 +58,23 @@ def run_ekf(
     rho - rho_dot * rho / c (Eq. 14-15 to first order in the light time) instead of the geometric Eq. 17;
     the partials stay geometric (the correction changes them by ~1e-6 relative).
 
+    Range biases: with bias_mode 1 (estimate) or 2 (consider) the state holds, after the 6 n_sc spacecraft
+    states, one constant range bias per link (n = 6 n_sc + L; truth carries the true biases in those
+    columns). The prediction adds the link's bias, H has 1 in its column. Estimate: a normal augmented
+    state. Consider: its gain is zero (Schmidt-Kalman), so the spacecraft block of P is the consider
+    covariance. NEES covers the spacecraft states, plus the biases when they are estimated.
+
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, L), innovation_std (m, L), status,
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
     Rows after a failure stay NaN.
     """
     m, n = truth.shape
-    n_sc = n // 6
+    if n_sc < 0:
+        n_sc = n // 6
+    n_dyn = 6 * n_sc
     n_links = link_receiver.shape[0]
+    n_gain = n_dyn if bias_mode == 2 else -1
+    n_nees = n if bias_mode == 1 else n_dyn
     err = np.full((m, n), np.nan)
     sig = np.full((m, n), np.nan)
     nees = np.full(m, np.nan)
@@ -74,8 +86,8 @@ def run_ekf(
     err[0] = x_hat - truth[0]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
-    work = np.empty((n, n))
-    nees[0] = normalized_error_squared(err[0], P, work)
+    work = np.empty((n_nees, n_nees))
+    nees[0] = normalized_error_squared(err[0, :n_nees], P[:n_nees, :n_nees], work)
 
     x_bar = np.empty(n)
     Phi = np.zeros((n, n))
@@ -87,8 +99,10 @@ def run_ekf(
             xs, phis = rk4_state_stm(x_hat[a : a + 6], dt_tu, substeps, mu)
             x_bar[a : a + 6] = xs
             Phi[a : a + 6, a : a + 6] = phis
+        for i in range(n_dyn, n):
+            x_bar[i] = x_hat[i]  # biases are constant
         # A fresh output buffer: P may still alias the previous one if no measurement came in.
-        P = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)))
+        P = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)), n_sc)
 
         # Measurement update, one scalar range per link, all linearised at x_bar (Eq. 13, 17, 20-24).
         dx = np.zeros(n)
@@ -105,7 +119,10 @@ def run_ekf(
             H[:] = 0.0
             H[ra : ra + 3] = g
             H[ta : ta + 3] = -g
-            dx, P, innovation, S = update_scalar(dx, P, y_meas - rho, H, sigma_lu[l] ** 2)
+            if bias_mode != 0:
+                rho += x_bar[n_dyn + l]
+                H[n_dyn + l] = 1.0
+            dx, P, innovation, S = update_scalar(dx, P, y_meas - rho, H, sigma_lu[l] ** 2, n_gain)
             innovations[k, l] = innovation
             innov_std[k, l] = np.sqrt(S) if S > 0.0 else np.nan
         x_hat = x_bar + dx
@@ -124,7 +141,7 @@ def run_ekf(
         err[k] = e
         for i in range(n):
             sig[k, i] = np.sqrt(P[i, i])
-        nees[k] = normalized_error_squared(e, P, work)
+        nees[k] = normalized_error_squared(e[:n_nees], P[:n_nees, :n_nees], work)
         for s in range(n_sc):
             a = 6 * s
             if np.sqrt(e[a] ** 2 + e[a + 1] ** 2 + e[a + 2] ** 2) > divergence_position_lu:
