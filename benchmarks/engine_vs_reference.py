@@ -33,7 +33,8 @@ def main():
     scenario, _ = load_scenario(args.scenario)
     problem = prepare_problem(apply_overrides(scenario, {"duration_days": args.days}))
     engine_args = lambda x0, y: (x0, problem.P0, problem.Q, problem.truth, y, problem.link_receiver,  # noqa: E731
-                                 problem.link_transponder, problem.sigma_lu, problem.dt_tu, problem.substeps,
+                                 problem.link_transponder, problem.channel_link, problem.channel_kind,
+                                 problem.sigma_lu, problem.dt_tu, problem.substeps,
                                  problem.mu, problem.divergence_position_lu)
     t0 = time.perf_counter()
     run_ekf(*engine_args(*draw_run_inputs(problem, 0)))

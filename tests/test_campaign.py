@@ -33,7 +33,8 @@ def test_smoke_run_writes_results_with_provenance(tmp_path):
     res = pd.read_parquet(out / "residuals.parquet")
     assert set(res.link) == {"EML2->Lunar"}
     # Innovations are consistent with their predicted std (the smoke case is short and well behaved).
-    assert 0.5 < np.sqrt(np.mean((res.innovation_m / res.innovation_std_m) ** 2)) < 2.0
+    assert set(res.observable) == {"range"} and set(res.unit) == {"m"}
+    assert 0.5 < np.sqrt(np.mean((res.innovation / res.innovation_std) ** 2)) < 2.0
     meta = read_metadata(out / "summary.parquet")
     assert meta["package_version"] == __version__
     assert meta["seed"] == 7

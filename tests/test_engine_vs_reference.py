@@ -19,6 +19,7 @@ def test_engine_rms_matches_reference_within_one_percent(formation, days):
     for run in range(2):
         x0, y = draw_run_inputs(problem, run)
         out = run_ekf(x0, problem.P0, problem.Q, problem.truth, y, problem.link_receiver, problem.link_transponder,
+                      problem.channel_link, problem.channel_kind,
                       problem.sigma_lu, problem.dt_tu, problem.substeps, problem.mu, problem.divergence_position_lu)
         assert out[5] == STATUS_OK
         ref_err, ref_sig = reference_ekf(problem, x0, y)

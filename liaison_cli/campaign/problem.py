@@ -11,7 +11,10 @@ import numpy as np
 from liaison_cli.campaign.schema import KEPLERIAN_ORBIT, Scenario
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.estimation.filter_loop import KIND_AZIMUTH, KIND_ELEVATION, KIND_RANGE, KIND_RANGE_RATE
+from liaison_cli.measurements.los import azimuth_elevation, los_sigma_rad
 from liaison_cli.measurements.range import TwoWayRange
+from liaison_cli.measurements.range_rate import range_rate
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
 
@@ -38,7 +41,8 @@ class Problem:
     """Arrays of one scenario, all in LU / TU unless a name says otherwise.
 
     times_s (m,); truth (m, n) with n = 6 n_sc; measurements_true (m, L) noise-free (row 0 unused);
-    link_receiver / link_transponder (L,); sigma_lu (L,); bias_lu: constant range bias in the truth;
+    link_receiver / link_transponder (L,); measurement channels (C): channel_link, channel_kind (see
+    estimation.filter_loop), sigma_lu (C,) in LU, LU/TU or rad; bias_lu: constant range bias in the truth;
     bias_sigma_lu: sigma of the per-run random bias of each link; n_bias: bias states in the filter (0 or L),
     bias_mode: 0 ignore, 1 estimate, 2 consider (P0 / Q then have n_bias extra rows);
     P0, Q (n, n); initial_error_sigma (n,) for the 'fixed_sigma' draw.
@@ -51,6 +55,8 @@ class Problem:
     measurements_true: np.ndarray
     link_receiver: np.ndarray
     link_transponder: np.ndarray
+    channel_link: np.ndarray
+    channel_kind: np.ndarray
     sigma_m: float
     sigma_lu: np.ndarray
     bias_lu: float
@@ -69,6 +75,23 @@ class Problem:
     @property
     def n_spacecraft(self) -> int:
         return len(self.spacecraft)
+
+    @property
+    def channel_scale_si(self) -> np.ndarray:
+        """(C,) factors from filter units to m, m/s or rad."""
+        return np.array([{KIND_RANGE: M_PER_LU, KIND_RANGE_RATE: M_S_PER_VU}.get(int(k), 1.0)
+                         for k in self.channel_kind])
+
+    @property
+    def channel_labels(self) -> list[tuple[str, str, str]]:
+        """(link label, observable, unit) per channel."""
+        names = {KIND_RANGE: ("range", "m"), KIND_RANGE_RATE: ("range_rate", "m/s"),
+                 KIND_AZIMUTH: ("azimuth", "rad"), KIND_ELEVATION: ("elevation", "rad")}
+        out = []
+        for link, kind in zip(self.channel_link, self.channel_kind):
+            label = f"{self.spacecraft[self.link_receiver[link]]}->{self.spacecraft[self.link_transponder[link]]}"
+            out.append((label, *names[int(kind)]))
+        return out
 
     @property
     def n_steps(self) -> int:
@@ -100,12 +123,37 @@ def _truth_and_measurements(scenario: Scenario):
     )
     index = {name: i for i, name in enumerate(names)}
     models = [TwoWayRange(index[link.receiver], index[link.transponder]) for link in scenario.links]
-    measurements = np.stack(
-        [model.simulate(truth_by_sc, MU, light_time=scenario.measurement.light_time) for model in models],
-        axis=1,
-    )
+    columns = []
+    for link_index, (link, model) in enumerate(zip(scenario.links, models)):
+        for kind in channel_kinds(link.observables):
+            columns.append(_simulate_channel(kind, model, truth_by_sc, scenario.measurement.light_time))
+    measurements = np.stack(columns, axis=1)
     measurements[0, :] = np.nan  # the filter starts at t0 with no measurement
     return times_s, truth_by_sc, measurements, models
+
+
+def channel_kinds(observables) -> list[int]:
+    """Scalar measurement channels of one link, in a fixed order: range, range-rate, azimuth, elevation."""
+    kinds = []
+    if "range" in observables:
+        kinds.append(KIND_RANGE)
+    if "range_rate" in observables:
+        kinds.append(KIND_RANGE_RATE)
+    if "los" in observables:
+        kinds += [KIND_AZIMUTH, KIND_ELEVATION]
+    return kinds
+
+
+def _simulate_channel(kind, model, truth_by_sc, light_time: bool) -> np.ndarray:
+    """Noise-free truth of one channel. Range: two-way light time (Eq. 14-15) or geometric. Range-rate and
+    LOS: instantaneous geometry at the reception time (their light-time terms are far below their noise)."""
+    receiver, transponder = truth_by_sc[:, model.receiver], truth_by_sc[:, model.transponder]
+    if kind == KIND_RANGE:
+        return model.simulate(truth_by_sc, MU, light_time=light_time)
+    if kind == KIND_RANGE_RATE:
+        return np.array([range_rate(a, b) for a, b in zip(receiver, transponder)])
+    angles = np.array([azimuth_elevation(a[:3], b[:3]) for a, b in zip(receiver, transponder)])
+    return angles[:, 0] if kind == KIND_AZIMUTH else angles[:, 1]
 
 
 def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
@@ -140,6 +188,22 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         per_axis_block_diagonal(n_sc, ie.sigma_position_m / M_PER_LU, ie.sigma_velocity_m_s / M_S_PER_VU)
     ).copy()
 
+    channel_link, channel_kind, channel_sigma = [], [], []
+    by_name = {sc.name: sc for sc in scenario.spacecraft}
+    for link_index, link in enumerate(scenario.links):
+        for kind in channel_kinds(link.observables):
+            channel_link.append(link_index)
+            channel_kind.append(kind)
+            if kind == KIND_RANGE:
+                channel_sigma.append(sigma_m / M_PER_LU)
+            elif kind == KIND_RANGE_RATE:
+                channel_sigma.append(scenario.noise.range_rate_sigma_m_s / M_S_PER_VU)
+            else:
+                channel_sigma.append(los_sigma_rad(scenario.noise.los_path_sigma_m,
+                                                   by_name[link.receiver].antenna_baseline_m))
+    channel_link = np.array(channel_link, dtype=np.int64)
+    channel_kind = np.array(channel_kind, dtype=np.int64)
+    channel_sigma = np.array(channel_sigma)
     bias_mode = {"ignore": 0, "estimate": 1, "consider": 2}[flt.bias]
     n_bias = len(models) if bias_mode else 0
     if n_bias:
@@ -157,7 +221,9 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         link_receiver=np.array([m.receiver for m in models], dtype=np.int64),
         link_transponder=np.array([m.transponder for m in models], dtype=np.int64),
         sigma_m=sigma_m,
-        sigma_lu=np.full(len(models), sigma_m / M_PER_LU),
+        channel_link=channel_link,
+        channel_kind=channel_kind,
+        sigma_lu=channel_sigma,
         bias_lu=scenario.noise.bias_m / M_PER_LU,
         P0=P0,
         Q=Q,

@@ -71,26 +71,29 @@ def timeseries_table(result: CampaignResult, float_dtype="float32") -> pd.DataFr
 
 
 def residuals_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
-    """One row per (run, epoch, link): innovation (observed minus predicted, m) and its predicted std."""
+    """One row per (run, epoch, measurement channel): innovation (observed minus predicted) and its
+    predicted standard deviation, in the channel's unit (m for range, m/s for range-rate, rad for angles)."""
     problem = result.problem
     times = problem.times_s[1:]
-    labels = [
-        f"{problem.spacecraft[r]}->{problem.spacecraft[t]}"
-        for r, t in zip(problem.link_receiver, problem.link_transponder)
-    ]
+    channels = problem.channel_labels
+    links = np.array([c[0] for c in channels], dtype=object)
+    observables = np.array([c[1] for c in channels], dtype=object)
+    units = np.array([c[2] for c in channels], dtype=object)
     frames = []
     for outcome in result.outcomes:
         if outcome.innovation_m is None:
             continue
-        m, n_links = outcome.innovation_m[1:].shape
+        m, n_channels = outcome.innovation_m[1:].shape
         frames.append(
             pd.DataFrame(
                 {
-                    "run": np.full(m * n_links, outcome.run, dtype=np.int32),
-                    "t_s": np.repeat(times, n_links),
-                    "link": np.tile(np.array(labels, dtype=object), m),
-                    "innovation_m": outcome.innovation_m[1:].reshape(-1).astype(float_dtype),
-                    "innovation_std_m": outcome.innovation_std_m[1:].reshape(-1).astype(float_dtype),
+                    "run": np.full(m * n_channels, outcome.run, dtype=np.int32),
+                    "t_s": np.repeat(times, n_channels),
+                    "link": np.tile(links, m),
+                    "observable": np.tile(observables, m),
+                    "unit": np.tile(units, m),
+                    "innovation": outcome.innovation_m[1:].reshape(-1).astype(float_dtype),
+                    "innovation_std": outcome.innovation_std_m[1:].reshape(-1).astype(float_dtype),
                 }
             )
         )

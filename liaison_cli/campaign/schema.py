@@ -60,6 +60,7 @@ class SpacecraftSpec(StrictModel):
     orbit: str
     elements: KeplerianElements | None = None
     period_days: float | None = Field(None, gt=0, description="member of an orbit family (orbit: <family>)")
+    antenna_baseline_m: float | None = Field(None, gt=0, description="interferometer baseline for LOS angles")
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
     )
@@ -90,7 +91,14 @@ class LinkSpec(StrictModel):
 
     receiver: str
     transponder: str
-    observable: Literal["range"] = "range"
+    observables: list[Literal["range", "range_rate", "los"]] = Field(default_factory=lambda: ["range"], min_length=1)
+
+    @field_validator("observables")
+    @classmethod
+    def _no_repeats(cls, value):
+        if len(set(value)) != len(value):
+            raise ValueError(f"repeated observable in {value}")
+        return value
 
 
 class TopologySpec(StrictModel):
@@ -99,6 +107,7 @@ class TopologySpec(StrictModel):
 
     kind: Literal["star", "mesh"]
     hub: str | None = None
+    observables: list[Literal["range", "range_rate", "los"]] = Field(default_factory=lambda: ["range"], min_length=1)
 
 
 def _expand_topology(data: dict) -> dict:
@@ -114,10 +123,12 @@ def _expand_topology(data: dict) -> dict:
         if hub not in names:
             raise ValueError(f"topology hub {hub!r} is not a spacecraft; defined: {', '.join(map(str, names))}")
         links = [{"receiver": hub, "transponder": name} for name in names if name != hub]
+        observables = topology.get("observables")
     elif kind == "mesh":
         if hub is not None:
             raise ValueError("topology mesh takes no 'hub' (every pair is linked)")
         links = [{"receiver": a, "transponder": b} for i, a in enumerate(names) for b in names[i + 1 :]]
+        observables = topology.get("observables")
     else:
         raise ValueError(f"topology kind {kind!r} is not allowed; allowed: star, mesh")
     given = data.get("links")
@@ -127,6 +138,8 @@ def _expand_topology(data: dict) -> dict:
         if normalised != links:
             raise ValueError("give either 'links' or 'topology', not both")
         return data
+    if observables is not None:
+        links = [{**link, "observables": observables} for link in links]
     return {**data, "links": links}
 
 
@@ -163,6 +176,9 @@ class NoiseSpec(StrictModel):
     ranging_power_fraction_db: float | None = Field(None, le=0)
     bias_m: float = 0.0
     bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a N(0, bias_sigma_m) bias is added")
+    range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels")
+    los_path_sigma_m: float | None = Field(
+        None, gt=0, description="path-difference error across the receiver's baseline (LOS, 001 Eq. 8)")
 
     @model_validator(mode="after")
     def _one_source_of_sigma(self):
@@ -296,6 +312,17 @@ class Scenario(StrictModel):
                     )
             if link.receiver == link.transponder:
                 raise ValueError(f"links[{i}] links {link.receiver!r} to itself")
+            if "range_rate" in link.observables and self.noise.range_rate_sigma_m_s is None:
+                raise ValueError(f"links[{i}] measures range_rate: give noise.range_rate_sigma_m_s")
+            if "los" in link.observables:
+                receiver = next(sc for sc in self.spacecraft if sc.name == link.receiver)
+                if receiver.antenna_baseline_m is None:
+                    raise ValueError(
+                        f"links[{i}] cannot measure 'los': its receiver {link.receiver!r} has no antenna "
+                        "array (set antenna_baseline_m on that spacecraft)"
+                    )
+                if self.noise.los_path_sigma_m is None:
+                    raise ValueError(f"links[{i}] measures los: give noise.los_path_sigma_m")
         if self.measurement.interval_s > self.duration_days * 86400.0:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "

@@ -8,7 +8,7 @@ from liaison_cli.analysis.metrics import summary_rows
 from liaison_cli.campaign.problem import Problem
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.campaign.seeding import run_rng
-from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
+from liaison_cli.estimation.filter_loop import KIND_RANGE, STATUS_NAMES, STATUS_OK, run_ekf
 
 
 @dataclass(frozen=True)
@@ -20,7 +20,8 @@ class RunTask:
 class RunOutcome:
     """status: 'ok', 'diverged' (filter health check tripped) or 'error' (exception in the worker).
 
-    Arrays: norms[...] (m, n_sc) in m and m/s; nees (m,); innovation_m / innovation_std_m (m, L).
+    Arrays: norms[...] (m, n_sc) in m and m/s; nees (m,); innovation_m / innovation_std_m (m, C) per
+    measurement channel in SI units (m, m/s or rad; see Problem.channel_units).
     """
 
     run: int
@@ -41,8 +42,8 @@ def draw_run_inputs(problem: Problem, run_index: int, with_bias: bool = False):
     """Initial estimate (n,) and observed measurements (m, L) of one run; with_bias also returns the true
     range bias of each link (L,) in LU.
 
-    Draw order is part of the reproducibility contract: initial error first, then measurement noise,
-    then the per-run random bias of each link.
+    Draw order is part of the reproducibility contract: initial error first, then measurement noise
+    (one channel after another), then the per-run random bias of each link.
     """
     rng = run_rng(problem.scenario.monte_carlo.seed, run_index)
     n = problem.truth.shape[1]
@@ -50,11 +51,16 @@ def draw_run_inputs(problem: Problem, run_index: int, with_bias: bool = False):
         dx0 = np.linalg.cholesky(problem.P0[:n, :n]) @ rng.standard_normal(n)
     else:
         dx0 = problem.initial_error_sigma[:n] * rng.standard_normal(n)
-    m, n_links = problem.measurements_true.shape
-    noise = rng.standard_normal((m - 1, n_links)) * problem.sigma_lu
+    m, n_channels = problem.measurements_true.shape
+    # Channel by channel (column-major), so a channel's noise does not depend on which other channels a
+    # scenario has: range-only and range + range-rate runs share their range noise.
+    noise = rng.standard_normal((n_channels, m - 1)).T * problem.sigma_lu
+    n_links = len(problem.link_receiver)
     bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(n_links)
     y_obs = problem.measurements_true.copy()
-    y_obs[1:] += noise + bias[None, :]
+    y_obs[1:] += noise
+    ranges = problem.channel_kind == KIND_RANGE  # biases affect range channels only
+    y_obs[1:, ranges] += bias[problem.channel_link[ranges]][None, :]
     x0_hat = problem.truth[0] + dx0
     if problem.n_bias:  # the filter starts its bias states at their a-priori mean, zero
         x0_hat = np.concatenate([x0_hat, np.zeros(problem.n_bias)])
@@ -76,6 +82,8 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             y_obs,
             problem.link_receiver,
             problem.link_transponder,
+            problem.channel_link,
+            problem.channel_kind,
             problem.sigma_lu,
             problem.dt_tu,
             problem.substeps,
@@ -104,8 +112,8 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             summary=summary if ok else _nan_summary(summary),
             norms=norms,
             nees=nees,
-            innovation_m=innovation * M_PER_LU,
-            innovation_std_m=innovation_std * M_PER_LU,
+            innovation_m=innovation * problem.channel_scale_si,
+            innovation_std_m=innovation_std * problem.channel_scale_si,
             bias_true_m=bias * M_PER_LU,
             bias_estimate_m=bias_estimate,
             bias_sigma_m=bias_sigma,

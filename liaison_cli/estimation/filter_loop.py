@@ -16,7 +16,13 @@ from liaison_cli.estimation.ekf import (
 )
 from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_LU_TU
 from liaison_cli.measurements.range import geometric_range, geometric_range_gradient
-from liaison_cli.measurements.range_rate import range_rate
+from liaison_cli.measurements.los import azimuth_elevation, azimuth_elevation_gradients
+from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient
+
+KIND_RANGE = 0
+KIND_RANGE_RATE = 1
+KIND_AZIMUTH = 2
+KIND_ELEVATION = 3
 
 STATUS_OK = 0
 STATUS_NONFINITE = 1
@@ -40,6 +46,8 @@ def run_ekf(
     y_obs,
     link_receiver,
     link_transponder,
+    channel_link,
+    channel_kind,
     sigma_lu,
     dt_tu,
     substeps,
@@ -52,9 +60,10 @@ def run_ekf(
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate, n = 6 * n_sc; P0 (n, n); Q (n, n) added at every step (Eq. 12);
-    truth (m, n) true states at the m epochs t_k = k * dt_tu; y_obs (m, L) observed ranges in LU
-    (row 0 unused, NaN = no measurement); link_receiver / link_transponder (L,) spacecraft indices;
-    sigma_lu (L,) measurement 1-sigma. light_time_model: predict the two-way range as
+    truth (m, n) true states at the m epochs t_k = k * dt_tu; link_receiver / link_transponder (L,)
+    spacecraft indices. Measurements come in C scalar channels: channel_link (C,) the link of each,
+    channel_kind (C,) 0 range (LU), 1 range-rate (LU/TU), 2 azimuth, 3 elevation (rad); y_obs (m, C)
+    observed values (row 0 unused, NaN = no measurement); sigma_lu (C,) their 1-sigma. light_time_model: predict the two-way range as
     rho - rho_dot * rho / c (Eq. 14-15 to first order in the light time) instead of the geometric Eq. 17;
     the partials stay geometric (the correction changes them by ~1e-6 relative).
 
@@ -72,14 +81,14 @@ def run_ekf(
     if n_sc < 0:
         n_sc = n // 6
     n_dyn = 6 * n_sc
-    n_links = link_receiver.shape[0]
+    n_channels = channel_link.shape[0]
     n_gain = n_dyn if bias_mode == 2 else -1
     n_nees = n if bias_mode == 1 else n_dyn
     err = np.full((m, n), np.nan)
     sig = np.full((m, n), np.nan)
     nees = np.full(m, np.nan)
-    innovations = np.full((m, n_links), np.nan)
-    innov_std = np.full((m, n_links), np.nan)
+    innovations = np.full((m, n_channels), np.nan)
+    innov_std = np.full((m, n_channels), np.nan)
 
     x_hat = x0_hat.copy()
     P = P0.copy()
@@ -104,27 +113,45 @@ def run_ekf(
         # A fresh output buffer: P may still alias the previous one if no measurement came in.
         P = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)), n_sc)
 
-        # Measurement update, one scalar range per link, all linearised at x_bar (Eq. 13, 17, 20-24).
+        # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24).
         dx = np.zeros(n)
-        for l in range(n_links):
-            y_meas = y_obs[k, l]
+        for c in range(n_channels):
+            y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
+            l = channel_link[c]
+            kind = channel_kind[c]
             ra = 6 * link_receiver[l]
             ta = 6 * link_transponder[l]
-            rho = geometric_range(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
-            if light_time_model:
-                rho -= range_rate(x_bar[ra : ra + 6], x_bar[ta : ta + 6]) * rho / SPEED_OF_LIGHT_LU_TU
-            g = geometric_range_gradient(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
             H[:] = 0.0
-            H[ra : ra + 3] = g
-            H[ta : ta + 3] = -g
-            if bias_mode != 0:
-                rho += x_bar[n_dyn + l]
-                H[n_dyn + l] = 1.0
-            dx, P, innovation, S = update_scalar(dx, P, y_meas - rho, H, sigma_lu[l] ** 2, n_gain)
-            innovations[k, l] = innovation
-            innov_std[k, l] = np.sqrt(S) if S > 0.0 else np.nan
+            if kind == KIND_RANGE:
+                predicted = geometric_range(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
+                if light_time_model:
+                    predicted -= range_rate(x_bar[ra : ra + 6], x_bar[ta : ta + 6]) * predicted / SPEED_OF_LIGHT_LU_TU
+                g = geometric_range_gradient(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
+                H[ra : ra + 3] = g
+                H[ta : ta + 3] = -g
+                if bias_mode != 0:
+                    predicted += x_bar[n_dyn + l]
+                    H[n_dyn + l] = 1.0
+            elif kind == KIND_RANGE_RATE:
+                predicted = range_rate(x_bar[ra : ra + 6], x_bar[ta : ta + 6])
+                g6 = range_rate_gradient(x_bar[ra : ra + 6], x_bar[ta : ta + 6])
+                H[ra : ra + 6] = g6
+                H[ta : ta + 6] = -g6
+            else:
+                az, el = azimuth_elevation(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
+                g_az, g_el = azimuth_elevation_gradients(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
+                g = g_az if kind == KIND_AZIMUTH else g_el
+                predicted = az if kind == KIND_AZIMUTH else el
+                H[ra : ra + 3] = g
+                H[ta : ta + 3] = -g
+            residual = y_meas - predicted
+            if kind == KIND_AZIMUTH:  # wrap into (-pi, pi]
+                residual = (residual + np.pi) % (2.0 * np.pi) - np.pi
+            dx, P, innovation, S = update_scalar(dx, P, residual, H, sigma_lu[c] ** 2, n_gain)
+            innovations[k, c] = innovation
+            innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
         x_hat = x_bar + dx
 
         # Health checks: a diverged run stops here and reports why.
