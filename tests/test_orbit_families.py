@@ -140,3 +140,18 @@ def test_unknown_family_is_one_line(tmp_path):
     path = _family_scenario(tmp_path, "    orbit: l3_halo\n    period_days: 10\n")
     proc = run_cli("run", path, "--output", tmp_path / "o")
     assert proc.returncode == 2 and "l2_halo_south" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_member_by_amplitude(families):
+    tables, _ = families
+    from liaison_cli.campaign.family_store import from_frame
+    from liaison_cli.orbits.families import amplitude_km, member_by_amplitude
+
+    for name, target in (("l2_halo_south", 30000.0), ("l1_lyapunov", 40000.0)):
+        frame = tables[name]
+        assert frame.amplitude_km.min() < target < frame.amplitude_km.max()
+        orbit = member_by_amplitude(name, from_frame(frame), target)
+        assert amplitude_km(orbit, FAMILIES[name].planar) == pytest.approx(target, abs=1.0)
+        assert orbit.closure_lu < 1e-9
+    with pytest.raises(FamilyError, match=r"amplitude_km = 1e\+06 is outside family 'dro': valid \d+ to \d+ km"):
+        member_by_amplitude("dro", from_frame(tables["dro"]), 1e6)

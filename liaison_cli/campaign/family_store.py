@@ -16,7 +16,14 @@ import pandas as pd
 
 from liaison_cli import __version__
 from liaison_cli.campaign.results import write_parquet_atomic
-from liaison_cli.orbits.families import TU_DAYS, generate_family, get_spec, member_by_period
+from liaison_cli.orbits.families import (
+    TU_DAYS,
+    amplitude_km,
+    generate_family,
+    get_spec,
+    member_by_amplitude,
+    member_by_period,
+)
 from liaison_cli.orbits.periodic import PeriodicOrbit
 
 DEFAULT_COUNT = 30
@@ -52,12 +59,13 @@ def to_frame(name: str, members: list[PeriodicOrbit]) -> pd.DataFrame:
             row[f"{axis}0"] = value
         row.update({k: v for k, v in dataclasses.asdict(orbit).items() if k != "state"})
         row["period_days"] = orbit.period_tu * TU_DAYS
+        row["amplitude_km"] = amplitude_km(orbit, get_spec(name).planar)
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def from_frame(frame: pd.DataFrame) -> list[PeriodicOrbit]:
-    fields = [f.name for f in dataclasses.fields(PeriodicOrbit) if f.name != "state"]
+    fields = [f.name for f in dataclasses.fields(PeriodicOrbit) if f.name != "state"]  # extra columns ignored
     return [
         PeriodicOrbit(state=tuple(float(row[f"{a}0"]) for a in ("x", "y", "z", "vx", "vy", "vz")),
                       **{k: float(row[k]) for k in fields})
@@ -92,3 +100,9 @@ def member_state(name: str, period_days: float) -> PeriodicOrbit:
     """The family member with exactly this period (corrected), from the default-count table."""
     frame, _ = load_or_generate(name)
     return member_by_period(name, from_frame(frame), period_days)
+
+
+@lru_cache(maxsize=64)
+def member_by_amplitude_km(name: str, target_km: float) -> PeriodicOrbit:
+    frame, _ = load_or_generate(name)
+    return member_by_amplitude(name, from_frame(frame), target_km)

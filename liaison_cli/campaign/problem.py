@@ -24,6 +24,10 @@ def initial_state_lu(spec) -> np.ndarray:
         from liaison_cli.campaign.family_store import member_state
 
         return np.array(member_state(spec.orbit, float(spec.period_days)).state)
+    if spec.amplitude_km is not None:
+        from liaison_cli.campaign.family_store import member_by_amplitude_km
+
+        return np.array(member_by_amplitude_km(spec.orbit, float(spec.amplitude_km)).state)
     if spec.orbit == KEPLERIAN_ORBIT:
         el = spec.elements
         return lunar_orbiter_state_lu(el.a_km, el.e, el.i_deg, el.raan_deg, el.argp_deg, el.ta_deg)
@@ -102,7 +106,8 @@ def truth_key(scenario: Scenario) -> str:
     """The scenario fields that fix truth and noise-free measurements (not noise, filter or seed)."""
     fields = {
         "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(),
-                        "period_days": sc.period_days} for sc in scenario.spacecraft],
+                        "period_days": sc.period_days, "amplitude_km": sc.amplitude_km}
+                       for sc in scenario.spacecraft],
         "links": [link.model_dump(mode="json") for link in scenario.links],
         "duration_days": scenario.duration_days,
         "interval_s": scenario.measurement.interval_s,

@@ -60,6 +60,7 @@ class SpacecraftSpec(StrictModel):
     orbit: str
     elements: KeplerianElements | None = None
     period_days: float | None = Field(None, gt=0, description="member of an orbit family (orbit: <family>)")
+    amplitude_km: float | None = Field(None, gt=0, description="family member by amplitude: Az (spatial), Ay (planar)")
     antenna_baseline_m: float | None = Field(None, gt=0, description="interferometer baseline for LOS angles")
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
@@ -79,10 +80,11 @@ class SpacecraftSpec(StrictModel):
             raise ValueError(f"orbit {KEPLERIAN_ORBIT!r} needs an 'elements' mapping")
         if self.orbit != KEPLERIAN_ORBIT and self.elements is not None:
             raise ValueError(f"'elements' is only allowed with orbit {KEPLERIAN_ORBIT!r}")
-        if self.orbit in FAMILIES and self.period_days is None:
-            raise ValueError(f"orbit family {self.orbit!r} needs 'period_days' to pick a member")
-        if self.orbit not in FAMILIES and self.period_days is not None:
-            raise ValueError(f"'period_days' is only allowed with an orbit family ({', '.join(family_names())})")
+        if self.orbit in FAMILIES and (self.period_days is None) == (self.amplitude_km is None):
+            raise ValueError(f"orbit family {self.orbit!r} needs exactly one of 'period_days' or 'amplitude_km'")
+        if self.orbit not in FAMILIES and (self.period_days is not None or self.amplitude_km is not None):
+            raise ValueError(
+                f"'period_days' / 'amplitude_km' are only allowed with an orbit family ({', '.join(family_names())})")
         return self
 
 
@@ -375,12 +377,20 @@ def _check_family_periods(scenario: Scenario, source: str) -> None:
         if sc.orbit not in FAMILIES:
             continue
         frame, _ = load_or_generate(sc.orbit)
-        lo, hi = float(frame.period_days.min()), float(frame.period_days.max())
-        if not lo <= sc.period_days <= hi:
-            raise ScenarioError(
-                f"{source}: key 'spacecraft[{i}].period_days' = {sc.period_days!r}: outside orbit family "
-                f"{sc.orbit!r}; valid {lo:.3f} to {hi:.3f} days"
-            )
+        if sc.period_days is not None:
+            lo, hi = float(frame.period_days.min()), float(frame.period_days.max())
+            if not lo <= sc.period_days <= hi:
+                raise ScenarioError(
+                    f"{source}: key 'spacecraft[{i}].period_days' = {sc.period_days!r}: outside orbit family "
+                    f"{sc.orbit!r}; valid {lo:.3f} to {hi:.3f} days"
+                )
+        else:
+            lo, hi = float(frame.amplitude_km.min()), float(frame.amplitude_km.max())
+            if not lo <= sc.amplitude_km <= hi:
+                raise ScenarioError(
+                    f"{source}: key 'spacecraft[{i}].amplitude_km' = {sc.amplitude_km!r}: outside orbit family "
+                    f"{sc.orbit!r}; valid {lo:.0f} to {hi:.0f} km"
+                )
 
 
 def read_scenario_text(path) -> tuple[dict, str]:

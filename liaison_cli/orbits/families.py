@@ -148,3 +148,35 @@ def member_by_period(name: str, members: list[PeriodicOrbit], period_days: float
             X, _ = correct(guess, spec.planar, fixed=-1, mu=mu)
             return describe(X, spec.planar, mu)
     raise FamilyError(f"period_days = {period_days:g}: no bracketing members in family {name!r}")
+
+
+def amplitude_km(orbit: PeriodicOrbit, planar: bool) -> float:
+    """The amplitude that names a member: Az (max |z|) for spatial families, Ay for planar ones."""
+    return (orbit.y_amplitude_lu if planar else orbit.z_amplitude_lu) * 384400.0
+
+
+def member_by_amplitude(name: str, members: list[PeriodicOrbit], target_km: float, mu: float = MU) -> PeriodicOrbit:
+    """The member with this amplitude: secant iterations on the period between the first bracketing pair."""
+    spec = get_spec(name)
+    amps = np.array([amplitude_km(m, spec.planar) for m in members])
+    days = np.array([m.period_tu * TU_DAYS for m in members])
+    lo, hi = float(amps.min()), float(amps.max())
+    if not lo <= target_km <= hi:
+        raise FamilyError(f"amplitude_km = {target_km:g} is outside family {name!r}: valid {lo:.0f} to {hi:.0f} km")
+    for i in range(len(members) - 1):
+        a, b = amps[i], amps[i + 1]
+        if min(a, b) <= target_km <= max(a, b):
+            p0, p1, f0, f1 = days[i], days[i + 1], a - target_km, b - target_km
+            if f0 == 0.0:
+                return members[i]
+            orbit = members[i + 1]
+            for _ in range(30):
+                if abs(f1) < 1e-3 or p1 == p0:
+                    return orbit
+                p2 = p1 - f1 * (p1 - p0) / (f1 - f0)
+                lo_p, hi_p = min(days[i], days[i + 1]), max(days[i], days[i + 1])
+                p2 = min(max(p2, lo_p), hi_p)
+                orbit = member_by_period(name, members[i : i + 2], p2, mu)
+                p0, f0, p1, f1 = p1, f1, p2, amplitude_km(orbit, spec.planar) - target_km
+            return orbit
+    raise FamilyError(f"amplitude_km = {target_km:g}: no bracketing members in family {name!r}")
