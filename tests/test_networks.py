@@ -7,7 +7,7 @@ from liaison_cli.campaign.results import summary_table
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.campaign.schema import load_scenario
 from liaison_cli.report.compare import compare_rows
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
 
 
 def _links(name):
@@ -42,16 +42,8 @@ BAD = {
 @pytest.mark.parametrize("case", sorted(BAD))
 def test_bad_topology_is_one_line_exit_2(tmp_path, case):
     old, new, expected = BAD[case]
-    text = (SCENARIOS / "c3_star_lunar_hub.yaml").read_text()
-    assert old in text
-    path = tmp_path / "bad.yaml"
-    path.write_text(text.replace(old, new))
-    proc = run_cli("run", path, "--output", tmp_path / "o")
-    assert proc.returncode == 2 and "Traceback" not in proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and str(path) in lines[0], proc.stderr
-    for fragment in expected:
-        assert fragment in lines[0], (fragment, lines[0])
+    path = edited_scenario(tmp_path, "c3_star_lunar_hub.yaml", old, new)
+    assert_one_line_error(run_cli("run", path, "--output", tmp_path / "o"), path, expected)
 
 
 def test_lunar_hub_beats_halo_hubs_and_mesh_beats_every_star():

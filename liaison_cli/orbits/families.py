@@ -130,6 +130,13 @@ def generate_family(name: str, count: int, mu: float = MU) -> list[PeriodicOrbit
     return [describe(members[i], spec.planar, mu) for i in picks]
 
 
+def _brackets(values: np.ndarray, target: float):
+    """Indices i (in family order) with target between values[i] and values[i + 1]."""
+    for i in range(len(values) - 1):
+        if min(values[i], values[i + 1]) <= target <= max(values[i], values[i + 1]):
+            yield i
+
+
 def member_by_period(name: str, members: list[PeriodicOrbit], period_days: float, mu: float = MU) -> PeriodicOrbit:
     """The member with exactly this period: interpolate between the first bracketing pair, then correct
     with the period held fixed."""
@@ -138,15 +145,14 @@ def member_by_period(name: str, members: list[PeriodicOrbit], period_days: float
     lo, hi = float(days.min()), float(days.max())
     if not lo <= period_days <= hi:
         raise FamilyError(f"period_days = {period_days:g} is outside family {name!r}: valid {lo:.3f} to {hi:.3f} days")
-    for i in range(len(members) - 1):
+    for i in _brackets(days, period_days):
         a, b = days[i], days[i + 1]
-        if min(a, b) <= period_days <= max(a, b):
-            w = 0.0 if a == b else (period_days - a) / (b - a)
-            Xa, Xb = free_variables(members[i], spec.planar), free_variables(members[i + 1], spec.planar)
-            guess = (1.0 - w) * Xa + w * Xb
-            guess[-1] = period_days / TU_DAYS / 2.0
-            X, _ = correct(guess, spec.planar, fixed=-1, mu=mu)
-            return describe(X, spec.planar, mu)
+        w = 0.0 if a == b else (period_days - a) / (b - a)
+        Xa, Xb = free_variables(members[i], spec.planar), free_variables(members[i + 1], spec.planar)
+        guess = (1.0 - w) * Xa + w * Xb
+        guess[-1] = period_days / TU_DAYS / 2.0
+        X, _ = correct(guess, spec.planar, fixed=-1, mu=mu)
+        return describe(X, spec.planar, mu)
     raise FamilyError(f"period_days = {period_days:g}: no bracketing members in family {name!r}")
 
 
@@ -163,20 +169,19 @@ def member_by_amplitude(name: str, members: list[PeriodicOrbit], target_km: floa
     lo, hi = float(amps.min()), float(amps.max())
     if not lo <= target_km <= hi:
         raise FamilyError(f"amplitude_km = {target_km:g} is outside family {name!r}: valid {lo:.0f} to {hi:.0f} km")
-    for i in range(len(members) - 1):
+    for i in _brackets(amps, target_km):
         a, b = amps[i], amps[i + 1]
-        if min(a, b) <= target_km <= max(a, b):
-            p0, p1, f0, f1 = days[i], days[i + 1], a - target_km, b - target_km
-            if f0 == 0.0:
-                return members[i]
-            orbit = members[i + 1]
-            for _ in range(30):
-                if abs(f1) < 1e-3 or p1 == p0:
-                    return orbit
-                p2 = p1 - f1 * (p1 - p0) / (f1 - f0)
-                lo_p, hi_p = min(days[i], days[i + 1]), max(days[i], days[i + 1])
-                p2 = min(max(p2, lo_p), hi_p)
-                orbit = member_by_period(name, members[i : i + 2], p2, mu)
-                p0, f0, p1, f1 = p1, f1, p2, amplitude_km(orbit, spec.planar) - target_km
-            return orbit
+        p0, p1, f0, f1 = days[i], days[i + 1], a - target_km, b - target_km
+        if f0 == 0.0:
+            return members[i]
+        orbit = members[i + 1]
+        for _ in range(30):
+            if abs(f1) < 1e-3 or p1 == p0:
+                return orbit
+            p2 = p1 - f1 * (p1 - p0) / (f1 - f0)
+            lo_p, hi_p = min(days[i], days[i + 1]), max(days[i], days[i + 1])
+            p2 = min(max(p2, lo_p), hi_p)
+            orbit = member_by_period(name, members[i : i + 2], p2, mu)
+            p0, f0, p1, f1 = p1, f1, p2, amplitude_km(orbit, spec.planar) - target_km
+        return orbit
     raise FamilyError(f"amplitude_km = {target_km:g}: no bracketing members in family {name!r}")
