@@ -393,6 +393,11 @@ def observability(
         typer.echo(f"{observable:<11} condition number {values['condition_number']:.3e}   unobservability index "
                    f"{values['unobservability_index']:.3e}")
         typer.echo(f"{'':<11} most observable: {most}; least observable: {least}")
+    for row in summary["gamma_range_rate_over_range"]:
+        typer.echo(f"gamma (range-rate / range information), {row['spacecraft']:<8} position: median "
+                   f"{row['gamma_position_median']:.3g}, >= 1 at {100 * row['share_epochs_gamma_position_ge_1']:.0f} % "
+                   f"of epochs; velocity: median {row['gamma_velocity_median']:.3g}, >= 1 at "
+                   f"{100 * row['share_epochs_gamma_velocity_ge_1']:.0f} %")
     for row in summary.get("taylor_stm", []):
         typer.echo(f"Taylor STM vs integrated, {row['spacecraft']:<8} step {row['step_s']:>4} s: relative error "
                    f"RMS {row['relative_error_rms']:.2e}, std {row['relative_error_std']:.2e}")

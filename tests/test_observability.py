@@ -108,7 +108,8 @@ def test_observability_command_writes_tables_and_plot(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "condition number" in proc.stdout and "Taylor STM" in proc.stdout
     table = pd.read_parquet(tmp_path / "o" / "effectiveness.parquet")
-    assert set(table.observable) == {"range", "range_rate"} and set(table.spacecraft) == {"EML2", "Lunar"}
+    assert set(table.observable) == {"range", "range_rate", "gamma_range_rate_over_range"}
+    assert set(table.spacecraft) == {"EML2", "Lunar"}
     assert (tmp_path / "o" / "effectiveness.png").stat().st_size > 30_000
     assert len(pd.read_parquet(tmp_path / "o" / "singular.parquet")) == 24
     assert set(pd.read_parquet(tmp_path / "o" / "taylor_stm.parquet").step_s) == {10, 60, 100, 600}
@@ -124,3 +125,17 @@ def test_vectorised_partials_equal_the_measurement_models():
     for k in (0, 17, 49):
         assert np.allclose(rate[k], range_rate_gradient(states[k, 0], states[k, 1]), rtol=1e-12, atol=1e-15)
         assert np.allclose(rng[k, :3], geometric_range_gradient(states[k, 0, :3], states[k, 1, :3]), rtol=1e-12)
+
+
+def test_gamma_figure_of_merit_scales_with_the_noise_ratio(tmp_path):
+    """001 §5.4: gamma = range-rate over range information per epoch, weights included, so dividing the
+    range-rate sigma by 10 multiplies gamma by 100; the lunar orbiter gains more from range-rate than EML2."""
+    from liaison_cli.report.observability_report import observability_report
+
+    scenario, text = load_scenario(SCENARIOS / "smoke.yaml")
+    coarse = observability_report(scenario, text, tmp_path / "a", 1e-2, taylor=False)["gamma_range_rate_over_range"]
+    fine = observability_report(scenario, text, tmp_path / "b", 1e-3, taylor=False)["gamma_range_rate_over_range"]
+    for a, b in zip(coarse, fine):
+        assert b["gamma_position_median"] == pytest.approx(100 * a["gamma_position_median"], rel=1e-9)
+    by_name = {row["spacecraft"]: row for row in coarse}
+    assert by_name["Lunar"]["gamma_position_median"] > 10 * by_name["EML2"]["gamma_position_median"]

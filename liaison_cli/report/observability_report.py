@@ -58,6 +58,25 @@ def observability_report(scenario, scenario_text: str, out_dir, range_rate_sigma
                 "velocity_effectiveness": result.effectiveness_velocity[:, s],
                 "moon_distance_km": moon_km[:, s],
             }))
+    # Range vs range-rate figure of merit (001 §5.4): the ratio of the per-epoch information each link type
+    # gives a spacecraft's position (velocity), weights 1/sigma^2 included. gamma >= 1: range-rate is a
+    # feasible alternative to range at that epoch.
+    rng, rate = results["range"], results["range_rate"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gamma_pos = (rate.effectiveness_position / rng.effectiveness_position) ** 2
+        gamma_vel = (rate.effectiveness_velocity / rng.effectiveness_velocity) ** 2
+    gamma_rows = []
+    for s, name in enumerate(names):
+        frames.append(pd.DataFrame({"observable": "gamma_range_rate_over_range", "t_s": times_s, "spacecraft": name,
+                                    "position_effectiveness": gamma_pos[:, s], "velocity_effectiveness": gamma_vel[:, s],
+                                    "moon_distance_km": moon_km[:, s]}))
+        valid = np.isfinite(gamma_pos[:, s])
+        gamma_rows.append({"spacecraft": name,
+                           "gamma_position_median": float(np.median(gamma_pos[valid, s])),
+                           "share_epochs_gamma_position_ge_1": float(np.mean(gamma_pos[valid, s] >= 1.0)),
+                           "gamma_velocity_median": float(np.median(gamma_vel[valid, s])),
+                           "share_epochs_gamma_velocity_ge_1": float(np.mean(gamma_vel[valid, s] >= 1.0))})
+    summary["gamma_range_rate_over_range"] = gamma_rows
     if taylor:
         duration_tu = min(7.0 * SECONDS_PER_DAY, times_s[-1]) / TU_S
         rows = []
