@@ -7,14 +7,13 @@ serves stale members.
 """
 
 import dataclasses
-import hashlib
 import os
 from functools import lru_cache
 from pathlib import Path
 
 import pandas as pd
 
-from liaison_cli import __version__
+from liaison_cli import __version__, core_source_hash, user_cache_dir
 from liaison_cli.campaign.results import write_parquet_atomic
 from liaison_cli.orbits.families import (
     TU_DAYS,
@@ -32,23 +31,11 @@ DEFAULT_COUNT = 30
 def cache_dir() -> Path:
     if os.environ.get("LIAISON_ORBIT_CACHE_DIR"):
         return Path(os.environ["LIAISON_ORBIT_CACHE_DIR"])
-    base = os.environ.get("LIAISON_CACHE_DIR") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "liaison"
-    )
-    return Path(base) / "families"
-
-
-def _source_hash() -> str:
-    root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    for package in ("orbits", "dynamics"):
-        for path in sorted((root / package).glob("*.py")):
-            digest.update(path.name.encode() + path.read_bytes())
-    return digest.hexdigest()[:12]
+    return Path(user_cache_dir()) / "families"
 
 
 def family_path(name: str, count: int) -> Path:
-    return cache_dir() / f"{name}-n{count}-{_source_hash()}.parquet"
+    return cache_dir() / f"{name}-n{count}-{core_source_hash(('orbits', 'dynamics'))[:12]}.parquet"
 
 
 def to_frame(name: str, members: list[PeriodicOrbit]) -> pd.DataFrame:

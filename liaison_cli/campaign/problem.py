@@ -116,12 +116,17 @@ def truth_key(scenario: Scenario) -> str:
     return json.dumps(fields, sort_keys=True)
 
 
+def measurement_times_s(scenario: Scenario) -> np.ndarray:
+    """Epochs t0 = 0, interval, 2 interval, ... up to the scenario duration (m,)."""
+    interval_s = scenario.measurement.interval_s
+    n_intervals = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval_s + 1e-9))
+    return np.arange(n_intervals + 1) * interval_s
+
+
 def _truth_and_measurements(scenario: Scenario):
     """times_s (m,), truth (m, n_sc, 6), noise-free measurements (m, L) with row 0 NaN, range models."""
     names = scenario.spacecraft_names()
-    interval_s = scenario.measurement.interval_s
-    n_intervals = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval_s + 1e-9))
-    times_s = np.arange(n_intervals + 1) * interval_s
+    times_s = measurement_times_s(scenario)
     times_tu = times_s / TU_S
     truth_by_sc = np.stack(
         [propagate_states(initial_state_lu(sc), times_tu, MU) for sc in scenario.spacecraft], axis=1

@@ -377,20 +377,14 @@ def _check_family_periods(scenario: Scenario, source: str) -> None:
         if sc.orbit not in FAMILIES:
             continue
         frame, _ = load_or_generate(sc.orbit)
-        if sc.period_days is not None:
-            lo, hi = float(frame.period_days.min()), float(frame.period_days.max())
-            if not lo <= sc.period_days <= hi:
-                raise ScenarioError(
-                    f"{source}: key 'spacecraft[{i}].period_days' = {sc.period_days!r}: outside orbit family "
-                    f"{sc.orbit!r}; valid {lo:.3f} to {hi:.3f} days"
-                )
-        else:
-            lo, hi = float(frame.amplitude_km.min()), float(frame.amplitude_km.max())
-            if not lo <= sc.amplitude_km <= hi:
-                raise ScenarioError(
-                    f"{source}: key 'spacecraft[{i}].amplitude_km' = {sc.amplitude_km!r}: outside orbit family "
-                    f"{sc.orbit!r}; valid {lo:.0f} to {hi:.0f} km"
-                )
+        key, unit, digits = ("period_days", "days", 3) if sc.period_days is not None else ("amplitude_km", "km", 0)
+        value = getattr(sc, key)
+        lo, hi = float(frame[key].min()), float(frame[key].max())
+        if not lo <= value <= hi:
+            raise ScenarioError(
+                f"{source}: key 'spacecraft[{i}].{key}' = {value!r}: outside orbit family "
+                f"{sc.orbit!r}; valid {lo:.{digits}f} to {hi:.{digits}f} {unit}"
+            )
 
 
 def read_scenario_text(path) -> tuple[dict, str]:

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_errors
-from liaison_cli.campaign.problem import initial_state_lu
+from liaison_cli.campaign.problem import initial_state_lu, measurement_times_s
 from liaison_cli.campaign.results import write_parquet_atomic, write_text_atomic
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 
@@ -16,9 +16,7 @@ TAYLOR_STEPS_S = (10, 60, 100, 600)
 def scenario_inputs(scenario):
     names = scenario.spacecraft_names()
     states0 = np.array([initial_state_lu(sc) for sc in scenario.spacecraft])
-    interval = scenario.measurement.interval_s
-    n = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval + 1e-9))
-    times_s = np.arange(n + 1) * interval
+    times_s = measurement_times_s(scenario)
     index = {name: i for i, name in enumerate(names)}
     links = [(index[link.receiver], index[link.transponder]) for link in scenario.links]
     return names, states0, times_s, links
@@ -31,7 +29,8 @@ def observability_report(scenario, scenario_text: str, out_dir, range_rate_sigma
     names, states0, times_s, links = scenario_inputs(scenario)
     times_tu = times_s / TU_S
     sigmas = {"range": scenario.noise.resolved_sigma_m() / M_PER_LU, "range_rate": range_rate_sigma_m_s / M_S_PER_VU}
-    states, _ = stm_from_t0(states0, times_tu)
+    propagated = stm_from_t0(states0, times_tu)  # shared by both observables
+    states = propagated[0]
     moon_km = np.linalg.norm(states[:, :, :3] - np.array([1.0 - MU, 0.0, 0.0]), axis=2) * LU_KM
     summary = {"scenario": scenario.name, "epochs": len(times_s), "links": [[names[r], names[t]] for r, t in links],
                "sigma_range_m": scenario.noise.resolved_sigma_m(), "sigma_range_rate_m_s": range_rate_sigma_m_s,
@@ -39,7 +38,7 @@ def observability_report(scenario, scenario_text: str, out_dir, range_rate_sigma
     frames, singular_rows = [], []
     results = {}
     for observable, sigma in sigmas.items():
-        result = analyse(states0, times_tu, links, sigma, observable, names)
+        result = analyse(states0, times_tu, links, sigma, observable, names, propagated=propagated)
         results[observable] = result
         summary["observables"][observable] = {
             "condition_number": result.condition_number,
