@@ -1,6 +1,7 @@
 """Command-line interface (thin layer): parse, call the campaign code, print, map errors to exit codes."""
 
 import functools
+import math
 import sys
 from pathlib import Path
 
@@ -266,6 +267,19 @@ def budget(
         shown = f"{sigma:10.1f} m" if sigma is not None else (
             "   not computed: needs ranging_clock_hz, loop_bandwidth_hz, ranging_power_fraction_db")
         typer.echo(f"  {METHOD_LABELS[method]:<22}{shown}")
+    if link.carrier is not None:
+        carrier = link.carrier.sigmas(link.link_budget)
+        count_s = link.carrier.doppler_count_s
+        typer.echo(f"carrier ({link.carrier.power_fraction_db:g} dB of each leg, {link.carrier.loop_bandwidth_hz:g} Hz "
+                   f"loops): loop SNR up {10 * math.log10(carrier['uplink_loop_snr']):.1f} dB, down "
+                   f"{10 * math.log10(carrier['downlink_loop_snr']):.1f} dB")
+        doppler = f"two-way Doppler (Eq. 5), {count_s:g} s count"
+        typer.echo(f"  {doppler:<40}{1e3 * carrier['range_rate_sigma_m_s']:10.4f} mm/s")
+        typer.echo(f"  {'LOS interferometer path (Eq. 9)':<40}{1e3 * carrier['los_path_sigma_m']:10.3f} mm")
+        typer.echo("range / range-rate sigma ratio (Eq. 65):")
+        for method, sigma in sigmas.items():
+            if sigma is not None:
+                typer.echo(f"  {METHOD_LABELS[method]:<22}{sigma / carrier['range_rate_sigma_m_s']:10.0f} s")
     if sweep_dir is None:
         return
     from liaison_cli.report.fig15 import load_curve
@@ -375,8 +389,9 @@ def observability(
     scenario: Path = typer.Argument(..., help="scenario YAML file"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/observability-<name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
-    range_rate_sigma_m_s: float = typer.Option(1e-3, "--range-rate-sigma", min=1e-9,
-                                               help="range-rate 1-sigma in m/s for the range-rate weights"),
+    range_rate_sigma_m_s: float = typer.Option(
+        None, "--range-rate-sigma", min=1e-9,
+        help="range-rate 1-sigma in m/s for the range-rate weights [default: the scenario's, else 0.001]"),
     no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
 ):
     """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
@@ -385,6 +400,8 @@ def observability(
     from liaison_cli.report.observability_report import observability_report
 
     config, text = load_scenario(scenario)
+    if range_rate_sigma_m_s is None:
+        range_rate_sigma_m_s = config.noise.resolved_range_rate_sigma_m_s() or 1e-3
     out_dir = prepare_output_dir(output or Path("results") / f"observability-{config.name}", overwrite)
     summary = observability_report(config, text, out_dir, range_rate_sigma_m_s, taylor=not no_taylor)
     for observable, values in summary["observables"].items():

@@ -45,7 +45,8 @@ def test_every_channel_is_consistent_with_its_predicted_std(tmp_path):
 
 
 def test_measurement_type_trends():
-    """001 §6.1 with our noise levels (150 m, 1 cm/s, 1 mrad): range-only beats range-rate-only,
+    """001 §6.1 with noise from the error models (7.8 m tone ranging, 1.4 mm/s Doppler, 1.4 mrad): range-only
+    beats range-rate-only,
     range + range-rate beats range-only, and LOS angles add at most a modest gain."""
     rows = {}
     for formation in ("eml2_lunar", "eml1_eml2"):
@@ -63,13 +64,24 @@ def test_measurement_type_trends():
     assert 0.85 < lunar < 1.05
 
 
+CARRIER_BLOCK = ("  carrier:                         # Eq. 5: 1.41 mm/s Doppler; Eq. 9: 1.41 mm interferometer path error\n"
+                 "    power_fraction_db: -3\n    loop_bandwidth_hz: 10\n    doppler_count_s: 1\n")
+
+_TEXT = (SCENARIOS / "mt_eml2_lunar_range_rate_los.yaml").read_text()
+TONE_AND_BUDGET = _TEXT[_TEXT.index("  ranging_method: tone"):_TEXT.index("  ranging_clock_hz")]
+
 BAD_LINKS = {
-    "los_without_antenna": ("    antenna_baseline_m: 1.0          # assumed LOS interferometer baseline: 1 mrad angles\n", "",
+    "los_without_antenna": ("    antenna_baseline_m: 1.0          # assumed LOS interferometer baseline\n", "",
                             ["cannot measure 'los'", "'EML2'", "antenna_baseline_m"]),
     "unknown_observable": ("observables: [range, range_rate, los]", "observables: [range, doppler]",
                            ["'doppler'", "range_rate", "los"]),
-    "range_rate_without_sigma": ("  range_rate_sigma_m_s: 0.01       # assumed: non-coherent small-satellite Doppler, 1 cm/s\n", "",
-                                 ["range_rate", "range_rate_sigma_m_s"]),
+    "range_rate_without_sigma": (CARRIER_BLOCK, "", ["range_rate", "range_rate_sigma_m_s", "noise.carrier"]),
+    "carrier_and_direct_sigma": (CARRIER_BLOCK, CARRIER_BLOCK + "  range_rate_sigma_m_s: 0.001\n",
+                                 ["noise", "'range_rate_sigma_m_s'", "'carrier'", "not both"]),
+    "carrier_without_link_budget": (TONE_AND_BUDGET, "  sigma_m: 7.8\n", ["noise", "'carrier'", "'link_budget'"]),
+    "tone_without_tone_frequency": ("  ranging_clock_hz: 1.0e5\n", "", ["'tone'", "ranging_clock_hz"]),
+    "positive_carrier_fraction": ("    power_fraction_db: -3\n", "    power_fraction_db: 2\n",
+                                  ["noise.carrier.power_fraction_db", "2", "less than or equal to 0"]),
 }
 
 

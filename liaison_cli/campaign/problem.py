@@ -207,9 +207,9 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
             if kind == KIND_RANGE:
                 channel_sigma.append(sigma_m / M_PER_LU)
             elif kind == KIND_RANGE_RATE:
-                channel_sigma.append(scenario.noise.range_rate_sigma_m_s / M_S_PER_VU)
+                channel_sigma.append(scenario.noise.resolved_range_rate_sigma_m_s() / M_S_PER_VU)
             else:
-                channel_sigma.append(los_sigma_rad(scenario.noise.los_path_sigma_m,
+                channel_sigma.append(los_sigma_rad(scenario.noise.resolved_los_path_sigma_m(),
                                                    by_name[link.receiver].antenna_baseline_m))
     channel_link = np.array(channel_link, dtype=np.int64)
     channel_kind = np.array(channel_kind, dtype=np.int64)

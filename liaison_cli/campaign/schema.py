@@ -13,8 +13,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from liaison_cli.errors import ScenarioError
 from liaison_cli.orbits.catalog import catalog_names
 from liaison_cli.orbits.families import FAMILIES, family_names
+from liaison_cli.radio.carrier import TURNAROUND_S_BAND
 from liaison_cli.radio.link_budget import LinkLeg
-from liaison_cli.radio.ranging import sigma_from_link_budget
+from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, sigma_from_link_budget
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
@@ -166,16 +167,41 @@ class LinkBudgetSpec(StrictModel):
     downlink: LinkLegSpec
 
 
+RANGING_METHODS = ("time_derived", "telemetry", "pn", "tone")
+RangingMethod = Literal["time_derived", "telemetry", "pn", "tone"]
+CLOCK_KEYS = ("ranging_clock_hz", "loop_bandwidth_hz", "ranging_power_fraction_db")
+
+
+class CarrierSpec(StrictModel):
+    """Carrier-phase observables of a two-way coherent link, from the link budget (001 Eq. 5, 9)."""
+
+    power_fraction_db: float = Field(le=0, description="residual carrier share of each leg's received power")
+    loop_bandwidth_hz: float = Field(gt=0, description="one-sided carrier PLL noise bandwidth at both ends")
+    doppler_count_s: float = Field(gt=0, description="Doppler count (integration) time")
+    turnaround_ratio: float = Field(TURNAROUND_S_BAND, gt=0, description="transponder downlink/uplink ratio")
+
+    def sigmas(self, link_budget: "LinkBudgetSpec") -> dict:
+        return carrier_sigmas_from_link_budget(
+            link_budget.uplink.leg(), link_budget.downlink.leg(), self.power_fraction_db,
+            self.loop_bandwidth_hz, self.doppler_count_s, self.turnaround_ratio)
+
+
+def _missing_clock_keys(model) -> list[str]:
+    return [k for k in CLOCK_KEYS if getattr(model, k) is None]
+
+
 class NoiseSpec(StrictModel):
-    """Give either `sigma_m` directly, or `ranging_method` + `link_budget` to derive it (Eq. 1-4)."""
+    """Range sigma: `sigma_m` directly, or `ranging_method` + `link_budget` (000 Eq. 1-4, 001 Eq. 62-63).
+    Range-rate and LOS sigmas: directly, or from the link budget's carrier (`carrier`, 001 Eq. 5 and 9)."""
 
     sigma_m: float | None = Field(None, gt=0)
-    ranging_method: Literal["time_derived", "telemetry", "pn"] | None = None
+    ranging_method: RangingMethod | None = None
     link_budget: LinkBudgetSpec | None = None
     correlator_integration_s: float = Field(0.3, gt=0)
-    ranging_clock_hz: float | None = Field(None, gt=0)
+    ranging_clock_hz: float | None = Field(None, gt=0, description="PN/telemetry clock, or the major tone")
     loop_bandwidth_hz: float | None = Field(None, gt=0)
     ranging_power_fraction_db: float | None = Field(None, le=0)
+    carrier: CarrierSpec | None = None
     bias_m: float = 0.0
     bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a N(0, bias_sigma_m) bias is added")
     range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels")
@@ -184,21 +210,24 @@ class NoiseSpec(StrictModel):
 
     @model_validator(mode="after")
     def _one_source_of_sigma(self):
-        derived = self.ranging_method is not None or self.link_budget is not None
-        if self.sigma_m is None and not derived:
+        if self.sigma_m is None and self.ranging_method is None:
             raise ValueError("give 'sigma_m' or both 'ranging_method' and 'link_budget'")
-        if self.sigma_m is not None and derived:
+        if self.sigma_m is not None and self.ranging_method is not None:
             raise ValueError("give either 'sigma_m' or 'ranging_method' + 'link_budget', not both")
-        if derived and (self.ranging_method is None or self.link_budget is None):
+        if self.ranging_method is not None and self.link_budget is None:
             raise ValueError("'ranging_method' and 'link_budget' go together")
-        if self.ranging_method in ("telemetry", "pn"):
-            missing = [
-                k
-                for k in ("ranging_clock_hz", "loop_bandwidth_hz", "ranging_power_fraction_db")
-                if getattr(self, k) is None
-            ]
+        if self.carrier is not None and self.link_budget is None:
+            raise ValueError("'carrier' derives its sigmas from the link budget: give 'link_budget'")
+        if self.link_budget is not None and self.ranging_method is None and self.carrier is None:
+            raise ValueError("'link_budget' is used by 'ranging_method' or 'carrier'; give one of them")
+        if self.ranging_method in ("telemetry", "pn", "tone"):
+            missing = _missing_clock_keys(self)
             if missing:
                 raise ValueError(f"ranging_method {self.ranging_method!r} needs {', '.join(missing)}")
+        if self.carrier is not None:
+            for key in ("range_rate_sigma_m_s", "los_path_sigma_m"):
+                if getattr(self, key) is not None:
+                    raise ValueError(f"give either '{key}' or 'carrier' (which derives it), not both")
         return self
 
     def resolved_sigma_m(self) -> float:
@@ -214,10 +243,21 @@ class NoiseSpec(StrictModel):
             self.ranging_power_fraction_db,
         )
 
+    def resolved_range_rate_sigma_m_s(self) -> float | None:
+        if self.carrier is not None:
+            return self.carrier.sigmas(self.link_budget)["range_rate_sigma_m_s"]
+        return self.range_rate_sigma_m_s
+
+    def resolved_los_path_sigma_m(self) -> float | None:
+        if self.carrier is not None:
+            return self.carrier.sigmas(self.link_budget)["los_path_sigma_m"]
+        return self.los_path_sigma_m
+
 
 class RangingLinkFile(StrictModel):
-    """A crosslink for `liaison budget`: both legs' link budgets plus the ranging parameters. Methods whose
-    parameters are missing (telemetry / PN need the ranging clock) are reported as not computable."""
+    """A crosslink for `liaison budget`: both legs' link budgets plus the ranging parameters, and optionally
+    the carrier (Doppler / LOS). Methods whose parameters are missing (telemetry / PN / tone need the
+    ranging clock or tone) are reported as not computable."""
 
     description: str = ""
     link_budget: LinkBudgetSpec
@@ -225,12 +265,13 @@ class RangingLinkFile(StrictModel):
     ranging_clock_hz: float | None = Field(None, gt=0)
     loop_bandwidth_hz: float | None = Field(None, gt=0)
     ranging_power_fraction_db: float | None = Field(None, le=0)
+    carrier: CarrierSpec | None = None
 
     def sigma_by_method(self) -> dict:
         """{method: sigma_m or None when its parameters are missing}."""
-        clock = (self.ranging_clock_hz, self.loop_bandwidth_hz, self.ranging_power_fraction_db)
+        clock = tuple(getattr(self, k) for k in CLOCK_KEYS)
         out = {}
-        for method in ("time_derived", "telemetry", "pn"):
+        for method in RANGING_METHODS:
             if method != "time_derived" and None in clock:
                 out[method] = None
                 continue
@@ -314,8 +355,9 @@ class Scenario(StrictModel):
                     )
             if link.receiver == link.transponder:
                 raise ValueError(f"links[{i}] links {link.receiver!r} to itself")
-            if "range_rate" in link.observables and self.noise.range_rate_sigma_m_s is None:
-                raise ValueError(f"links[{i}] measures range_rate: give noise.range_rate_sigma_m_s")
+            if "range_rate" in link.observables and self.noise.resolved_range_rate_sigma_m_s() is None:
+                raise ValueError(
+                    f"links[{i}] measures range_rate: give noise.range_rate_sigma_m_s or noise.carrier")
             if "los" in link.observables:
                 receiver = next(sc for sc in self.spacecraft if sc.name == link.receiver)
                 if receiver.antenna_baseline_m is None:
@@ -323,8 +365,8 @@ class Scenario(StrictModel):
                         f"links[{i}] cannot measure 'los': its receiver {link.receiver!r} has no antenna "
                         "array (set antenna_baseline_m on that spacecraft)"
                     )
-                if self.noise.los_path_sigma_m is None:
-                    raise ValueError(f"links[{i}] measures los: give noise.los_path_sigma_m")
+                if self.noise.resolved_los_path_sigma_m() is None:
+                    raise ValueError(f"links[{i}] measures los: give noise.los_path_sigma_m or noise.carrier")
         if self.measurement.interval_s > self.duration_days * 86400.0:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "

@@ -110,7 +110,11 @@ def plan_sweep(bases: list[tuple[Scenario, str, str]], grid: list[tuple[str, lis
             overrides = tuple(zip(keys, values))
             effective = dict(overrides)
             if SIGMA_KEY in effective:
-                effective = {"noise.ranging_method": None, "noise.link_budget": None, **effective}
+                # The budget stays when the carrier still derives range-rate / LOS sigmas from it.
+                dropped = {"noise.ranging_method": None}
+                if scenario.noise.carrier is None:
+                    dropped["noise.link_budget"] = None
+                effective = {**dropped, **effective}
             shown = ", ".join(f"{k}={v}" for k, v in overrides)
             point = apply_overrides(scenario, effective, f"{source} with --grid {shown}") if overrides else scenario
             point_hash = scenario_hash(point)

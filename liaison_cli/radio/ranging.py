@@ -7,10 +7,14 @@ energy to noise density (linear), T_sd channel symbol duration.
 
 import math
 
-from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_KM_S
+from liaison_cli.radio.carrier import (
+    C_M_S,
+    interferometer_path_sigma_m,
+    loop_phase_sigma_rad,
+    tone_ranging_sigma_m,
+    two_way_doppler_sigma_m_s,
+)
 from liaison_cli.radio.link_budget import LinkLeg, db_to_linear
-
-C_M_S = SPEED_OF_LIGHT_KM_S * 1e3
 
 
 def _clock_tracking_term(ranging_clock_hz, loop_bandwidth_hz, ranging_clock_power_to_n0_hz):
@@ -76,8 +80,9 @@ def sigma_from_link_budget(
 ) -> float:
     """1-sigma range error of a crosslink from its two legs' link budgets.
 
-    method: 'time_derived' (Eq. 4), 'telemetry' (Eq. 3) or 'pn' (Eq. 1). For the tone/PN clock terms
-    the ranging-clock power is the uplink C/N0 (margin held back) plus `ranging_power_fraction_db`.
+    method: 'time_derived' (Eq. 4), 'telemetry' (Eq. 3), 'pn' (Eq. 1) or 'tone' (001 Eq. 62-63, the
+    major tone at `ranging_clock_hz`). For the clock / tone terms the ranging power is the uplink C/N0
+    (margin held back) plus `ranging_power_fraction_db`.
     """
     es_up = db_to_linear(uplink.es_over_n0_db)
     es_down = db_to_linear(downlink.es_over_n0_db)
@@ -97,4 +102,36 @@ def sigma_from_link_budget(
         )
     if method == "pn":
         return pn_ranging_sigma_m(ranging_clock_hz, loop_bandwidth_hz, prc_n0)
+    if method == "tone":
+        return tone_ranging_sigma_m(ranging_clock_hz, loop_phase_sigma_rad(loop_bandwidth_hz, prc_n0))
     raise ValueError(f"unknown ranging method {method!r}")
+
+
+def carrier_sigmas_from_link_budget(
+    uplink: LinkLeg,
+    downlink: LinkLeg,
+    carrier_power_fraction_db: float,
+    carrier_loop_bandwidth_hz: float,
+    doppler_count_s: float,
+    turnaround_ratio: float,
+) -> dict:
+    """Carrier-phase observables of a two-way coherent crosslink from its two legs' link budgets.
+
+    The residual carrier of each leg carries its C/N0 (margin held back) plus `carrier_power_fraction_db`;
+    both ends track it with a PLL of one-sided bandwidth `carrier_loop_bandwidth_hz`. Returns the loop
+    SNRs, the Doppler range-rate sigma (001 Eq. 5, count time `doppler_count_s`) and the LOS path-
+    difference sigma of a phase interferometer at the receiver, which sees the downlink (Eq. 9).
+    """
+    def loop_snr(leg):
+        pc_n0 = db_to_linear(leg.c_over_n0_dbhz - leg.margin_db + carrier_power_fraction_db)
+        return pc_n0 / carrier_loop_bandwidth_hz
+
+    rho_up, rho_down = loop_snr(uplink), loop_snr(downlink)
+    downlink_hz = downlink.frequency_mhz * 1e6
+    return {
+        "uplink_loop_snr": rho_up,
+        "downlink_loop_snr": rho_down,
+        "range_rate_sigma_m_s": two_way_doppler_sigma_m_s(downlink_hz, doppler_count_s, rho_down, rho_up,
+                                                          turnaround_ratio),
+        "los_path_sigma_m": interferometer_path_sigma_m(downlink_hz, 1.0 / math.sqrt(rho_down)),
+    }

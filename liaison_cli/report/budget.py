@@ -9,7 +9,8 @@ import pandas as pd
 
 from liaison_cli.report.fig15 import sigma_series
 
-METHOD_LABELS = {"time_derived": "time-derived (Eq. 4)", "telemetry": "telemetry (Eq. 3)", "pn": "PN (Eq. 1)"}
+METHOD_LABELS = {"time_derived": "time-derived (Eq. 4)", "telemetry": "telemetry (Eq. 3)", "pn": "PN (Eq. 1)",
+                 "tone": "tone (001 Eq. 62-63)"}
 READ_OFF = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
 
 
