@@ -146,3 +146,18 @@ def test_sigma_sweep_over_a_tone_scenario_keeps_the_carrier_sigmas():
         assert point.sigma_m == sigma and point.scenario.noise.ranging_method is None
         assert point.scenario.noise.resolved_range_rate_sigma_m_s() == pytest.approx(1.405e-3, rel=2e-3)
         assert point.scenario.noise.resolved_los_path_sigma_m() == pytest.approx(1.41e-3, rel=5e-3)
+
+
+def test_budget_command_prints_tone_doppler_los_and_the_eq65_ratio(tmp_path):
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+
+    proc = run_cli("budget", SCENARIOS / "links" / "table2_tone_doppler.yaml")
+    assert proc.returncode == 0, proc.stderr
+    rows = [line.split() for line in proc.stdout.splitlines()]
+    assert ["tone", "(001", "Eq.", "62-63)", "7.8", "m"] in rows and ["(Eq.", "4)", "171.8", "m"] == rows[3][1:]
+    assert ["tone", "(001", "Eq.", "62-63)", "5533", "s"] in rows  # Eq. 65 ratio, tone
+    assert "1.4050 mm/s" in proc.stdout and "1.412 mm" in proc.stdout and "122276 s" in proc.stdout
+    bad = tmp_path / "bad_link.yaml"
+    bad.write_text((SCENARIOS / "links" / "table2_tone_doppler.yaml").read_text()
+                   .replace("  doppler_count_s: 1\n", "  doppler_count_s: 0\n"))
+    assert_one_line_error(run_cli("budget", bad), bad, ["carrier.doppler_count_s", "0", "greater than 0"])
