@@ -17,8 +17,8 @@ from liaison_cli.radio.carrier import (
     two_way_doppler_phase_sigma_rad,
     two_way_doppler_sigma_m_s,
 )
-from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, sigma_from_link_budget
+from tests.test_orbits_radio import TABLE2_DOWN, TABLE2_UP
 
 
 class FirstOrderPll:
@@ -110,10 +110,6 @@ def test_eq64_and_eq5_agree_and_scale():
         assert range_to_range_rate_ratio_s(tone_hz, 2.2e9, count_s) == pytest.approx(ratio, rel=1e-12)
     # S-band, 100 kHz major tone, 1 s count: 1 m of range error goes with ~64 um/s of range-rate error.
     assert range_to_range_rate_ratio_s(1e5, 2.2e9, 1.0) == pytest.approx(15_556, rel=1e-3)
-
-
-TABLE2_UP = LinkLeg(60000, 2200, 3, 1, 25, 2000, 1, -21, 3)
-TABLE2_DOWN = LinkLeg(60000, 2200, 3, 1, 9, 5000, 1, -1, 3)
 
 
 def test_table2_link_tone_ranging_doppler_and_los():

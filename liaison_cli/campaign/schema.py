@@ -186,10 +186,6 @@ class CarrierSpec(StrictModel):
             self.loop_bandwidth_hz, self.doppler_count_s, self.turnaround_ratio)
 
 
-def _missing_clock_keys(model) -> list[str]:
-    return [k for k in CLOCK_KEYS if getattr(model, k) is None]
-
-
 class NoiseSpec(StrictModel):
     """Range sigma: `sigma_m` directly, or `ranging_method` + `link_budget` (000 Eq. 1-4, 001 Eq. 62-63).
     Range-rate and LOS sigmas: directly, or from the link budget's carrier (`carrier`, 001 Eq. 5 and 9)."""
@@ -221,7 +217,7 @@ class NoiseSpec(StrictModel):
         if self.link_budget is not None and self.ranging_method is None and self.carrier is None:
             raise ValueError("'link_budget' is used by 'ranging_method' or 'carrier'; give one of them")
         if self.ranging_method in ("telemetry", "pn", "tone"):
-            missing = _missing_clock_keys(self)
+            missing = [k for k in CLOCK_KEYS if getattr(self, k) is None]
             if missing:
                 raise ValueError(f"ranging_method {self.ranging_method!r} needs {', '.join(missing)}")
         if self.carrier is not None:

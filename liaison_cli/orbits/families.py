@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from liaison_cli.dynamics.constants import MU, SECONDS_PER_DAY, TU_S
+from liaison_cli.dynamics.constants import LU_KM, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.orbits.periodic import (
     MOON_RADIUS_KM,
     PeriodicOrbit,
@@ -77,10 +77,10 @@ for _spec in _SOUTH:
 for _point in (1, 2):
     FAMILIES[f"l{_point}_lyapunov"] = FamilySpec(
         f"l{_point}_lyapunov", True, f"EML{_point} planar Lyapunov, growing from a 2,000 km linear orbit",
-        tuple(lyapunov_guess(_point, 2000.0 / 384400.0)), 0, -1.0 if _point == 1 else 1.0, 0.01,
+        tuple(lyapunov_guess(_point, 2000.0 / LU_KM)), 0, -1.0 if _point == 1 else 1.0, 0.01,
         max_period_days=40.0, both_ways=False)
 FAMILIES["dro"] = FamilySpec("dro", True, "Distant retrograde orbits about the Moon, periods 1 to 28 d",
-                             (1.0 - MU + 10000.0 / 384400.0, -0.69, 0.08), 0, 1.0, 0.01, min_period_days=1.0,
+                             (1.0 - MU + 10000.0 / LU_KM, -0.69, 0.08), 0, 1.0, 0.01, min_period_days=1.0,
                              max_period_days=28.0)
 
 
@@ -158,7 +158,7 @@ def member_by_period(name: str, members: list[PeriodicOrbit], period_days: float
 
 def amplitude_km(orbit: PeriodicOrbit, planar: bool) -> float:
     """The amplitude that names a member: Az (max |z|) for spatial families, Ay for planar ones."""
-    return (orbit.y_amplitude_lu if planar else orbit.z_amplitude_lu) * 384400.0
+    return (orbit.y_amplitude_lu if planar else orbit.z_amplitude_lu) * LU_KM
 
 
 def member_by_amplitude(name: str, members: list[PeriodicOrbit], target_km: float, mu: float = MU) -> PeriodicOrbit:

@@ -17,16 +17,12 @@ from liaison_cli.radio.carrier import (
 from liaison_cli.radio.link_budget import LinkLeg, db_to_linear
 
 
-def _clock_tracking_term(ranging_clock_hz, loop_bandwidth_hz, ranging_clock_power_to_n0_hz):
-    return math.sqrt(loop_bandwidth_hz / ranging_clock_power_to_n0_hz)
-
-
 def pn_ranging_sigma_m(ranging_clock_hz, loop_bandwidth_hz, ranging_clock_power_to_n0_hz):
     """Eq. 1: non-coherent PN ranging between a mother and a daughter craft."""
     return (
         C_M_S
         / (math.sqrt(2.0) * 4.0 * ranging_clock_hz)
-        * _clock_tracking_term(ranging_clock_hz, loop_bandwidth_hz, ranging_clock_power_to_n0_hz)
+        * loop_phase_sigma_rad(loop_bandwidth_hz, ranging_clock_power_to_n0_hz)
     )
 
 
@@ -50,7 +46,7 @@ def telemetry_ranging_sigma_m(
     clock_term = (
         C_M_S
         / (8.0 * ranging_clock_hz)
-        * _clock_tracking_term(ranging_clock_hz, loop_bandwidth_hz, ranging_clock_power_to_n0_hz)
+        * loop_phase_sigma_rad(loop_bandwidth_hz, ranging_clock_power_to_n0_hz)
     )
     return telemetry_term + clock_term
 
@@ -122,16 +118,17 @@ def carrier_sigmas_from_link_budget(
     SNRs, the Doppler range-rate sigma (001 Eq. 5, count time `doppler_count_s`) and the LOS path-
     difference sigma of a phase interferometer at the receiver, which sees the downlink (Eq. 9).
     """
-    def loop_snr(leg):
-        pc_n0 = db_to_linear(leg.c_over_n0_dbhz - leg.margin_db + carrier_power_fraction_db)
-        return pc_n0 / carrier_loop_bandwidth_hz
+    def carrier_power_to_n0_hz(leg):
+        return db_to_linear(leg.c_over_n0_dbhz - leg.margin_db + carrier_power_fraction_db)
 
-    rho_up, rho_down = loop_snr(uplink), loop_snr(downlink)
+    rho_up = carrier_power_to_n0_hz(uplink) / carrier_loop_bandwidth_hz
+    rho_down = carrier_power_to_n0_hz(downlink) / carrier_loop_bandwidth_hz
     downlink_hz = downlink.frequency_mhz * 1e6
+    downlink_phase_rad = loop_phase_sigma_rad(carrier_loop_bandwidth_hz, carrier_power_to_n0_hz(downlink))
     return {
         "uplink_loop_snr": rho_up,
         "downlink_loop_snr": rho_down,
         "range_rate_sigma_m_s": two_way_doppler_sigma_m_s(downlink_hz, doppler_count_s, rho_down, rho_up,
                                                           turnaround_ratio),
-        "los_path_sigma_m": interferometer_path_sigma_m(downlink_hz, 1.0 / math.sqrt(rho_down)),
+        "los_path_sigma_m": interferometer_path_sigma_m(downlink_hz, downlink_phase_rad),
     }
