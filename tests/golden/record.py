@@ -1,0 +1,69 @@
+"""Record (or check) per-run numbers of every scenario in scenarios/ through the real CLI.
+
+`python tests/golden/record.py` writes tests/golden/runs.json.gz: for each scenario, `liaison run
+--runs 2 --jobs 1 --float64` into a temporary folder, then per Parquet file and numeric column the sum,
+the sum of absolute values, the NaN count and every 37th value, plus the printed output. The file was
+recorded at commit 432c588 (before the engine restructuring) and is compared by tests/test_golden.py.
+"""
+
+import gzip
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[2]
+GOLDEN = Path(__file__).with_name("runs.json.gz")
+TABLES = ("summary", "timeseries", "residuals", "consistency", "bias")
+STRIDE = 37
+
+
+def digest_table(frame: pd.DataFrame) -> dict:
+    out = {"rows": int(len(frame)), "columns": {}}
+    for name in frame.columns:
+        col = frame[name]
+        if pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
+            values = col.to_numpy(dtype=float)
+            out["columns"][name] = {
+                "sum": float(np.nansum(values)),
+                "abs": float(np.nansum(np.abs(values))),
+                "nan": int(np.isnan(values).sum()),
+                "sample": [None if np.isnan(v) else float(v) for v in values[::STRIDE]],
+            }
+        else:
+            out["columns"][name] = {"text": sorted({str(v) for v in col})}
+    return out
+
+
+def run_scenario(path: Path) -> dict:
+    from typer.testing import CliRunner
+
+    from liaison_cli.cli import app
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out"
+        result = CliRunner().invoke(app, ["run", str(path), "--runs", "2", "--jobs", "1", "--float64",
+                                          "--quiet", "--output", str(out)])
+        if result.exit_code != 0:
+            raise RuntimeError(f"{path}: exit {result.exit_code}: {result.output}")
+        tables = {name: digest_table(pd.read_parquet(out / f"{name}.parquet")) for name in TABLES}
+        text = result.stdout.replace(str(out), "<output>")
+    return {"tables": tables, "stdout": text}
+
+
+def scenario_paths() -> list[Path]:
+    return sorted((ROOT / "scenarios").glob("*.yaml"))
+
+
+def main():
+    record = {path.name: run_scenario(path) for path in scenario_paths()}
+    with gzip.open(GOLDEN, "wt", encoding="utf-8") as handle:
+        json.dump(record, handle, sort_keys=True)
+    print(f"wrote {GOLDEN} ({len(record)} scenarios)", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
