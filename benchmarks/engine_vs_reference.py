@@ -15,11 +15,11 @@ import numpy as np
 
 from benchmarks.reference import reference_ekf
 from liaison_cli.analysis.metrics import summary_rows
-from liaison_cli.campaign.problem import prepare_problem
+from liaison_cli.scenario.setup import prepare_problem
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
-from liaison_cli.campaign.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.campaign.worker import draw_run_inputs
-from liaison_cli.estimation.filter_loop import run_ekf
+from liaison_cli.estimation.estimators import estimate
 
 
 def main():
@@ -32,25 +32,24 @@ def main():
 
     scenario, _ = load_scenario(args.scenario)
     problem = prepare_problem(apply_overrides(scenario, {"duration_days": args.days}))
-    engine_args = lambda x0, y: (x0, problem.P0, problem.Q, problem.truth, y, problem.link_receiver,  # noqa: E731
-                                 problem.link_transponder, problem.channel_link, problem.channel_kind,
-                                 problem.sigma_lu, problem.dt_tu, problem.substeps,
-                                 problem.mu, problem.divergence_position_lu)
+    def engine(inputs):
+        return estimate("ekf", problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
+
     t0 = time.perf_counter()
-    run_ekf(*engine_args(*draw_run_inputs(problem, 0)))
+    engine(draw_run_inputs(problem, 0))
     first_call = time.perf_counter() - t0  # cache load, or compile if the cache is cold
 
     engine_times, ref_times = [], []
     for run in range(args.engine_runs):
-        x0, y = draw_run_inputs(problem, run)
+        inputs = draw_run_inputs(problem, run)
         t0 = time.perf_counter()
-        out = run_ekf(*engine_args(x0, y))
+        out = engine(inputs)
         engine_times.append(time.perf_counter() - t0)
         if run < args.reference_runs:
             t0 = time.perf_counter()
-            ref_err, ref_sig = reference_ekf(problem, x0, y)
+            ref_err, ref_sig = reference_ekf(problem, inputs.x0_hat, inputs.y_obs)
             ref_times.append(time.perf_counter() - t0)
-            fast = summary_rows(problem.times_s, out[0], out[1], problem.spacecraft, M_PER_LU, M_S_PER_VU)[0]
+            fast = summary_rows(problem.times_s, out.err, out.sigma, problem.spacecraft, M_PER_LU, M_S_PER_VU)[0]
             ref = summary_rows(problem.times_s, ref_err, ref_sig, problem.spacecraft, M_PER_LU, M_S_PER_VU)[0]
             for a, b in zip(fast, ref):
                 print(f"run {run} {a['spacecraft']:>6}: RMS position engine {a['rms_position_m']:.3f} m, "

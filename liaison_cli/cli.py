@@ -74,9 +74,10 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Run a scenario's Monte Carlo EKF campaign and write Parquet results."""
-    from liaison_cli.campaign.results import prepare_output_dir, summary_table, write_campaign
+    from liaison_cli.campaign.results import summary_table, write_campaign
+    from liaison_cli.storage import prepare_output_dir
     from liaison_cli.campaign.runner import run_campaign
-    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.scenario.schema import load_scenario
 
     config, text = load_scenario(scenario)
     out_dir = prepare_output_dir(output or Path("results") / config.name, overwrite)
@@ -103,45 +104,12 @@ def table3(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
-    from liaison_cli.campaign.results import (
-        prepare_output_dir,
-        summary_table,
-        write_parquet_atomic,
-        write_text_atomic,
-    )
-    from liaison_cli.campaign.runner import run_campaign
-    from liaison_cli.campaign.schema import apply_overrides, load_scenario
-    from liaison_cli.report.table3 import case_rows, cases, compare, ordering_checks, to_markdown
+    from liaison_cli.report.table3 import run_table3
+    from liaison_cli.storage import prepare_output_dir
 
-    loaded = {}
-    for case in cases():
-        if case.formation not in loaded:
-            loaded[case.formation] = load_scenario(scenarios / f"{case.formation}.yaml")
     out_dir = prepare_output_dir(output, overwrite)
-    rows, summaries, texts, truth_cache = [], [], {}, {}
-    for case in cases():
-        base, text = loaded[case.formation]
-        config = apply_overrides(base, {"noise.sigma_m": case.sigma_m}, f"table3 case {case.label}")
-        result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
-                              description=case.label, truth_cache=truth_cache)
-        rows += case_rows(case.formation, case.sigma_m, result)
-        summaries.append(summary_table(result).assign(formation=case.formation, sigma_m=case.sigma_m))
-        texts[case.formation] = text
-    table = compare(pd.DataFrame(rows))
-    checks = ordering_checks(table)
-    meta = {
-        "package": "liaison",
-        "package_version": __version__,
-        "scenarios_yaml": texts,
-        "runs_per_case": runs,
-        "seeds": {f: loaded[f][0].monte_carlo.seed for f in loaded},
-        "ordering_checks": checks,
-    }
-    write_parquet_atomic(table, out_dir / "table3.parquet", meta)
-    write_parquet_atomic(pd.concat(summaries, ignore_index=True), out_dir / "summary.parquet", meta)
-    markdown = to_markdown(table, checks)
-    write_text_atomic(markdown, out_dir / "table3.md")
-    typer.echo(markdown)
+    result = run_table3(scenarios, out_dir, runs, jobs, progress=not quiet and sys.stderr.isatty())
+    typer.echo(result.markdown)
     typer.echo(f"results: {out_dir}")
 
 
@@ -185,8 +153,8 @@ def sweep(
 ):
     """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
     from liaison_cli.campaign.grid import parse_grid, parse_range
-    from liaison_cli.campaign.results import prepare_output_dir
-    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.storage import prepare_output_dir
+    from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep
 
     paths = list(scenario_args or []) + list(scenario_opts or [])
@@ -252,7 +220,7 @@ def budget(
     sweep_dir: Path = typer.Option(None, "--sweep", help="a 'liaison sweep --sigma' folder to read errors from"),
 ):
     """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off)."""
-    from liaison_cli.campaign.schema import load_link_file
+    from liaison_cli.scenario.schema import load_link_file
     from liaison_cli.report.budget import METHOD_LABELS, expected_errors
 
     link = load_link_file(link_file)
@@ -302,7 +270,7 @@ app.add_typer(orbits_app, name="orbits")
 
 
 def _family_table(name: str, count: int, regenerate: bool = False):
-    from liaison_cli.campaign.family_store import load_or_generate
+    from liaison_cli.orbits.family_store import load_or_generate
     from liaison_cli.orbits.families import FamilyError
 
     try:
@@ -312,11 +280,13 @@ def _family_table(name: str, count: int, regenerate: bool = False):
 
 
 def _format_family(frame) -> str:
+    from liaison_cli.dynamics.constants import LU_KM
+
     lines = [f"{'#':>3}{'x0 LU':>12}{'z0 LU':>11}{'vy0 LU/TU':>12}{'period d':>10}{'Jacobi':>9}"
              f"{'stab. index':>13}{'Az km':>9}{'perilune km':>13}{'closure LU':>12}"]
     for row in frame.itertuples():
         lines.append(f"{row.member:>3}{row.x0:>12.7f}{row.z0:>11.7f}{row.vy0:>12.7f}{row.period_days:>10.4f}"
-                     f"{row.jacobi:>9.5f}{row.stability_index:>13.2f}{row.z_amplitude_lu * 384400:>9.0f}"
+                     f"{row.jacobi:>9.5f}{row.stability_index:>13.2f}{row.z_amplitude_lu * LU_KM:>9.0f}"
                      f"{row.perilune_km:>13.0f}{row.closure_lu:>12.1e}")
     return "\n".join(lines)
 
@@ -331,7 +301,7 @@ def orbits_generate(
     """Correct and continue a family; store its table (Parquet) in the user cache."""
     import time
 
-    from liaison_cli.campaign.family_store import family_path
+    from liaison_cli.orbits.family_store import family_path
 
     start = time.perf_counter()
     frame, cached = _family_table(family, count, regenerate)
@@ -345,7 +315,7 @@ def orbits_generate(
 @orbits_app.command("list")
 def orbits_list():
     """The known families and the tables already in the cache."""
-    from liaison_cli.campaign.family_store import cached_families
+    from liaison_cli.orbits.family_store import cached_families
     from liaison_cli.orbits.families import FAMILIES
 
     for name in sorted(FAMILIES):
@@ -375,11 +345,11 @@ def orbits_plot(
     output: Path = typer.Option(None, "--output", help="PNG path (default: results/orbits/<family>.png)"),
 ):
     """Draw a family in the x-y, x-z and y-z planes, coloured by period (PNG)."""
-    from liaison_cli.campaign.family_store import from_frame
+    from liaison_cli.orbits.family_store import from_table
     from liaison_cli.report.orbit_plots import draw_family
 
     frame, _ = _family_table(family, count)
-    path = draw_family(family, from_frame(frame), output or Path("results") / "orbits" / f"{family}.png")
+    path = draw_family(family, from_table(frame), output or Path("results") / "orbits" / f"{family}.png")
     typer.echo(f"wrote {path}")
 
 
@@ -395,8 +365,8 @@ def observability(
     no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
 ):
     """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
-    from liaison_cli.campaign.results import prepare_output_dir
-    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.storage import prepare_output_dir
+    from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.report.observability_report import observability_report
 
     config, text = load_scenario(scenario)
@@ -430,7 +400,7 @@ def geometry(
     interval_s: float = typer.Option(600.0, "--interval", min=10.0, help="sampling interval of the links, s"),
 ):
     """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter."""
-    from liaison_cli.campaign.results import prepare_output_dir
+    from liaison_cli.storage import prepare_output_dir
     from liaison_cli.report.geometry import run_study
 
     out_dir = prepare_output_dir(output, overwrite)
@@ -455,9 +425,10 @@ def compare(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
-    from liaison_cli.campaign.results import prepare_output_dir, summary_table
+    from liaison_cli.campaign.results import summary_table
+    from liaison_cli.storage import prepare_output_dir
     from liaison_cli.campaign.runner import run_campaign
-    from liaison_cli.campaign.schema import load_scenario
+    from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.report.compare import compare_rows, write_compare
 
     loaded = [(path, *load_scenario(path)) for path in scenarios]

@@ -1,15 +1,36 @@
-"""The pure-numeric core never imports I/O or CLI libraries."""
+"""Architecture: one direction of flow, no import cycles, pure-numeric core, observables owned by measurements/.
+
+Layers, lowest first; a module may import from its own layer or lower ones only, counting imports inside
+functions too (a lazy import hides a dependency, it does not remove it):
+base (package root, errors, storage) -> dynamics, radio -> orbits -> measurements -> estimation -> analysis
+-> scenario -> campaign -> report -> cli.
+"""
 
 import ast
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import liaison_cli
 
 PACKAGE = Path(liaison_cli.__file__).parent
 CORE_PACKAGES = ["dynamics", "orbits", "radio", "measurements", "estimation"]
 FORBIDDEN = {"yaml", "pandas", "typer", "joblib", "pyarrow", "tqdm", "pydantic", "json", "pickle"}
+LAYERS = [
+    {"__init__", "errors", "storage"},
+    {"dynamics", "radio"},
+    {"orbits"},
+    {"measurements"},
+    {"estimation"},
+    {"analysis"},
+    {"scenario"},
+    {"campaign"},
+    {"report"},
+    {"cli", "__main__"},
+]
+OBSERVABLE_WORDS = {"range", "range_rate", "los", "pseudorange", "azimuth", "elevation"}
 
 
 def _imported_roots(path: Path) -> set[str]:
@@ -20,6 +41,113 @@ def _imported_roots(path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             roots.add(node.module.split(".")[0])
     return roots
+
+
+def _module_name(package_root: Path, path: Path) -> str:
+    parts = path.relative_to(package_root).with_suffix("").parts
+    return ".".join(p for p in parts if p != "__init__") or "__init__"
+
+
+def _internal_imports(package_root: Path, path: Path) -> set[str]:
+    """Modules of the package imported anywhere in `path` (from x import y counts y if it is a module)."""
+    name = package_root.name
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out |= {a.name[len(name) + 1 :] or "__init__" for a in node.names if a.name.split(".")[0] == name}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            if node.module.split(".")[0] != name:
+                continue
+            base = node.module[len(name) + 1 :] or "__init__"
+            for alias in node.names:
+                sub = f"{base}.{alias.name}" if base != "__init__" else alias.name
+                is_module = (package_root / Path(*sub.split("."))).with_suffix(".py").exists() or (
+                    package_root / Path(*sub.split("."))).is_dir()
+                out.add(sub if is_module else base)
+    return out
+
+
+def import_graph(package_root: Path) -> dict[str, set[str]]:
+    return {_module_name(package_root, p): _internal_imports(package_root, p) for p in package_root.rglob("*.py")}
+
+
+def _layer(module: str) -> int:
+    top = module.split(".")[0]
+    for index, layer in enumerate(LAYERS):
+        if top in layer:
+            return index
+    raise AssertionError(f"module {module!r} is in no layer: place it in LAYERS")
+
+
+def layer_violations(graph) -> list[str]:
+    return sorted(f"{a} (layer {_layer(a)}) imports {b} (layer {_layer(b)})"
+                  for a, deps in graph.items() for b in deps if _layer(b) > _layer(a))
+
+
+def import_cycles(graph) -> list[list[str]]:
+    """Strongly connected components with more than one module, or a module importing itself."""
+    index, low, stack, on_stack, cycles, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph.get(v, ()):
+            if w not in graph:
+                continue
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1 or v in graph.get(v, ()):
+                cycles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return cycles
+
+
+def test_layer_order_holds():
+    assert layer_violations(import_graph(PACKAGE)) == []
+
+
+def test_no_import_cycles():
+    assert import_cycles(import_graph(PACKAGE)) == []
+
+
+def _write_fake_package(root: Path, files: dict) -> Path:
+    package = root / "liaison_cli"
+    for name, text in files.items():
+        path = package / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    return package
+
+
+def test_the_checks_catch_a_violating_import(tmp_path):
+    """The checks can fail: a dynamics module importing the campaign, and a lazy two-module cycle."""
+    package = _write_fake_package(tmp_path, {
+        "__init__.py": "",
+        "dynamics/__init__.py": "",
+        "dynamics/crtbp.py": "def f():\n    from liaison_cli.campaign import runner\n",
+        "campaign/__init__.py": "",
+        "campaign/runner.py": "from liaison_cli.campaign.sweep import x\n",
+        "campaign/sweep.py": "def g():\n    import liaison_cli.campaign.runner\n",
+    })
+    graph = import_graph(package)
+    assert layer_violations(graph) == ["dynamics.crtbp (layer 1) imports campaign.runner (layer 7)"]
+    assert import_cycles(graph) == [["campaign.runner", "campaign.sweep"]]
 
 
 def test_core_source_imports_no_io_libraries():
@@ -42,3 +170,36 @@ def test_importing_the_core_loads_no_io_libraries():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def observable_vocabulary_outside_measurements(package_root: Path) -> list[str]:
+    """Kind codes defined or imported, or an observable's name compared against, outside measurements/."""
+    found = []
+    for path in package_root.rglob("*.py"):
+        module = _module_name(package_root, path)
+        if module.startswith("measurements"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.Assign, ast.AnnAssign)):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                found += [f"{module}: defines {t.id}" for t in targets
+                          if isinstance(t, ast.Name) and t.id.startswith("KIND_")]
+            elif isinstance(node, ast.ImportFrom):
+                found += [f"{module}: imports {a.name}" for a in node.names if a.name.startswith("KIND_")]
+            elif isinstance(node, ast.Compare):
+                for operand in [node.left, *node.comparators]:
+                    if isinstance(operand, ast.Constant) and operand.value in OBSERVABLE_WORDS:
+                        found.append(f"{module}: compares with {operand.value!r}")
+    return sorted(found)
+
+
+def test_observable_vocabulary_lives_in_measurements_only():
+    assert observable_vocabulary_outside_measurements(PACKAGE) == []
+
+
+@pytest.mark.parametrize("text", ["KIND_RANGE = 0\n", "from liaison_cli.measurements.range import KIND_RANGE\n",
+                                  "def f(o):\n    return o == 'range_rate'\n"])
+def test_the_vocabulary_check_catches_a_branch_on_kind(tmp_path, text):
+    package = _write_fake_package(tmp_path, {"__init__.py": "", "estimation/__init__.py": "",
+                                             "estimation/loop.py": text})
+    assert len(observable_vocabulary_outside_measurements(package)) == 1

@@ -8,9 +8,9 @@ import pytest
 from liaison_cli import __version__
 from liaison_cli.campaign import results as results_module
 from liaison_cli.campaign import worker as worker_module
-from liaison_cli.campaign.results import read_metadata, write_parquet_atomic
+from liaison_cli.storage import read_metadata, write_parquet_atomic
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.campaign.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, run_cli
 
 
@@ -123,7 +123,7 @@ def test_a_worker_never_raises(monkeypatch):
     def broken(*args, **kwargs):
         raise FloatingPointError("synthetic failure")
 
-    monkeypatch.setattr(worker_module, "run_ekf", broken)
+    monkeypatch.setattr(worker_module, "estimate", broken)
     result = run_campaign(scenario, runs=2, jobs=1, progress=False)
     assert [o.status for o in result.outcomes] == ["error", "error"]
     assert "synthetic failure" in result.outcomes[0].reason

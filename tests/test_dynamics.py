@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.constants import MU, TU_S
-from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, jacobian, rk4_state, rk4_state_stm
+from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, jacobian, rk4_state_stm
 from liaison_cli.dynamics.propagation import propagate_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
@@ -34,7 +34,7 @@ def test_filter_rk4_conserves_jacobi_and_tracks_truth_over_ten_days(name):
     x = STATES[name].copy()
     c0 = jacobi_constant(x, MU)
     for _ in range(n_steps):
-        x = rk4_state(x, DT_TU, 4, MU)  # the default filter.rk4_substeps
+        x = rk4_state_stm(x, DT_TU, 4, MU)[0]  # the default filter.rk4_substeps
     truth = propagate_states(STATES[name], np.array([0.0, n_steps * DT_TU]), MU)[-1]
     assert abs(jacobi_constant(x, MU) - c0) < 1e-10
     assert np.linalg.norm(x[:3] - truth[:3]) * 384400e3 < 1.0  # metres
@@ -65,7 +65,7 @@ def test_stm_matches_central_differences(name, span_steps):
 
     def flow(state):
         for _ in range(span_steps):
-            state = rk4_state(state, DT_TU, 8, MU)
+            state = rk4_state_stm(state, DT_TU, 8, MU)[0]
         return state
 
     numeric = np.empty((6, 6))

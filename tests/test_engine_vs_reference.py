@@ -4,11 +4,11 @@ import pytest
 
 from benchmarks.reference import reference_ekf
 from liaison_cli.analysis.metrics import summary_rows
-from liaison_cli.campaign.problem import prepare_problem
-from liaison_cli.campaign.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.setup import prepare_problem
+from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
-from liaison_cli.estimation.filter_loop import STATUS_OK, run_ekf
+from liaison_cli.estimation.estimators import estimate
 from tests.conftest import SCENARIOS
 
 
@@ -17,13 +17,11 @@ def test_engine_rms_matches_reference_within_one_percent(formation, days):
     scenario, _ = load_scenario(SCENARIOS / f"{formation}.yaml")
     problem = prepare_problem(apply_overrides(scenario, {"duration_days": days}))
     for run in range(2):
-        x0, y = draw_run_inputs(problem, run)
-        out = run_ekf(x0, problem.P0, problem.Q, problem.truth, y, problem.link_receiver, problem.link_transponder,
-                      problem.channel_link, problem.channel_kind,
-                      problem.sigma_lu, problem.dt_tu, problem.substeps, problem.mu, problem.divergence_position_lu)
-        assert out[5] == STATUS_OK
-        ref_err, ref_sig = reference_ekf(problem, x0, y)
-        fast = summary_rows(problem.times_s, out[0], out[1], problem.spacecraft, M_PER_LU, M_S_PER_VU)[0]
+        inputs = draw_run_inputs(problem, run)
+        out = estimate("ekf", problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
+        assert out.ok
+        ref_err, ref_sig = reference_ekf(problem, inputs.x0_hat, inputs.y_obs)
+        fast = summary_rows(problem.times_s, out.err, out.sigma, problem.spacecraft, M_PER_LU, M_S_PER_VU)[0]
         ref = summary_rows(problem.times_s, ref_err, ref_sig, problem.spacecraft, M_PER_LU, M_S_PER_VU)[0]
         for a, b in zip(fast, ref):
             for key in ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m"):

@@ -7,11 +7,13 @@ from liaison_cli.dynamics.constants import LU_KM, MU, SPEED_OF_LIGHT_LU_TU, TU_S
 from liaison_cli.dynamics.propagation import propagate_states
 from liaison_cli.estimation.ekf import (
     normalized_error_squared,
-    predict_covariance,
-    predict_covariance_block_diagonal,
+    predict_covariance_blocks,
     update_scalar,
 )
-from liaison_cli.measurements.range import TwoWayRange
+from liaison_cli.dynamics.trajectory import CrtbpTrajectory
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT
+from liaison_cli.measurements.range import KIND_RANGE, OBSERVABLE as RANGE
+from liaison_cli.measurements.registry import predict
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
 
@@ -25,26 +27,30 @@ def _truth(hours=24.0, n=200):
     return np.stack([a, b], axis=1)  # (m, 2, 6)
 
 
+def _range(flat):
+    g_a, g_b = np.empty(6), np.empty(6)
+    value = predict(KIND_RANGE, flat[:6].copy(), flat[6:].copy(), 0, g_a, g_b)
+    return value, np.concatenate([g_a, g_b])
+
+
 def test_range_partials_match_central_differences():
-    states = np.stack([CATALOG["eml2_halo"].state(), LUNAR])
-    model = TwoWayRange(0, 1)
-    analytic = model.partials(states)
-    flat = states.reshape(-1)
+    flat = np.concatenate([CATALOG["eml2_halo"].state(), LUNAR])
+    analytic = _range(flat)[1]
     numeric = np.empty(12)
     h = 1e-7
     for j in range(12):
         e = np.zeros(12)
         e[j] = h
-        numeric[j] = (model.value((flat + e).reshape(2, 6)) - model.value((flat - e).reshape(2, 6))) / (2 * h)
+        numeric[j] = (_range(flat + e)[0] - _range(flat - e)[0]) / (2 * h)
     assert np.allclose(analytic, numeric, rtol=1e-6, atol=1e-9)
     assert np.all(analytic[[3, 4, 5, 9, 10, 11]] == 0.0)
 
 
 def test_light_time_range_differs_from_geometric_by_minus_range_rate_times_tau():
     truth = _truth()
-    model = TwoWayRange(0, 1)
-    lt = model.simulate(truth, MU, light_time=True)
-    geo = model.simulate(truth, MU, light_time=False)
+    ends = [CrtbpTrajectory(truth[:, i], MU) for i in (0, 1)]
+    lt = RANGE.simulate(KIND_RANGE, *ends, light_time=True)
+    geo = RANGE.simulate(KIND_RANGE, *ends, light_time=False)
     d = truth[:, 1, :3] - truth[:, 0, :3]
     r = np.linalg.norm(d, axis=1)
     rdot = np.sum(d * (truth[:, 1, 3:] - truth[:, 0, 3:]), axis=1) / r
@@ -86,25 +92,24 @@ def test_sequential_scalar_updates_equal_one_batch_update():
     assert np.allclose(P_seq, (np.eye(6) - K @ Hs) @ P)
 
 
-def test_predict_covariance():
-    rng = np.random.default_rng(3)
-    Phi = rng.standard_normal((6, 6))
-    P = np.eye(6)
-    Q = np.diag([0, 0, 0, 1e-3, 1e-3, 1e-3])
-    assert np.allclose(predict_covariance(P, Phi, Q), Phi @ P @ Phi.T + Q)
-
-
-@pytest.mark.parametrize("n_sc", [1, 2, 3])
-def test_block_diagonal_predict_equals_full_product(n_sc):
-    rng = np.random.default_rng(n_sc)
-    n = 6 * n_sc
+@pytest.mark.parametrize("blocks", [
+    [(BLOCK_SPACECRAFT, 6)],
+    [(BLOCK_SPACECRAFT, 6)] * 3,
+    [(BLOCK_SPACECRAFT, 6), (BLOCK_SPACECRAFT, 6), (BLOCK_CLOCK, 2), (BLOCK_CLOCK, 3), (BLOCK_CONSTANT, 1)],
+])
+def test_block_predict_equals_full_product(blocks):
+    rng = np.random.default_rng(len(blocks))
+    kind = np.array([k for k, _ in blocks], dtype=np.int64)
+    size = np.array([n for _, n in blocks], dtype=np.int64)
+    start = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
+    n = int(size.sum())
     Phi = np.zeros((n, n))
-    for s in range(n_sc):
-        Phi[6 * s : 6 * s + 6, 6 * s : 6 * s + 6] = rng.standard_normal((6, 6))
+    for k, a, b in zip(kind, start, size):
+        Phi[a : a + b, a : a + b] = np.eye(b) if k == BLOCK_CONSTANT else rng.standard_normal((b, b))
     A = rng.standard_normal((n, n))
     P = A @ A.T + n * np.eye(n)
     Q = np.diag(rng.uniform(0.0, 1e-3, n))
-    fast = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)))
+    fast = predict_covariance_blocks(P, Phi, Q, np.empty((n, n)), kind, start, size)
     assert np.allclose(fast, Phi @ P @ Phi.T + Q, rtol=1e-13, atol=1e-12)
     assert np.array_equal(fast, fast.T)
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_errors
-from liaison_cli.campaign.schema import load_scenario
+from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.measurements.range import geometric_range_gradient
 from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient
@@ -120,11 +120,15 @@ def test_vectorised_partials_equal_the_measurement_models():
 
     names, states0, times, links = _inputs("eml2_lunar")
     states, _ = stm_from_t0(states0, times[:50])
-    rate = _link_partials(states, 0, 1, "range_rate")
-    rng = _link_partials(states, 0, 1, "range")
+    rate_r, rate_t = _link_partials(states, 0, 1, "range_rate")
+    rng_r, rng_t = _link_partials(states, 0, 1, "range")
     for k in (0, 17, 49):
-        assert np.allclose(rate[k], range_rate_gradient(states[k, 0], states[k, 1]), rtol=1e-12, atol=1e-15)
-        assert np.allclose(rng[k, :3], geometric_range_gradient(states[k, 0, :3], states[k, 1, :3]), rtol=1e-12)
+        expected = range_rate_gradient(states[k, 0], states[k, 1])
+        assert np.allclose(rate_r[k], expected, rtol=1e-12, atol=1e-15)
+        assert np.allclose(rate_t[k], -expected, rtol=1e-12, atol=1e-15)
+        expected = geometric_range_gradient(states[k, 0, :3], states[k, 1, :3])
+        assert np.allclose(rng_r[k, :3], expected, rtol=1e-12) and np.allclose(rng_t[k, :3], -expected, rtol=1e-12)
+        assert np.all(rng_r[k, 3:] == 0.0)
 
 
 def test_gamma_figure_of_merit_scales_with_the_noise_ratio(tmp_path):

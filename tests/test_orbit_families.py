@@ -18,7 +18,7 @@ def families(tmp_path_factory):
     """Every family generated once into a private cache (the first call of each generates)."""
     import os
 
-    from liaison_cli.campaign import family_store
+    from liaison_cli.orbits import family_store
 
     cache = tmp_path_factory.mktemp("cache")
     old = os.environ.get("LIAISON_ORBIT_CACHE_DIR")
@@ -62,7 +62,7 @@ def test_every_member_recloses_and_families_are_continuous(families):
             state0 = np.array([row.x0, row.y0, row.z0, row.vx0, row.vy0, row.vz0])
             end = propagate_states(state0, np.array([0.0, row.period_tu]), MU)[-1]
             assert np.max(np.abs(end - state0)) < 1e-9, (name, row.member)
-        jacobi = frame.jacobi.to_numpy()
+        jacobi = np.asarray(frame.jacobi)
         span = jacobi.max() - jacobi.min()
         assert np.max(np.abs(np.diff(jacobi))) < min(0.1, 0.35 * span), name  # no jump to another family
         assert np.all(np.abs(np.diff(frame.x0)) < 0.05), name
@@ -86,7 +86,7 @@ def test_table1_orbits_lie_on_the_southern_halo_families(families):
 
 def test_nine_two_nrho(families):
     tables, _ = families
-    from liaison_cli.campaign.family_store import from_frame
+    from liaison_cli.orbits.family_store import from_table as from_frame
 
     period = 2.0 * SYNODIC_MONTH_DAYS / 9.0  # 9 revolutions in 2 synodic months: 6.5624 d
     orbit = member_by_period("l2_nrho_south", from_frame(tables["l2_nrho_south"]), period)
@@ -98,7 +98,7 @@ def test_nine_two_nrho(families):
 
 def test_period_outside_family_names_the_range(families):
     tables, _ = families
-    from liaison_cli.campaign.family_store import from_frame
+    from liaison_cli.orbits.family_store import from_table as from_frame
 
     with pytest.raises(FamilyError, match=r"valid 6\.0\d\d to [78]\.\d\d\d days"):
         member_by_period("l2_nrho_south", from_frame(tables["l2_nrho_south"]), 9.5)
@@ -144,7 +144,7 @@ def test_unknown_family_is_one_line(tmp_path):
 
 def test_member_by_amplitude(families):
     tables, _ = families
-    from liaison_cli.campaign.family_store import from_frame
+    from liaison_cli.orbits.family_store import from_table as from_frame
     from liaison_cli.orbits.families import amplitude_km, member_by_amplitude
 
     for name, target in (("l2_halo_south", 30000.0), ("l1_lyapunov", 40000.0)):
@@ -155,3 +155,14 @@ def test_member_by_amplitude(families):
         assert orbit.closure_lu < 1e-9
     with pytest.raises(FamilyError, match=r"amplitude_km = 1e\+06 is outside family 'dro': valid \d+ to \d+ km"):
         member_by_amplitude("dro", from_frame(tables["dro"]), 1e6)
+
+
+def test_recorded_family_ranges_match_the_generated_tables(families):
+    """Scenario validation uses recorded ranges (no disk access); they must be the tables' own."""
+    from liaison_cli.orbits.family_ranges import FAMILY_RANGES
+
+    tables, _ = families
+    assert set(FAMILY_RANGES) == set(FAMILIES)
+    for name, frame in tables.items():
+        got = (frame.period_days.min(), frame.period_days.max(), frame.amplitude_km.min(), frame.amplitude_km.max())
+        assert np.allclose(got, FAMILY_RANGES[name], rtol=1e-9), name

@@ -17,9 +17,12 @@ import numpy as np
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import jacobian, rk4_state_stm
 from liaison_cli.dynamics.propagation import propagate_state_stm
+from liaison_cli.measurements.registry import OBSERVABLES as REGISTERED
+from liaison_cli.measurements.registry import get_observable, predict_along
 
 AXES = ("x", "y", "z", "vx", "vy", "vz")
-OBSERVABLES = ("range", "range_rate")
+# Scalar observables that depend on the two spacecraft states alone (no clock): range and range-rate.
+OBSERVABLES = tuple(name for name, obs in REGISTERED.items() if len(obs.channels) == 1 and not obs.needs_receiver_clock)
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,15 +65,12 @@ def stm_from_t0(states0, times_tu, mu=MU):
 
 
 def _link_partials(states, receiver, transponder, observable):
-    """d(observable)/d(receiver state) at every epoch: (m, 6); the transponder's is its negative."""
-    r = states[:, receiver, :3] - states[:, transponder, :3]
-    rho = np.linalg.norm(r, axis=1)
-    u = r / rho[:, None]
-    if observable == "range":
-        return np.concatenate([u, np.zeros_like(u)], axis=1)
-    v = states[:, receiver, 3:] - states[:, transponder, 3:]
-    rho_dot = np.einsum("ij,ij->i", u, v)
-    return np.concatenate([(v - rho_dot[:, None] * u) / rho[:, None], u], axis=1)
+    """d(observable)/d(state) of the receiver and of the transponder at every epoch: (m, 6) each."""
+    kind = get_observable(observable).channels[0].code
+    receiver_states = np.ascontiguousarray(states[:, receiver])
+    transponder_states = np.ascontiguousarray(states[:, transponder])
+    _, g_receiver, g_transponder = predict_along(kind, receiver_states, transponder_states, 0)
+    return g_receiver, g_transponder
 
 
 def analyse(states0, times_tu, links, sigma, observable: str = "range", names=None, mu=MU,
@@ -93,10 +93,10 @@ def analyse(states0, times_tu, links, sigma, observable: str = "range", names=No
     block_pos = np.zeros((m, n_sc, 3, 3))
     block_vel = np.zeros((m, n_sc, 3, 3))
     for receiver, transponder in links:
-        g = _link_partials(states, receiver, transponder, observable)
+        g_r, g_t = _link_partials(states, receiver, transponder, observable)
         H = np.zeros((m, n))  # rows H_k = H~_k Phi(t_k, t0), spacecraft block by block (Eq. 25)
-        H[:, 6 * receiver : 6 * receiver + 6] = np.einsum("mi,mij->mj", g, phis[:, receiver])
-        H[:, 6 * transponder : 6 * transponder + 6] = -np.einsum("mi,mij->mj", g, phis[:, transponder])
+        H[:, 6 * receiver : 6 * receiver + 6] = np.einsum("mi,mij->mj", g_r, phis[:, receiver])
+        H[:, 6 * transponder : 6 * transponder + 6] = np.einsum("mi,mij->mj", g_t, phis[:, transponder])
         gramian += H.T @ H
         information += weight * (H.T @ H)
         for s in range(n_sc):

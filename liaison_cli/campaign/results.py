@@ -1,22 +1,14 @@
-"""Result tables and atomic Parquet I/O with provenance metadata."""
+"""Result tables of a campaign (Parquet, written atomically by liaison_cli.storage) with provenance."""
 
-import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
 from liaison_cli import __version__
 from liaison_cli.analysis.metrics import nees_band
 from liaison_cli.campaign.runner import CampaignResult
-from liaison_cli.errors import OutputExistsError
-
-METADATA_KEY = b"liaison"
+from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 
 def provenance(result: CampaignResult, scenario_text: str, extra: dict | None = None) -> dict:
@@ -103,8 +95,7 @@ def residuals_table(result: CampaignResult, float_dtype="float32") -> pd.DataFra
 def bias_table(result: CampaignResult) -> pd.DataFrame:
     """One row per (run, link): true range bias, the filter's final value and 1-sigma (m)."""
     problem = result.problem
-    labels = [f"{problem.spacecraft[r]}->{problem.spacecraft[t]}"
-              for r, t in zip(problem.link_receiver, problem.link_transponder)]
+    labels = problem.link_labels
     rows = []
     for outcome in result.outcomes:
         if outcome.bias_true_m is None:
@@ -124,7 +115,7 @@ def consistency_table(result: CampaignResult) -> pd.DataFrame:
     if not good:
         return pd.DataFrame()
     nees = np.stack([o.nees for o in good])
-    state_size = result.problem.truth.shape[1]
+    state_size = result.problem.filter.n_nees  # the states the NEES covers (consider parameters excluded)
     lo, hi = nees_band(state_size, len(good))
     mean = nees.mean(axis=0)
     return pd.DataFrame(
@@ -138,70 +129,6 @@ def consistency_table(result: CampaignResult) -> pd.DataFrame:
             "state_size": state_size,
         }
     )
-
-
-def _temp_beside(path: Path) -> str:
-    """A temp file in the destination folder (so the rename is atomic) with normal permissions."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    return tmp
-
-
-def write_parquet_atomic(df: pd.DataFrame, path, metadata: dict) -> None:
-    """Write a table with JSON metadata under the 'liaison' key: temp file in the same folder, then rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    table = pa.Table.from_pandas(df, preserve_index=False)
-    merged = dict(table.schema.metadata or {})
-    merged[METADATA_KEY] = json.dumps(metadata, sort_keys=True).encode()
-    table = table.replace_schema_metadata(merged)
-    tmp = _temp_beside(path)
-    try:
-        pq.write_table(table, tmp)
-        with open(tmp, "rb") as handle:
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def write_text_atomic(text: str, path) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _temp_beside(path)
-    try:
-        with open(tmp, "w", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def read_metadata(path) -> dict:
-    return json.loads(pq.read_schema(path).metadata[METADATA_KEY])
-
-
-def prepare_output_dir(path, overwrite: bool) -> Path:
-    path = Path(path)
-    if path.exists() and (not path.is_dir() or any(path.iterdir())):
-        if not overwrite:
-            raise OutputExistsError(
-                f"{path}: output directory already exists and is not empty; pass --overwrite to replace it "
-                "or --output to choose another"
-            )
-        if path.is_dir():
-            shutil.rmtree(path)
-        else:
-            path.unlink()
-    path.mkdir(parents=True, exist_ok=True)
-    return path
 
 
 def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> dict:

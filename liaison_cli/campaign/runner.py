@@ -5,8 +5,8 @@ from dataclasses import dataclass
 from joblib import Parallel, delayed
 from tqdm import tqdm
 
-from liaison_cli.campaign.problem import Problem, prepare_problem
-from liaison_cli.campaign.schema import Scenario
+from liaison_cli.scenario.setup import Problem, prepare_problem
+from liaison_cli.scenario.schema import Scenario
 from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
 
 

@@ -19,9 +19,9 @@ import pandas as pd
 
 from liaison_cli import __version__, core_source_hash
 from liaison_cli.campaign.backends import check_backend, map_batches
-from liaison_cli.campaign.problem import prepare_problem
-from liaison_cli.campaign.results import write_parquet_atomic, write_text_atomic
-from liaison_cli.campaign.schema import Scenario, apply_overrides
+from liaison_cli.scenario.setup import prepare_problem
+from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.errors import LiaisonError
 

@@ -5,10 +5,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from liaison_cli.analysis.metrics import summary_rows
-from liaison_cli.campaign.problem import Problem
-from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.campaign.seeding import run_rng
-from liaison_cli.estimation.filter_loop import KIND_RANGE, STATUS_NAMES, STATUS_OK, run_ekf
+from liaison_cli.dynamics.clock import simulate_clock
+from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
+from liaison_cli.estimation.estimators import estimate
+from liaison_cli.scenario.setup import Problem
 
 
 @dataclass(frozen=True)
@@ -21,7 +22,7 @@ class RunOutcome:
     """status: 'ok', 'diverged' (filter health check tripped) or 'error' (exception in the worker).
 
     Arrays: norms[...] (m, n_sc) in m and m/s; nees (m,); innovation_m / innovation_std_m (m, C) per
-    measurement channel in SI units (m, m/s or rad; see Problem.channel_units).
+    measurement channel in SI units (m, m/s or rad; see Problem.channel_labels).
     """
 
     run: int
@@ -38,12 +39,22 @@ class RunOutcome:
     bias_sigma_m: np.ndarray | None = None  # (L,) final 1-sigma (NaN if the filter has no bias state)
 
 
-def draw_run_inputs(problem: Problem, run_index: int, with_bias: bool = False):
-    """Initial estimate (n,) and observed measurements (m, L) of one run; with_bias also returns the true
-    range bias of each link (L,) in LU.
+@dataclass(frozen=True, eq=False)
+class RunInputs:
+    """x0_hat (n,) initial estimate; y_obs (m, C) observed values; truth (m, n) the true filter states
+    (spacecraft, clocks, biases); bias_lu (L,) the true range bias of each link."""
+
+    x0_hat: np.ndarray
+    y_obs: np.ndarray
+    truth: np.ndarray
+    bias_lu: np.ndarray
+
+
+def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
+    """Everything random in one run, from (scenario seed, run index) alone.
 
     Draw order is part of the reproducibility contract: initial error first, then measurement noise
-    (one channel after another), then the per-run random bias of each link.
+    (one channel after another), then the per-run random bias of each link, then each clock's history.
     """
     rng = run_rng(problem.scenario.monte_carlo.seed, run_index)
     n = problem.truth.shape[1]
@@ -55,65 +66,58 @@ def draw_run_inputs(problem: Problem, run_index: int, with_bias: bool = False):
     # Channel by channel (column-major), so a channel's noise does not depend on which other channels a
     # scenario has: range-only and range + range-rate runs share their range noise.
     noise = rng.standard_normal((n_channels, m - 1)).T * problem.sigma_lu
-    n_links = len(problem.link_receiver)
-    bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(n_links)
+    bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(len(problem.link_labels))
     y_obs = problem.measurements_true.copy()
     y_obs[1:] += noise
-    ranges = problem.channel_kind == KIND_RANGE  # biases affect range channels only
-    y_obs[1:, ranges] += bias[problem.channel_link[ranges]][None, :]
-    x0_hat = problem.truth[0] + dx0
-    if problem.n_bias:  # the filter starts its bias states at their a-priori mean, zero
-        x0_hat = np.concatenate([x0_hat, np.zeros(problem.n_bias)])
-    return (x0_hat, y_obs, bias) if with_bias else (x0_hat, y_obs)
+    biased = np.array([ch.takes_range_bias for ch in problem.channels])
+    y_obs[1:, biased] += bias[problem.channel_link[biased]][None, :]
+
+    n_state = problem.filter.layout.n
+    truth = np.zeros((m, n_state))
+    truth[:, :n] = problem.truth
+    dt_s = problem.scenario.measurement.interval_s
+    for clock in problem.clocks:
+        x0 = np.array(clock.initial_sigma) * rng.standard_normal(2)
+        history = simulate_clock(rng, m, dt_s, x0, clock.sigma1, clock.sigma2) * np.array(clock.scale)
+        truth[:, clock.state_start : clock.state_start + 2] = history
+        for channel, coeff in clock.channels:
+            y_obs[1:, channel] += coeff * history[1:, 0]
+    if problem.n_bias:
+        truth[:, problem.bias_state_start : problem.bias_state_start + problem.n_bias] = bias[None, :]
+    # The filter starts its clock and bias states at their a-priori mean, zero.
+    x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
+    return RunInputs(x0_hat, y_obs, truth, bias)
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
     run = task.run_index
     try:
-        x0_hat, y_obs, bias = draw_run_inputs(problem, run, with_bias=True)
-        truth = problem.truth
-        if problem.n_bias:
-            truth = np.hstack([truth, np.repeat(bias[None, :], truth.shape[0], axis=0)])
-        err, sigma, nees, innovation, innovation_std, status, fail_step = run_ekf(
-            x0_hat,
-            problem.P0,
-            problem.Q,
-            truth,
-            y_obs,
-            problem.link_receiver,
-            problem.link_transponder,
-            problem.channel_link,
-            problem.channel_kind,
-            problem.sigma_lu,
-            problem.dt_tu,
-            problem.substeps,
-            problem.mu,
-            problem.divergence_position_lu,
-            problem.light_time_model,
-            problem.n_spacecraft,
-            problem.bias_mode,
-        )
+        inputs = draw_run_inputs(problem, run)
+        history = estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
         n_dyn = 6 * problem.n_spacecraft
+        err, sigma = history.err, history.sigma
         summary, norms = summary_rows(problem.times_s, err[:, :n_dyn], sigma[:, :n_dyn], problem.spacecraft,
                                       M_PER_LU, M_S_PER_VU)
-        last = fail_step - 1 if status != STATUS_OK else -1
+        last = history.fail_step - 1 if not history.ok else -1
+        bias = inputs.bias_lu
         if problem.n_bias:
-            bias_estimate = (err[last, n_dyn:] + bias) * M_PER_LU
-            bias_sigma = sigma[last, n_dyn:] * M_PER_LU
+            columns = slice(problem.bias_state_start, problem.bias_state_start + problem.n_bias)
+            bias_estimate = (err[last, columns] + bias) * M_PER_LU
+            bias_sigma = sigma[last, columns] * M_PER_LU
         else:
             bias_estimate = np.zeros_like(bias)
             bias_sigma = np.full_like(bias, np.nan)
-        ok = status == STATUS_OK
+        scale = problem.channel_scale_si
         return RunOutcome(
             run=run,
-            status="ok" if ok else "diverged",
-            reason="" if ok else STATUS_NAMES[int(status)],
-            fail_time_s=float("nan") if ok else float(problem.times_s[fail_step]),
-            summary=summary if ok else _nan_summary(summary),
+            status="ok" if history.ok else "diverged",
+            reason=history.reason,
+            fail_time_s=float("nan") if history.ok else float(problem.times_s[history.fail_step]),
+            summary=summary if history.ok else _nan_summary(summary),
             norms=norms,
-            nees=nees,
-            innovation_m=innovation * problem.channel_scale_si,
-            innovation_std_m=innovation_std * problem.channel_scale_si,
+            nees=history.nees,
+            innovation_m=history.innovation * scale,
+            innovation_std_m=history.innovation_std * scale,
             bias_true_m=bias * M_PER_LU,
             bias_estimate_m=bias_estimate,
             bias_sigma_m=bias_sigma,
@@ -127,4 +131,4 @@ def _nan_summary(rows):
     return [{k: (v if k == "spacecraft" else float("nan")) for k, v in row.items()} for row in rows]
 
 
-__all__ = ["RunTask", "RunOutcome", "execute_run", "draw_run_inputs"]
+__all__ = ["RunTask", "RunOutcome", "RunInputs", "execute_run", "draw_run_inputs"]

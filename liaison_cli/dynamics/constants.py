@@ -26,3 +26,10 @@ BOLTZMANN_DBW_PER_K_HZ = -228.5991672  # 10*log10(1.380649e-23)
 
 MOON_POSITION_LU = (1.0 - MU, 0.0, 0.0)
 EARTH_POSITION_LU = (-MU, 0.0, 0.0)
+
+MOON_RADIUS_KM = 1737.4  # mean radius
+EARTH_RADIUS_KM = 6371.0  # mean radius (occultation)
+# WGS84 ellipsoid and the Earth's rotation rate relative to inertial space (IERS conventions value).
+WGS84_EQUATORIAL_RADIUS_KM = 6378.137
+WGS84_FLATTENING = 1.0 / 298.257223563
+EARTH_ROTATION_RATE_RAD_S = 7.2921150e-5

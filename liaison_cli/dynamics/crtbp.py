@@ -150,20 +150,6 @@ def rk4_state_stm(state, dt_tu, substeps, mu):
 
 
 @njit(cache=True)
-def rk4_state(state, dt_tu, substeps, mu):
-    """Propagate one state (6,) over dt_tu with fixed RK4 steps (no STM). (6,) -> (6,)."""
-    h = dt_tu / substeps
-    x = state.copy()
-    for _ in range(substeps):
-        k1 = derivative(x, mu)
-        k2 = derivative(x + 0.5 * h * k1, mu)
-        k3 = derivative(x + 0.5 * h * k2, mu)
-        k4 = derivative(x + h * k3, mu)
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return x
-
-
-@njit(cache=True)
 def jacobi_constant(state, mu):
     """C = 2U - v^2 with U = (x^2+y^2)/2 + (1-mu)/r1 + mu/r2. (6,) -> float."""
     x, y, z = state[0], state[1], state[2]

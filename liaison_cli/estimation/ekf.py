@@ -1,6 +1,6 @@
 """Extended Kalman filter steps (Turan et al. 2022, Eq. 12, 21-24), numba-compiled, textbook names.
 
-n = state size (6 per spacecraft). Measurements are processed one scalar at a time with a diagonal
+n = state size (6 per spacecraft, then clock and constant blocks). Measurements are processed one scalar at a time with a diagonal
 R, which is algebraically the batch update (Eq. 21-23) and needs no matrix inverse.
 """
 
@@ -9,55 +9,63 @@ from numba import njit
 
 
 @njit(cache=True)
-def predict_covariance(P, Phi, Q):
-    """P_bar = Phi P Phi^T + Q (Eq. 12). P, Phi, Q: (n, n) -> (n, n)."""
-    P_bar = Phi @ P @ Phi.T + Q
-    return 0.5 * (P_bar + P_bar.T)
+def _predict_pair_6x6(P, Phi, Q, out, ra, rb, diagonal, tmp):
+    """out[a, b] = Phi_a P[a, b] Phi_b^T + Q[a, b] for two 6-state blocks (fixed trip counts: the hot path)."""
+    for i in range(6):  # tmp = Phi_a P[a, b]
+        for j in range(6):
+            acc = 0.0
+            for k in range(6):
+                acc += Phi[ra + i, ra + k] * P[ra + k, rb + j]
+            tmp[i, j] = acc
+    for i in range(6):  # out[a, b] = tmp Phi_b^T + Q[a, b]
+        j0 = i if diagonal else 0
+        for j in range(j0, 6):
+            acc = Q[ra + i, rb + j]
+            for k in range(6):
+                acc += tmp[i, k] * Phi[rb + j, rb + k]
+            out[ra + i, rb + j] = acc
+            out[rb + j, ra + i] = acc
 
 
 @njit(cache=True)
-def predict_covariance_block_diagonal(P, Phi, Q, out, n_sc=-1):
+def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_size):
     """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi, written into `out`.
 
-    P, Phi, Q, out: (n, n). The first 6 n_sc states are spacecraft (one 6 x 6 STM block each; default
-    n_sc = n // 6); any further states are constant parameters (range biases) with identity transition.
-    Each spacecraft's STM is propagated on its own, so P_bar[a, b] = Phi_a P[a, b] Phi_b^T: half the flops
-    of the full product and no temporaries. Symmetric by construction (upper triangle mirrored).
+    P, Phi, Q, out: (n, n); block_kind / block_start / block_size (B,): the state layout (see
+    estimation.blocks). Only Phi's diagonal blocks are read; constant blocks (kind 2) have identity
+    transition and skip their products. Each pair of blocks is done on its own,
+    P_bar[a, b] = Phi_a P[a, b] Phi_b^T + Q[a, b]: no dense n x n product and no temporaries beyond one
+    block. Symmetric by construction (upper triangle mirrored).
     """
-    n = P.shape[0]
-    if n_sc < 0:
-        n_sc = n // 6
-    n_dyn = 6 * n_sc
+    n_blocks = block_kind.shape[0]
     tmp = np.empty((6, 6))
-    for a in range(n_sc):
-        ra = 6 * a
-        for b in range(a, n_sc):
-            rb = 6 * b
-            for i in range(6):  # tmp = Phi_a P[a, b]
-                for j in range(6):
-                    acc = 0.0
-                    for k in range(6):
-                        acc += Phi[ra + i, ra + k] * P[ra + k, rb + j]
-                    tmp[i, j] = acc
-            for i in range(6):  # out[a, b] = tmp Phi_b^T + Q[a, b]
+    for a in range(n_blocks):
+        ra, na, const_a = block_start[a], block_size[a], block_kind[a] == 2
+        for b in range(a, n_blocks):
+            rb, nb, const_b = block_start[b], block_size[b], block_kind[b] == 2
+            if na == 6 and nb == 6 and not const_a and not const_b:
+                _predict_pair_6x6(P, Phi, Q, out, ra, rb, a == b, tmp)
+                continue
+            for i in range(na):  # tmp = Phi_a P[a, b]
+                for j in range(nb):
+                    if const_a:
+                        tmp[i, j] = P[ra + i, rb + j]
+                    else:
+                        acc = 0.0
+                        for k in range(na):
+                            acc += Phi[ra + i, ra + k] * P[ra + k, rb + j]
+                        tmp[i, j] = acc
+            for i in range(na):  # out[a, b] = tmp Phi_b^T + Q[a, b]
                 j0 = i if a == b else 0
-                for j in range(j0, 6):
+                for j in range(j0, nb):
                     acc = Q[ra + i, rb + j]
-                    for k in range(6):
-                        acc += tmp[i, k] * Phi[rb + j, rb + k]
+                    if const_b:
+                        acc += tmp[i, j]
+                    else:
+                        for k in range(nb):
+                            acc += tmp[i, k] * Phi[rb + j, rb + k]
                     out[ra + i, rb + j] = acc
                     out[rb + j, ra + i] = acc
-        for j in range(n_dyn, n):  # spacecraft x parameter: Phi_a P[a, j]
-            for i in range(6):
-                acc = Q[ra + i, j]
-                for k in range(6):
-                    acc += Phi[ra + i, ra + k] * P[ra + k, j]
-                out[ra + i, j] = acc
-                out[j, ra + i] = acc
-    for i in range(n_dyn, n):
-        for j in range(i, n):
-            out[i, j] = P[i, j] + Q[i, j]
-            out[j, i] = out[i, j]
     return out
 
 

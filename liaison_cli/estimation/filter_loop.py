@@ -1,28 +1,19 @@
 """The per-run EKF loop over measurement epochs (Turan et al. 2022, Eq. 10-24), compiled with numba.
 
 Everything here is plain arrays: no Python objects in the inner loop, so one 10-day run costs tens of
-milliseconds. The dynamics enter only through `rk4_state_stm`, the observable only through the range
-model functions; the EKF algebra lives in `estimation.ekf`.
+milliseconds. The loop knows the state only as a layout of blocks (estimation.blocks), the dynamics only
+through `dynamics.model.propagate_state_stm` (a model code + parameters), and the measurements only
+through `measurements.registry.predict` / `residual` plus each channel's table of ends and modifiers. The
+EKF algebra lives in `estimation.ekf`.
 """
 
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.crtbp import rk4_state_stm
-from liaison_cli.estimation.ekf import (
-    normalized_error_squared,
-    predict_covariance_block_diagonal,
-    update_scalar,
-)
-from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_LU_TU
-from liaison_cli.measurements.range import geometric_range, geometric_range_gradient
-from liaison_cli.measurements.los import azimuth_elevation, azimuth_elevation_gradients
-from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient
-
-KIND_RANGE = 0
-KIND_RANGE_RATE = 1
-KIND_AZIMUTH = 2
-KIND_ELEVATION = 3
+from liaison_cli.dynamics.model import propagate_state_stm
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_SPACECRAFT
+from liaison_cli.estimation.ekf import normalized_error_squared, predict_covariance_blocks, update_scalar
+from liaison_cli.measurements.registry import predict, residual
 
 STATUS_OK = 0
 STATUS_NONFINITE = 1
@@ -36,54 +27,69 @@ STATUS_NAMES = {
     STATUS_ERROR_BEYOND_BOUND: "diverged: position error beyond the scenario bound",
 }
 
+# Columns of `channel_ends`: the receiving end and the transmitting (or transponding) end, each either an
+# estimated spacecraft (offset of its 6-state block in x) or a known participant (row of known_states).
+END_RECEIVER_STATE, END_RECEIVER_KNOWN, END_TRANSMITTER_STATE, END_TRANSMITTER_KNOWN = 0, 1, 2, 3
+
 
 @njit(cache=True)
-def run_ekf(
-    x0_hat,
-    P0,
-    Q,
-    truth,
-    y_obs,
-    link_receiver,
-    link_transponder,
-    channel_link,
-    channel_kind,
-    sigma_lu,
-    dt_tu,
-    substeps,
-    mu,
-    divergence_position_lu,
-    light_time_model=False,
-    n_sc=-1,
-    bias_mode=0,
-):
+def _end_state(x_bar, known_states, k, state_offset, known_index):
+    if state_offset >= 0:
+        return x_bar[state_offset : state_offset + 6]
+    return known_states[k, known_index]
+
+
+@njit(cache=True)
+def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
+                 substeps):
+    """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11)."""
+    for b in range(block_kind.shape[0]):
+        a, size = block_start[b], block_size[b]
+        if block_kind[b] == BLOCK_SPACECRAFT:
+            xs, phis = propagate_state_stm(model, model_params, x_hat[a : a + 6], t_tu, dt_tu, substeps)
+            x_bar[a : a + 6] = xs
+            Phi[a : a + 6, a : a + 6] = phis
+        elif block_kind[b] == BLOCK_CLOCK:
+            for i in range(size):  # Phi_ij = dt^(j-i) / (j-i)!
+                Phi[a + i, a + i] = 1.0
+                term = 1.0
+                for j in range(i + 1, size):
+                    term *= dt_tu / (j - i)
+                    Phi[a + i, a + j] = term
+            for i in range(size):
+                acc = 0.0
+                for j in range(size):
+                    acc += Phi[a + i, a + j] * x_hat[a + j]
+                x_bar[a + i] = acc
+        else:
+            for i in range(size):
+                x_bar[a + i] = x_hat[a + i]  # constant parameters
+
+
+@njit(cache=True)
+def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
+            channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
+            n_gain, n_nees, divergence_position_lu):
     """Run one EKF pass.
 
-    x0_hat (n,) initial estimate, n = 6 * n_sc; P0 (n, n); Q (n, n) added at every step (Eq. 12);
-    truth (m, n) true states at the m epochs t_k = k * dt_tu; link_receiver / link_transponder (L,)
-    spacecraft indices. Measurements come in C scalar channels: channel_link (C,) the link of each,
-    channel_kind (C,) 0 range (LU), 1 range-rate (LU/TU), 2 azimuth, 3 elevation (rad); y_obs (m, C)
-    observed values (row 0 unused, NaN = no measurement); sigma_lu (C,) their 1-sigma. light_time_model: predict the two-way range as
-    rho - rho_dot * rho / c (Eq. 14-15 to first order in the light time) instead of the geometric Eq. 17;
-    the partials stay geometric (the correction changes them by ~1e-6 relative).
+    x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
+    the filter states at the m epochs t_k = k * dt_tu; y_obs (m, C) observed values of the C scalar
+    channels (row 0 unused, NaN = no measurement); known_states (m, K, 6) states of the known participants.
+    Per channel: channel_kind (C,) the measurement kind code; channel_ends (C, 4) see END_* (-1 = unused);
+    channel_flags (C,) model flags for the kind; channel_mod_index / channel_mod_coeff (C, M): additive
+    modifiers value += coeff * x[index] (range bias, clock phases; -1 = none); sigma (C,) 1-sigma.
+    block_kind / block_start / block_size (B,): the state layout. model, model_params: the dynamics.
+    n_gain: states from this index on are consider parameters with zero gain (-1: none); n_nees: the NEES
+    covers the first n_nees states. A spacecraft whose position error exceeds divergence_position_lu stops
+    the run.
 
-    Range biases: with bias_mode 1 (estimate) or 2 (consider) the state holds, after the 6 n_sc spacecraft
-    states, one constant range bias per link (n = 6 n_sc + L; truth carries the true biases in those
-    columns). The prediction adds the link's bias, H has 1 in its column. Estimate: a normal augmented
-    state. Consider: its gain is zero (Schmidt-Kalman), so the spacecraft block of P is the consider
-    covariance. NEES covers the spacecraft states, plus the biases when they are estimated.
-
-    Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, L), innovation_std (m, L), status,
+    Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), status,
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
     Rows after a failure stay NaN.
     """
     m, n = truth.shape
-    if n_sc < 0:
-        n_sc = n // 6
-    n_dyn = 6 * n_sc
-    n_channels = channel_link.shape[0]
-    n_gain = n_dyn if bias_mode == 2 else -1
-    n_nees = n if bias_mode == 1 else n_dyn
+    n_channels = channel_kind.shape[0]
+    n_mods = channel_mod_index.shape[1]
     err = np.full((m, n), np.nan)
     sig = np.full((m, n), np.nan)
     nees = np.full(m, np.nan)
@@ -101,17 +107,14 @@ def run_ekf(
     x_bar = np.empty(n)
     Phi = np.zeros((n, n))
     H = np.zeros(n)
+    g_receiver = np.empty(6)
+    g_transmitter = np.empty(6)
     for k in range(1, m):
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        for s in range(n_sc):
-            a = 6 * s
-            xs, phis = rk4_state_stm(x_hat[a : a + 6], dt_tu, substeps, mu)
-            x_bar[a : a + 6] = xs
-            Phi[a : a + 6, a : a + 6] = phis
-        for i in range(n_dyn, n):
-            x_bar[i] = x_hat[i]  # biases are constant
+        _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
+                     (k - 1) * dt_tu, dt_tu, substeps)
         # A fresh output buffer: P may still alias the previous one if no measurement came in.
-        P = predict_covariance_block_diagonal(P, Phi, Q, np.empty((n, n)), n_sc)
+        P = predict_covariance_blocks(P, Phi, Q, np.empty((n, n)), block_kind, block_start, block_size)
 
         # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24).
         dx = np.zeros(n)
@@ -119,37 +122,23 @@ def run_ekf(
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            l = channel_link[c]
-            kind = channel_kind[c]
-            ra = 6 * link_receiver[l]
-            ta = 6 * link_transponder[l]
+            ends = channel_ends[c]
+            ra, ta = ends[END_RECEIVER_STATE], ends[END_TRANSMITTER_STATE]
+            x_r = _end_state(x_bar, known_states, k, ra, ends[END_RECEIVER_KNOWN])
+            x_t = _end_state(x_bar, known_states, k, ta, ends[END_TRANSMITTER_KNOWN])
+            predicted = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_receiver, g_transmitter)
             H[:] = 0.0
-            if kind == KIND_RANGE:
-                predicted = geometric_range(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
-                if light_time_model:
-                    predicted -= range_rate(x_bar[ra : ra + 6], x_bar[ta : ta + 6]) * predicted / SPEED_OF_LIGHT_LU_TU
-                g = geometric_range_gradient(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
-                H[ra : ra + 3] = g
-                H[ta : ta + 3] = -g
-                if bias_mode != 0:
-                    predicted += x_bar[n_dyn + l]
-                    H[n_dyn + l] = 1.0
-            elif kind == KIND_RANGE_RATE:
-                predicted = range_rate(x_bar[ra : ra + 6], x_bar[ta : ta + 6])
-                g6 = range_rate_gradient(x_bar[ra : ra + 6], x_bar[ta : ta + 6])
-                H[ra : ra + 6] = g6
-                H[ta : ta + 6] = -g6
-            else:
-                az, el = azimuth_elevation(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
-                g_az, g_el = azimuth_elevation_gradients(x_bar[ra : ra + 3], x_bar[ta : ta + 3])
-                g = g_az if kind == KIND_AZIMUTH else g_el
-                predicted = az if kind == KIND_AZIMUTH else el
-                H[ra : ra + 3] = g
-                H[ta : ta + 3] = -g
-            residual = y_meas - predicted
-            if kind == KIND_AZIMUTH:  # wrap into (-pi, pi]
-                residual = (residual + np.pi) % (2.0 * np.pi) - np.pi
-            dx, P, innovation, S = update_scalar(dx, P, residual, H, sigma_lu[c] ** 2, n_gain)
+            if ra >= 0:
+                H[ra : ra + 6] = g_receiver
+            if ta >= 0:
+                H[ta : ta + 6] = g_transmitter
+            for j in range(n_mods):  # bias and clock modifiers: linear in their states
+                index = channel_mod_index[c, j]
+                if index >= 0:
+                    predicted += channel_mod_coeff[c, j] * x_bar[index]
+                    H[index] += channel_mod_coeff[c, j]
+            y = residual(channel_kind[c], y_meas, predicted)
+            dx, P, innovation, S = update_scalar(dx, P, y, H, sigma[c] ** 2, n_gain)
             innovations[k, c] = innovation
             innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
         x_hat = x_bar + dx
@@ -169,8 +158,9 @@ def run_ekf(
         for i in range(n):
             sig[k, i] = np.sqrt(P[i, i])
         nees[k] = normalized_error_squared(e[:n_nees], P[:n_nees, :n_nees], work)
-        for s in range(n_sc):
-            a = 6 * s
-            if np.sqrt(e[a] ** 2 + e[a + 1] ** 2 + e[a + 2] ** 2) > divergence_position_lu:
-                return err, sig, nees, innovations, innov_std, STATUS_ERROR_BEYOND_BOUND, k
+        for b in range(block_kind.shape[0]):
+            if block_kind[b] == BLOCK_SPACECRAFT:
+                a = block_start[b]
+                if np.sqrt(e[a] ** 2 + e[a + 1] ** 2 + e[a + 2] ** 2) > divergence_position_lu:
+                    return err, sig, nees, innovations, innov_std, STATUS_ERROR_BEYOND_BOUND, k
     return err, sig, nees, innovations, innov_std, STATUS_OK, -1

@@ -1,19 +1,21 @@
-"""Two-way crosslink range (Turan et al. 2022, Eq. 14-17).
+"""Two-way range (Turan et al. 2022, Eq. 14-17).
 
-Truth: the light-time fixed-point iteration of Eq. 14-15 (downlink then uplink leg, averaged),
-solved in the inertial frame that coincides with the rotating frame at the reception time.
-Filter: the instantaneous geometric range of Eq. 17. The difference (about -range_rate * tau, up to
-~0.2 km for a lunar orbiter) is a genuine model error that the filter has to live with.
+Truth: the light-time fixed-point iteration of Eq. 14-15 (downlink then uplink leg, averaged), solved in
+the inertial frame that coincides with the rotating frame at the reception time. Filter: the
+instantaneous geometric range of Eq. 17, or (flag FLAG_LIGHT_TIME) its first-order light-time form. The
+difference (about -range_rate * tau, up to ~0.2 km for a lunar orbiter) is a genuine model error that a
+geometric filter has to live with.
 """
-
-from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_LU_TU
+from liaison_cli.dynamics.constants import M_PER_LU, SPEED_OF_LIGHT_LU_TU
+from liaison_cli.measurements.observable import ChannelKind, Observable
+from liaison_cli.measurements.range_rate import range_rate
 
-STATE_SIZE = 6
+KIND_RANGE = 0
+FLAG_LIGHT_TIME = 1  # channel flag: predict the two-way range to first order in the light time
 
 
 @njit(cache=True)
@@ -32,40 +34,52 @@ def geometric_range_gradient(r_receiver, r_transponder):
     return (r_receiver - r_transponder) / rho
 
 
-def _position_before(states, dt_back_tu, mu):
-    """Rotating-frame positions dt_back earlier, by a 2nd-order Taylor step (tau < 1e-5 TU), then
-    expressed in the inertial frame aligned with the rotating frame now. (m,6),(m,) -> (m,3)."""
-    from liaison_cli.dynamics.crtbp import derivative
+@njit(cache=True)
+def predict_range(x_receiver, x_transponder, flags, g_receiver, g_transponder):
+    """Filter model of the two-way range (LU) from the two ends' states (6,), (6,); writes the partials
+    with respect to each end's state into g_receiver, g_transponder (6,). With FLAG_LIGHT_TIME the value
+    is rho - rho_dot * rho / c (Eq. 14-15 to first order); the partials stay geometric (they change by
+    ~1e-6 relative)."""
+    predicted = geometric_range(x_receiver[0:3], x_transponder[0:3])
+    if flags & FLAG_LIGHT_TIME:
+        predicted -= range_rate(x_receiver, x_transponder) * predicted / SPEED_OF_LIGHT_LU_TU
+    g = geometric_range_gradient(x_receiver[0:3], x_transponder[0:3])
+    for i in range(3):
+        g_receiver[i] = g[i]
+        g_transponder[i] = -g[i]
+        g_receiver[3 + i] = 0.0
+        g_transponder[3 + i] = 0.0
+    return predicted
 
-    acc = np.array([derivative(s, mu)[3:6] for s in states])
-    r = states[:, 0:3] - states[:, 3:6] * dt_back_tu[:, None] + 0.5 * acc * dt_back_tu[:, None] ** 2
-    angle = -dt_back_tu  # frame rotates at 1 rad/TU
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1], r[:, 2]], axis=1)
 
-
-def two_way_light_time_range(receiver_states, transponder_states, mu, tol_tu=1e-16, max_iter=20):
-    """Eq. 14-15: two-way range recorded by the receiver at the sample times. (m,6),(m,6) -> (m,) LU.
-
-    Downlink: rho_d = |r_T(t - tau_d) - r_R(t)|; uplink: rho_u = |r_T(t - tau_d) - r_R(t - tau_d - tau_u)|;
-    the measurement is (rho_d + rho_u) / 2.
-    """
+def one_way_light_time(receiver, transmitter, tol_tu=1e-16, max_iter=20):
+    """Downlink light time tau_d (m,) in TU: |r_T(t - tau_d) - r_R(t)| = c tau_d, by fixed-point iteration.
+    receiver / transmitter: trajectories (`.states` (m, 6), `.inertial_position_before(dt_back_tu)`)."""
     c = SPEED_OF_LIGHT_LU_TU
-    receiver_states = np.asarray(receiver_states, dtype=float)
-    transponder_states = np.asarray(transponder_states, dtype=float)
-    r_receiver_now = receiver_states[:, 0:3]
-    tau_d = np.linalg.norm(transponder_states[:, 0:3] - r_receiver_now, axis=1) / c
+    r_receiver_now = receiver.states[:, 0:3]
+    tau_d = np.linalg.norm(transmitter.states[:, 0:3] - r_receiver_now, axis=1) / c
     for _ in range(max_iter):
-        r_t = _position_before(transponder_states, tau_d, mu)
+        r_t = transmitter.inertial_position_before(tau_d)
         new = np.linalg.norm(r_t - r_receiver_now, axis=1) / c
         done = np.max(np.abs(new - tau_d)) < tol_tu
         tau_d = new
         if done:
             break
-    r_transponder = _position_before(transponder_states, tau_d, mu)
+    return tau_d
+
+
+def two_way_light_time_range(receiver, transponder, tol_tu=1e-16, max_iter=20):
+    """Eq. 14-15: two-way range recorded by the receiver at the sample times, (m,) LU.
+
+    Downlink: rho_d = |r_T(t - tau_d) - r_R(t)|; uplink: rho_u = |r_T(t - tau_d) - r_R(t - tau_d - tau_u)|;
+    the measurement is (rho_d + rho_u) / 2.
+    """
+    c = SPEED_OF_LIGHT_LU_TU
+    tau_d = one_way_light_time(receiver, transponder, tol_tu, max_iter)
+    r_transponder = transponder.inertial_position_before(tau_d)
     tau_u = tau_d.copy()
     for _ in range(max_iter):
-        r_r = _position_before(receiver_states, tau_d + tau_u, mu)
+        r_r = receiver.inertial_position_before(tau_d + tau_u)
         new = np.linalg.norm(r_transponder - r_r, axis=1) / c
         done = np.max(np.abs(new - tau_u)) < tol_tu
         tau_u = new
@@ -74,31 +88,22 @@ def two_way_light_time_range(receiver_states, transponder_states, mu, tol_tu=1e-
     return 0.5 * c * (tau_d + tau_u)
 
 
-@dataclass(frozen=True)
-class TwoWayRange:
-    """Crosslink two-way range between spacecraft `receiver` (mothercraft) and `transponder`.
+def _simulate(code, receiver, transponder, light_time: bool):
+    if light_time:
+        return two_way_light_time_range(receiver, transponder)
+    return np.linalg.norm(receiver.states[:, 0:3] - transponder.states[:, 0:3], axis=1)
 
-    Indices refer to rows of a (n_spacecraft, 6) state array. value/partials are the filter model
-    (Eq. 17); simulate() produces noise-free truth with light time (Eq. 14-15).
-    """
 
-    receiver: int
-    transponder: int
+def _sigma(noise, receiver):
+    return (noise.resolved_sigma_m() / M_PER_LU,)
 
-    def value(self, states):
-        """(n_sc, 6) -> range in LU."""
-        return geometric_range(states[self.receiver, 0:3], states[self.transponder, 0:3])
 
-    def partials(self, states):
-        """(n_sc, 6) -> H row (6 * n_sc,), Eq. 20."""
-        h = np.zeros(states.shape[0] * STATE_SIZE)
-        g = geometric_range_gradient(states[self.receiver, 0:3], states[self.transponder, 0:3])
-        h[self.receiver * STATE_SIZE : self.receiver * STATE_SIZE + 3] = g
-        h[self.transponder * STATE_SIZE : self.transponder * STATE_SIZE + 3] = -g
-        return h
-
-    def simulate(self, truth, mu, light_time=True):
-        """Noise-free measurements from truth states (m, n_sc, 6) -> (m,) LU."""
-        if light_time:
-            return two_way_light_time_range(truth[:, self.receiver], truth[:, self.transponder], mu)
-        return np.linalg.norm(truth[:, self.receiver, 0:3] - truth[:, self.transponder, 0:3], axis=1)
+OBSERVABLE = Observable(
+    name="range",
+    channels=(ChannelKind(KIND_RANGE, "range", "m", M_PER_LU),),
+    sigma=_sigma,
+    simulate=_simulate,
+    takes_range_bias=True,
+    filter_flags=lambda filter_spec: FLAG_LIGHT_TIME if filter_spec.range_model == "light_time" else 0,
+    description="two-way range through a transponder (Eq. 14-17); sigma: noise.sigma_m or the link budget",
+)

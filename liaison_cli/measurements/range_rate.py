@@ -1,8 +1,14 @@
-"""Instantaneous crosslink range-rate (001 Eq. 20-21 geometry): rho_dot = (r . v) / |r| with the relative
-position r = r_receiver - r_transponder and velocity v = v_receiver - v_transponder (rotating frame)."""
+"""Instantaneous range-rate (001 Eq. 20-21 geometry): rho_dot = (r . v) / |r| with the relative position
+r = r_receiver - r_transponder and velocity v = v_receiver - v_transponder (rotating frame). Truth is the
+same geometry at the reception time: its light-time terms are far below the range-rate noise."""
 
 import numpy as np
 from numba import njit
+
+from liaison_cli.dynamics.constants import M_S_PER_VU
+from liaison_cli.measurements.observable import ChannelKind, Observable
+
+KIND_RANGE_RATE = 1
 
 
 @njit(cache=True)
@@ -26,3 +32,32 @@ def range_rate_gradient(x_receiver, x_transponder):
     out[0:3] = (v - rho_dot * u) / rho
     out[3:6] = u
     return out
+
+
+@njit(cache=True)
+def predict_range_rate(x_receiver, x_transponder, flags, g_receiver, g_transponder):
+    """Value (LU/TU) and partials with respect to both ends' states (6,) each."""
+    g = range_rate_gradient(x_receiver, x_transponder)
+    for i in range(6):
+        g_receiver[i] = g[i]
+        g_transponder[i] = -g[i]
+    return range_rate(x_receiver, x_transponder)
+
+
+def _simulate(code, receiver, transponder, light_time: bool):
+    return np.array([range_rate(a, b) for a, b in zip(receiver.states, transponder.states)])
+
+
+def _sigma(noise, receiver):
+    return (noise.resolved_range_rate_sigma_m_s() / M_S_PER_VU,)
+
+
+OBSERVABLE = Observable(
+    name="range_rate",
+    channels=(ChannelKind(KIND_RANGE_RATE, "range_rate", "m/s", M_S_PER_VU),),
+    sigma=_sigma,
+    simulate=_simulate,
+    missing_noise=lambda noise: (None if noise.resolved_range_rate_sigma_m_s() is not None
+                                 else "give noise.range_rate_sigma_m_s or noise.carrier"),
+    description="instantaneous range-rate (Doppler); sigma: noise.range_rate_sigma_m_s or noise.carrier",
+)

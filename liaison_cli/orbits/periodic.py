@@ -16,13 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liaison_cli.dynamics.constants import LU_KM, MU
+from liaison_cli.dynamics.constants import LU_KM, MOON_RADIUS_KM, MU
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant
 from liaison_cli.dynamics.propagation import propagate_state_stm
 
 RTOL = 1e-13
 ATOL = 1e-14
-MOON_RADIUS_KM = 1737.4
 
 _SPATIAL_FREE = (0, 2, 4)  # x0, z0, vy0
 _SPATIAL_CONSTRAINED = (1, 3, 5)  # y, vx, vz at T/2

@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from liaison_cli import __version__
-from liaison_cli.campaign.results import write_parquet_atomic, write_text_atomic
+from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
 

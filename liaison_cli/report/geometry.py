@@ -12,9 +12,9 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.analysis.observability import analyse, stm_from_t0
-from liaison_cli.campaign.family_store import from_frame, load_or_generate
-from liaison_cli.campaign.results import write_parquet_atomic
-from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, TU_S
+from liaison_cli.orbits.family_store import from_table, load_or_generate
+from liaison_cli.storage import write_parquet_atomic
+from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY, TU_S
 from liaison_cli.orbits.families import TU_DAYS
 from liaison_cli.orbits.keplerian import keplerian_period_s, lunar_orbiter_state_lu
 
@@ -22,7 +22,7 @@ LUNAR_A_KM = (5000.0, 6500.0, 8000.0, 9000.0, 11000.0, 13000.0, 15000.0)
 
 
 def _pick(family: str, count: int):
-    members = from_frame(load_or_generate(family)[0])
+    members = from_table(load_or_generate(family)[0])
     picks = np.round(np.linspace(0, len(members) - 1, count)).astype(int)
     return [members[i] for i in picks]
 
@@ -48,8 +48,8 @@ def geometry_study(first: str, second: str, count: int = 7, interval_s: float = 
             times_tu = np.arange(0.0, duration_s + 1e-9, interval_s) / TU_S
             states0 = np.array([state_a, state_b])
             propagated = stm_from_t0(states0, times_tu)
-            row = {"first": label_a, "second": label_b, "i": i, "j": j, "duration_days": duration_s / 86400.0,
-                   "first_period_days": period_a / 86400.0, "second_period_days": period_b / 86400.0,
+            row = {"first": label_a, "second": label_b, "i": i, "j": j, "duration_days": duration_s / SECONDS_PER_DAY,
+                   "first_period_days": period_a / SECONDS_PER_DAY, "second_period_days": period_b / SECONDS_PER_DAY,
                    "mean_distance_km": float(np.mean(np.linalg.norm(
                        propagated[0][:, 0, :3] - propagated[0][:, 1, :3], axis=1)) * LU_KM)}
             for observable, sigma in (("range", sigma_range_m / M_PER_LU),

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_errors
-from liaison_cli.campaign.problem import initial_state_lu, measurement_times_s
-from liaison_cli.campaign.results import write_parquet_atomic, write_text_atomic
+from liaison_cli.scenario.setup import initial_state_lu, measurement_times_s
+from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 
 TAYLOR_STEPS_S = (10, 60, 100, 600)

@@ -10,12 +10,16 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from liaison_cli.dynamics.constants import MOON_RADIUS_KM, SECONDS_PER_DAY
 from liaison_cli.errors import ScenarioError
+from liaison_cli.estimation.estimators import estimator_names
+from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.orbits.catalog import catalog_names
+from liaison_cli.orbits.family_ranges import member_range
 from liaison_cli.orbits.families import FAMILIES, family_names
 from liaison_cli.radio.carrier import TURNAROUND_S_BAND
 from liaison_cli.radio.link_budget import LinkLeg
-from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, sigma_from_link_budget
+from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
@@ -40,7 +44,7 @@ class StrictModel(BaseModel):
 class KeplerianElements(StrictModel):
     """Moon-centred elements in inertial axes aligned with the rotating frame at t0."""
 
-    a_km: float = Field(gt=1737.4, description="semi-major axis, above the lunar radius")
+    a_km: float = Field(gt=MOON_RADIUS_KM, description="semi-major axis, above the lunar radius")
     e: float = Field(ge=0.0, lt=1.0)
     i_deg: float = Field(ge=0.0, le=180.0)
     raan_deg: float = 0.0
@@ -49,15 +53,29 @@ class KeplerianElements(StrictModel):
 
     @model_validator(mode="after")
     def _perilune_above_surface(self):
-        if self.a_km * (1.0 - self.e) <= 1737.4:
+        if self.a_km * (1.0 - self.e) <= MOON_RADIUS_KM:
             raise ValueError(
-                f"perilune a_km*(1-e) = {self.a_km * (1 - self.e):.1f} km is inside the Moon (radius 1737.4 km)"
+                f"perilune a_km*(1-e) = {self.a_km * (1 - self.e):.1f} km is inside the Moon "
+                f"(radius {MOON_RADIUS_KM} km)"
             )
         return self
 
 
+class ClockSpec(StrictModel):
+    """A participant's clock: the two-state phase / frequency model (dynamics.clock) with its diffusion
+    coefficients, and the a-priori spread of its initial offset and frequency (the truth draws from it,
+    the filter starts at zero with that covariance)."""
+
+    sigma1_s_per_sqrt_s: float = Field(gt=0, description="white-frequency diffusion (phase random walk)")
+    sigma2_per_sqrt_s: float = Field(ge=0, description="random-walk-frequency diffusion")
+    initial_offset_sigma_s: float = Field(gt=0)
+    initial_frequency_sigma: float = Field(gt=0, description="initial fractional frequency offset 1-sigma")
+
+
 class SpacecraftSpec(StrictModel):
     name: str = Field(pattern=NAME_PATTERN)
+    role: Literal["estimated", "known"] = Field(
+        "estimated", description="estimated by the filter, or known (its true trajectory is given to the filter)")
     orbit: str
     elements: KeplerianElements | None = None
     period_days: float | None = Field(None, gt=0, description="member of an orbit family (orbit: <family>)")
@@ -66,6 +84,7 @@ class SpacecraftSpec(StrictModel):
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
     )
+    clock: ClockSpec | None = Field(None, description="an onboard clock whose phase and frequency are estimated")
 
     @field_validator("orbit")
     @classmethod
@@ -86,15 +105,35 @@ class SpacecraftSpec(StrictModel):
         if self.orbit not in FAMILIES and (self.period_days is not None or self.amplitude_km is not None):
             raise ValueError(
                 f"'period_days' / 'amplitude_km' are only allowed with an orbit family ({', '.join(family_names())})")
+        if self.role == "known" and self.clock is not None:
+            raise ValueError("a known spacecraft's clock is not estimated; remove 'clock' or make it role: estimated")
         return self
 
 
+class GroundStationSpec(StrictModel):
+    """A station on the rotating Earth (dynamics.ground_station): WGS84 geodetic coordinates, longitude east
+    of the Earth-Moon line at t0; it sees spacecraft above its elevation mask."""
+
+    name: str = Field(pattern=NAME_PATTERN)
+    latitude_deg: float = Field(ge=-90.0, le=90.0)
+    longitude_deg: float = Field(ge=-180.0, le=360.0)
+    altitude_m: float = Field(0.0, ge=-500.0, le=9000.0)
+    elevation_mask_deg: float = Field(10.0, ge=0.0, lt=90.0)
+
+
+ObservableName = Literal[tuple(OBSERVABLES)]
+
+
 class LinkSpec(StrictModel):
-    """A crosslink: the receiver (mothercraft) times the two-way range through the transponder."""
+    """A link between two participants: the receiver (mothercraft, or ground station) measures through the
+    transponder (for one-way observables such as pseudorange: the transmitter). `occultation: true` blanks
+    epochs at which the Earth or the Moon blocks the line of sight; links to a ground station always obey
+    the station's elevation mask."""
 
     receiver: str
     transponder: str
-    observables: list[Literal["range", "range_rate", "los"]] = Field(default_factory=lambda: ["range"], min_length=1)
+    observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1)
+    occultation: bool = False
 
     @field_validator("observables")
     @classmethod
@@ -110,7 +149,7 @@ class TopologySpec(StrictModel):
 
     kind: Literal["star", "mesh"]
     hub: str | None = None
-    observables: list[Literal["range", "range_rate", "los"]] = Field(default_factory=lambda: ["range"], min_length=1)
+    observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1)
 
 
 def _expand_topology(data: dict) -> dict:
@@ -200,6 +239,8 @@ class NoiseSpec(StrictModel):
     carrier: CarrierSpec | None = None
     bias_m: float = 0.0
     bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a N(0, bias_sigma_m) bias is added")
+    pn_chip_rate_offset_hz: float | None = Field(
+        None, description="PN ranging: received minus local chip rate; adds the constant bias of 000 Eq. 2")
     range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels")
     los_path_sigma_m: float | None = Field(
         None, gt=0, description="path-difference error across the receiver's baseline (LOS, 001 Eq. 8)")
@@ -220,6 +261,8 @@ class NoiseSpec(StrictModel):
             missing = [k for k in CLOCK_KEYS if getattr(self, k) is None]
             if missing:
                 raise ValueError(f"ranging_method {self.ranging_method!r} needs {', '.join(missing)}")
+        if self.pn_chip_rate_offset_hz is not None and self.ranging_method != "pn":
+            raise ValueError("'pn_chip_rate_offset_hz' applies to ranging_method 'pn' only")
         if self.carrier is not None:
             for key in ("range_rate_sigma_m_s", "los_path_sigma_m"):
                 if getattr(self, key) is not None:
@@ -238,6 +281,13 @@ class NoiseSpec(StrictModel):
             self.loop_bandwidth_hz,
             self.ranging_power_fraction_db,
         )
+
+    def resolved_bias_m(self) -> float:
+        """The constant range bias: `bias_m`, plus the PN chip-rate-mismatch bias (000 Eq. 2) if given."""
+        if self.pn_chip_rate_offset_hz is None:
+            return self.bias_m
+        return self.bias_m + pn_chip_rate_bias_m(self.ranging_clock_hz, self.pn_chip_rate_offset_hz,
+                                                 self.correlator_integration_s)
 
     def resolved_range_rate_sigma_m_s(self) -> float | None:
         if self.carrier is not None:
@@ -322,8 +372,10 @@ class Scenario(StrictModel):
     name: str = Field(pattern=NAME_PATTERN)
     description: str = ""
     duration_days: float = Field(gt=0, le=365)
-    spacecraft: list[SpacecraftSpec] = Field(min_length=2)
+    spacecraft: list[SpacecraftSpec] = Field(min_length=1)
+    ground_stations: list[GroundStationSpec] = Field(default_factory=list)
     links: list[LinkSpec] = Field(min_length=1)
+    estimator: Literal[tuple(estimator_names())] = "ekf"
     topology: TopologySpec | None = None
     measurement: MeasurementSpec
     noise: NoiseSpec
@@ -338,40 +390,58 @@ class Scenario(StrictModel):
 
     @model_validator(mode="after")
     def _consistent(self):
-        names = [sc.name for sc in self.spacecraft]
+        names = self.participant_names()
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
-            raise ValueError(f"spacecraft names must be unique; repeated: {', '.join(dupes)}")
+            raise ValueError(f"participant names must be unique; repeated: {', '.join(dupes)}")
+        if not any(sc.role == "estimated" for sc in self.spacecraft):
+            raise ValueError("no spacecraft to estimate: give at least one spacecraft with role: estimated")
+        known = {sc.name for sc in self.spacecraft if sc.role == "known"} | {st.name for st in self.ground_stations}
         for i, link in enumerate(self.links):
             for role in ("receiver", "transponder"):
                 who = getattr(link, role)
                 if who not in names:
                     raise ValueError(
-                        f"links[{i}].{role} = {who!r} is not a spacecraft; defined: {', '.join(names)}"
+                        f"links[{i}].{role} = {who!r} is not a spacecraft or ground station; defined: {', '.join(names)}"
                     )
             if link.receiver == link.transponder:
                 raise ValueError(f"links[{i}] links {link.receiver!r} to itself")
-            if "range_rate" in link.observables and self.noise.resolved_range_rate_sigma_m_s() is None:
-                raise ValueError(
-                    f"links[{i}] measures range_rate: give noise.range_rate_sigma_m_s or noise.carrier")
-            if "los" in link.observables:
-                receiver = next(sc for sc in self.spacecraft if sc.name == link.receiver)
-                if receiver.antenna_baseline_m is None:
-                    raise ValueError(
-                        f"links[{i}] cannot measure 'los': its receiver {link.receiver!r} has no antenna "
-                        "array (set antenna_baseline_m on that spacecraft)"
-                    )
-                if self.noise.resolved_los_path_sigma_m() is None:
-                    raise ValueError(f"links[{i}] measures los: give noise.los_path_sigma_m or noise.carrier")
-        if self.measurement.interval_s > self.duration_days * 86400.0:
+            if link.receiver in known and link.transponder in known:
+                raise ValueError(f"links[{i}] joins two known participants ({link.receiver!r}, {link.transponder!r}): "
+                                 "it carries no information on any estimated state")
+            receiver = self.participant(link.receiver)
+            for observable in link.observables:
+                self._check_observable(i, link, observable, receiver)
+        if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
                 f"{self.duration_days} d scenario"
             )
         return self
 
+    def _check_observable(self, i, link, observable, receiver):
+        spec = OBSERVABLES[observable]
+        if spec.needs_receiver_baseline and getattr(receiver, "antenna_baseline_m", None) is None:
+            raise ValueError(
+                f"links[{i}] cannot measure {observable!r}: its receiver {link.receiver!r} has no antenna "
+                "array (set antenna_baseline_m on that spacecraft)"
+            )
+        missing = spec.missing_noise(self.noise)
+        if missing:
+            raise ValueError(f"links[{i}] measures {observable}: {missing}")
+        if spec.needs_receiver_clock and getattr(receiver, "clock", None) is None:
+            raise ValueError(f"links[{i}] measures {observable!r}, timed by the receiver's clock, but "
+                             f"{link.receiver!r} has no clock (give that spacecraft a 'clock' section)")
+
     def spacecraft_names(self) -> list[str]:
-        return [sc.name for sc in self.spacecraft]
+        """The estimated spacecraft, in scenario order (the filter's spacecraft blocks)."""
+        return [sc.name for sc in self.spacecraft if sc.role == "estimated"]
+
+    def participant_names(self) -> list[str]:
+        return [sc.name for sc in self.spacecraft] + [st.name for st in self.ground_stations]
+
+    def participant(self, name: str):
+        return next(p for p in [*self.spacecraft, *self.ground_stations] if p.name == name)
 
 
 def _format_loc(loc) -> str:
@@ -408,16 +478,14 @@ def validate_scenario(data, source: str = "<scenario>", model=Scenario):
 
 
 def _check_family_periods(scenario: Scenario, source: str) -> None:
-    """A family member must exist: its period has to lie in the family's generated range."""
-    from liaison_cli.campaign.family_store import load_or_generate
-
+    """A family member must exist: its period (or amplitude) has to lie in the family's range (recorded
+    data: validation never reads or generates families on disk)."""
     for i, sc in enumerate(scenario.spacecraft):
         if sc.orbit not in FAMILIES:
             continue
-        frame, _ = load_or_generate(sc.orbit)
         key, unit, digits = ("period_days", "days", 3) if sc.period_days is not None else ("amplitude_km", "km", 0)
         value = getattr(sc, key)
-        lo, hi = float(frame[key].min()), float(frame[key].max())
+        lo, hi = member_range(sc.orbit, key)
         if not lo <= value <= hi:
             raise ScenarioError(
                 f"{source}: key 'spacecraft[{i}].{key}' = {value!r}: outside orbit family "

@@ -1,0 +1,45 @@
+"""The dynamics interface: state + STM over an interval, given an epoch. Estimators see nothing else.
+
+A model is a code and a parameter vector (plain data, so compiled estimators take it as arguments and
+numba can cache them): `propagate_state_stm(model, params, state, t_tu, dt_tu, substeps)`. The CRTBP is
+code 0 (params = [mu]). A dated ephemeris model plugs in as a new code here and a new file beside
+`crtbp.py`; the estimators do not change. `DynamicsModel` is the Python side: truth propagation and the
+frame's trajectories.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from liaison_cli.dynamics.crtbp import rk4_state_stm
+from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.dynamics.trajectory import CrtbpTrajectory
+
+MODEL_CRTBP = 0
+
+
+@njit(cache=True)
+def propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
+    """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, by `substeps` fixed RK4 steps."""
+    if model == MODEL_CRTBP:
+        return rk4_state_stm(state, dt_tu, substeps, params[0])
+    return np.full(6, np.nan), np.full((6, 6), np.nan)
+
+
+@dataclass(frozen=True, eq=False)
+class DynamicsModel:
+    name: str
+    code: int
+    params: np.ndarray
+
+    def truth_states(self, state0, times_tu) -> np.ndarray:
+        """High-accuracy truth (m, 6) at times_tu from state0 at times_tu[0]."""
+        return propagate_states(state0, times_tu, self.params[0])
+
+    def trajectory(self, states):
+        return CrtbpTrajectory(states, self.params[0])
+
+
+def crtbp_model(mu: float) -> DynamicsModel:
+    return DynamicsModel("crtbp", MODEL_CRTBP, np.array([mu]))

@@ -1,0 +1,33 @@
+"""Sampled trajectories of participants, as the truth simulation of the measurements sees them.
+
+A trajectory has `.states` (m, 6) in the rotating frame at the epochs, and
+`.inertial_position_before(dt_back_tu)`: where the participant was dt_back earlier, expressed in the
+inertial frame aligned with the rotating frame at each epoch (what light-time solutions need).
+"""
+
+import numpy as np
+
+from liaison_cli.dynamics.crtbp import derivative
+
+
+class CrtbpTrajectory:
+    """A spacecraft moving in the CRTBP: positions dt_back earlier by a 2nd-order Taylor step
+    (light times are below 1e-5 TU, so the third-order term is below a millimetre)."""
+
+    def __init__(self, states, mu):
+        self.states = np.asarray(states, dtype=float)
+        self.mu = mu
+
+    def inertial_position_before(self, dt_back_tu):
+        states = self.states
+        acc = np.array([derivative(s, self.mu)[3:6] for s in states])
+        r = states[:, 0:3] - states[:, 3:6] * dt_back_tu[:, None] + 0.5 * acc * dt_back_tu[:, None] ** 2
+        return rotate_to_inertial_now(r, dt_back_tu)
+
+
+def rotate_to_inertial_now(r_then, dt_back_tu):
+    """Rotating-frame positions at t - dt (m, 3) -> the inertial frame aligned with the rotating frame at t.
+    The frame turns at 1 rad/TU, so the rotation angle is -dt."""
+    angle = -dt_back_tu
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * r_then[:, 0] - s * r_then[:, 1], s * r_then[:, 0] + c * r_then[:, 1], r_then[:, 2]], axis=1)

@@ -1,0 +1,47 @@
+"""What the rest of liaison knows about an observable: a small description object per observable.
+
+An observable (the word a scenario uses: `range`, `range_rate`, `los`, `pseudorange`) produces one or
+more scalar channels (LOS: azimuth and elevation). For each channel the description gives its kind code
+(dispatched by `measurements.registry.predict`), label, SI unit and the factor from filter units to SI.
+It also says how the scenario's noise section sets each channel's sigma, how truth simulates the channel
+from the two ends' trajectories, and which additive modifiers apply: a per-link range bias, the clocks
+of the two ends. Nothing outside `measurements/` branches on an observable's kind.
+"""
+
+from dataclasses import dataclass
+from typing import Callable
+
+
+@dataclass(frozen=True)
+class ChannelKind:
+    code: int  # dispatch code of the compiled predict / partials
+    label: str  # e.g. "range", "azimuth"
+    unit: str  # SI unit of the channel: "m", "m/s", "rad"
+    scale_si: float  # SI value of one filter unit (LU -> m, LU/TU -> m/s, rad -> rad)
+
+
+@dataclass(frozen=True)
+class Observable:
+    """name: scenario word. channels: the scalar channels it yields, in order.
+
+    sigma(noise, receiver) -> one 1-sigma per channel, in filter units; `noise` is the scenario's noise
+    section and `receiver` the receiving participant's spec (duck-typed: no schema import here).
+    simulate(code, receiver, transmitter, light_time) -> (m,) noise-free truth of one channel from the
+    two ends' trajectories (objects with `.states` (m, 6) and `.inertial_position_before(dt_back_tu)`).
+    takes_range_bias: a link's range bias adds to it (truth and, if modelled, filter).
+    clock_coefficients: (receiver, transmitter) factors of the ends' clock phase (range units) in the
+    value; (0, 0) for two-way observables, whose clock terms cancel.
+    needs_receiver_clock / needs_receiver_baseline: what the receiving end must carry.
+    """
+
+    name: str
+    channels: tuple[ChannelKind, ...]
+    sigma: Callable
+    simulate: Callable
+    takes_range_bias: bool = False
+    clock_coefficients: tuple[float, float] = (0.0, 0.0)
+    needs_receiver_clock: bool = False
+    needs_receiver_baseline: bool = False
+    filter_flags: Callable = lambda filter_spec: 0  # model options of the filter's prediction, as bit flags
+    missing_noise: Callable = lambda noise: None  # what the noise section lacks for this observable, or None
+    description: str = ""

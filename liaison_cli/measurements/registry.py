@@ -1,0 +1,70 @@
+"""The observable registry and the compiled dispatch: the only code that branches on a channel's kind.
+
+To add an observable: a new file in `measurements/` with its kind code, a compiled
+`predict_<name>(x_receiver, x_transmitter, flags, g_receiver, g_transmitter) -> value` and an
+`OBSERVABLE` description; then one import and one branch below.
+"""
+
+import numpy as np
+from numba import njit
+
+from liaison_cli.measurements import los, pseudorange, range as range_, range_rate
+from liaison_cli.measurements.los import KIND_AZIMUTH, KIND_ELEVATION, predict_angle, wrap_angle
+from liaison_cli.measurements.observable import ChannelKind, Observable
+from liaison_cli.measurements.pseudorange import KIND_PSEUDORANGE, predict_pseudorange
+from liaison_cli.measurements.range import KIND_RANGE, predict_range
+from liaison_cli.measurements.range_rate import KIND_RANGE_RATE, predict_range_rate
+
+OBSERVABLES: dict[str, Observable] = {
+    module.OBSERVABLE.name: module.OBSERVABLE for module in (range_, range_rate, los, pseudorange)
+}
+CHANNEL_KINDS: dict[int, ChannelKind] = {ch.code: ch for obs in OBSERVABLES.values() for ch in obs.channels}
+assert len(CHANNEL_KINDS) == sum(len(obs.channels) for obs in OBSERVABLES.values()), "kind codes must be unique"
+
+
+def observable_names() -> list[str]:
+    return list(OBSERVABLES)
+
+
+def get_observable(name: str) -> Observable:
+    try:
+        return OBSERVABLES[name]
+    except KeyError:
+        raise ValueError(f"unknown observable {name!r}; allowed: {', '.join(OBSERVABLES)}") from None
+
+
+@njit(cache=True)
+def predict(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
+    """Predicted value of a channel of this kind (filter units) from its ends' states (6,) each; writes
+    d(value)/d(end state) into g_receiver, g_transmitter (6,). Clock and bias modifiers are added by the
+    caller from the channel's modifier table (they are linear in their states)."""
+    if kind == KIND_RANGE:
+        return predict_range(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+    if kind == KIND_RANGE_RATE:
+        return predict_range_rate(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+    if kind == KIND_AZIMUTH or kind == KIND_ELEVATION:
+        return predict_angle(kind, x_receiver, x_transmitter, g_receiver, g_transmitter)
+    if kind == KIND_PSEUDORANGE:
+        return predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+    return np.nan
+
+
+@njit(cache=True)
+def residual(kind, observed, predicted):
+    """Observed minus predicted, angles wrapped into (-pi, pi]."""
+    r = observed - predicted
+    if kind == KIND_AZIMUTH:
+        return wrap_angle(r)
+    return r
+
+
+@njit(cache=True)
+def predict_along(kind, receiver_states, transmitter_states, flags):
+    """predict() at every epoch: (m, 6), (m, 6) -> values (m,), d/d(receiver) (m, 6), d/d(transmitter) (m, 6)."""
+    m = receiver_states.shape[0]
+    values = np.empty(m)
+    g_receiver = np.empty((m, 6))
+    g_transmitter = np.empty((m, 6))
+    for k in range(m):
+        values[k] = predict(kind, receiver_states[k], transmitter_states[k], flags, g_receiver[k], g_transmitter[k])
+    return values, g_receiver, g_transmitter

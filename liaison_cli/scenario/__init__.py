@@ -1,0 +1,1 @@
+"""Scenario files: the validated configuration (schema) and its translation into arrays (setup)."""

@@ -1,0 +1,374 @@
+"""Scenario -> arrays: participants' truth, noise-free measurements, the filter's state layout and matrices.
+
+Everything here is computed once per scenario and shared (read-only) by every Monte Carlo run. What is
+drawn per run (initial error, noise, biases, clock histories) is described here and drawn by the worker.
+"""
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from liaison_cli.dynamics.clock import clock_process_noise
+from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
+from liaison_cli.dynamics.ground_station import GroundStationTrajectory
+from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
+from liaison_cli.estimation.estimators import FilterArrays
+from liaison_cli.measurements.registry import OBSERVABLES
+from liaison_cli.measurements.visibility import elevation_rad, not_occulted
+from liaison_cli.orbits.catalog import CATALOG
+from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
+from liaison_cli.scenario.schema import KEPLERIAN_ORBIT, Scenario
+
+SPEED_OF_LIGHT_M_S = 299792458.0
+MAX_MODIFIERS = 3  # per channel: a link bias and the two ends' clocks
+
+
+def initial_state_lu(spec) -> np.ndarray:
+    if spec.period_days is not None:
+        from liaison_cli.orbits.family_store import member_state
+
+        return np.array(member_state(spec.orbit, float(spec.period_days)).state)
+    if spec.amplitude_km is not None:
+        from liaison_cli.orbits.family_store import member_by_amplitude_km
+
+        return np.array(member_by_amplitude_km(spec.orbit, float(spec.amplitude_km)).state)
+    if spec.orbit == KEPLERIAN_ORBIT:
+        el = spec.elements
+        return lunar_orbiter_state_lu(el.a_km, el.e, el.i_deg, el.raan_deg, el.argp_deg, el.ta_deg)
+    return CATALOG[spec.orbit].state()
+
+
+def per_axis_block_diagonal(n_sc: int, position_value: float, velocity_value: float) -> np.ndarray:
+    """(6 n_sc, 6 n_sc) diagonal with the position value on position axes, velocity on velocity axes."""
+    one = np.array([position_value] * 3 + [velocity_value] * 3)
+    return np.diag(np.tile(one, n_sc))
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One scalar measurement channel: the link it belongs to, its kind and labels, its modifiers."""
+
+    link: int
+    link_label: str
+    observable: str
+    kind: int
+    label: str
+    unit: str
+    scale_si: float
+    takes_range_bias: bool
+    clock_coefficients: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class ClockTruth:
+    """A clock to simulate per run: its participant, its state offset in the filter, its model in SI, and the
+    channels it enters (index, coefficient). Scale: seconds -> filter units (range and range-rate)."""
+
+    owner: str
+    state_start: int
+    sigma1: float
+    sigma2: float
+    initial_sigma: tuple[float, float]
+    scale: tuple[float, float]
+    channels: tuple[tuple[int, float], ...]
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Arrays of one scenario, in LU / TU unless a name says otherwise.
+
+    times_s (m,); truth (m, 6 n_sc) of the estimated spacecraft; measurements_true (m, C) noise-free (row 0
+    unused, NaN where a channel sees nothing); channels (C,) descriptions; filter: the estimator's arrays;
+    bias_lu / bias_sigma_lu: constant and per-run random range bias of every link in the truth; clocks:
+    the truth clocks to draw per run; initial_error_sigma (6 n_sc,) for the 'fixed_sigma' draw.
+    """
+
+    scenario: Scenario
+    spacecraft: tuple[str, ...]
+    link_labels: tuple[str, ...]
+    link_ends: tuple[tuple[int, int], ...]  # (receiver, transponder) spacecraft indices, -1 for a known end
+    times_s: np.ndarray
+    truth: np.ndarray
+    measurements_true: np.ndarray
+    channels: tuple[Channel, ...]
+    filter: FilterArrays
+    sigma_m: float
+    bias_lu: float
+    bias_sigma_lu: float
+    bias_state_start: int  # first link-bias state in the filter, -1 if the filter has none
+    clocks: tuple[ClockTruth, ...]
+    initial_error_sigma: np.ndarray
+    dynamics: DynamicsModel
+
+    @property
+    def n_spacecraft(self) -> int:
+        return len(self.spacecraft)
+
+    @property
+    def n_steps(self) -> int:
+        return self.times_s.shape[0]
+
+    @property
+    def n_bias(self) -> int:
+        return len(self.link_labels) if self.bias_state_start >= 0 else 0
+
+    @property
+    def channel_scale_si(self) -> np.ndarray:
+        """(C,) factors from filter units to m, m/s or rad."""
+        return np.array([ch.scale_si for ch in self.channels])
+
+    @property
+    def channel_labels(self) -> list[tuple[str, str, str]]:
+        """(link label, observable, unit) per channel."""
+        return [(ch.link_label, ch.label, ch.unit) for ch in self.channels]
+
+    @property
+    def channel_link(self) -> np.ndarray:
+        return np.array([ch.link for ch in self.channels], dtype=np.int64)
+
+    # Short names for the arrays most callers need.
+    P0 = property(lambda self: self.filter.P0)
+    Q = property(lambda self: self.filter.Q)
+    sigma_lu = property(lambda self: self.filter.sigma)
+    dt_tu = property(lambda self: self.filter.dt_tu)
+    substeps = property(lambda self: self.filter.substeps)
+    mu = property(lambda self: float(self.dynamics.params[0]))
+    link_receiver = property(lambda self: np.array([r for r, _ in self.link_ends], dtype=np.int64))
+    link_transponder = property(lambda self: np.array([t for _, t in self.link_ends], dtype=np.int64))
+
+
+def truth_key(scenario: Scenario) -> str:
+    """The scenario fields that fix truth and noise-free measurements (not noise, filter or seed)."""
+    fields = {
+        "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(),
+                        "period_days": sc.period_days, "amplitude_km": sc.amplitude_km, "role": sc.role}
+                       for sc in scenario.spacecraft],
+        "ground_stations": [st.model_dump(mode="json") for st in scenario.ground_stations],
+        "links": [link.model_dump(mode="json") for link in scenario.links],
+        "duration_days": scenario.duration_days,
+        "interval_s": scenario.measurement.interval_s,
+        "light_time": scenario.measurement.light_time,
+    }
+    return json.dumps(fields, sort_keys=True)
+
+
+def measurement_times_s(scenario: Scenario) -> np.ndarray:
+    """Epochs t0 = 0, interval, 2 interval, ... up to the scenario duration (m,)."""
+    interval_s = scenario.measurement.interval_s
+    n_intervals = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval_s + 1e-9))
+    return np.arange(n_intervals + 1) * interval_s
+
+
+def link_observables(link) -> list:
+    """The link's observables in registry order (range, range-rate, LOS, pseudorange): a channel's place
+    does not depend on the order the scenario lists them in."""
+    return [obs for name, obs in OBSERVABLES.items() if name in link.observables]
+
+
+def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
+    """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
+    times_tu = times_s / TU_S
+    out = {sc.name: model.trajectory(model.truth_states(initial_state_lu(sc), times_tu)) for sc in scenario.spacecraft}
+    for st in scenario.ground_stations:
+        out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
+    return out
+
+
+def _visible(scenario: Scenario, link, trajectories) -> np.ndarray:
+    """(m,) True where the link can measure: station elevation masks, optional Earth / Moon occultation."""
+    receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
+    visible = np.ones(len(receiver.states), dtype=bool)
+    stations = {st.name: st for st in scenario.ground_stations}
+    for station, other in ((link.receiver, transponder), (link.transponder, receiver)):
+        if station in stations:
+            track = trajectories[station]
+            elevation = elevation_rad(track.states[:, 0:3], track.up, other.states[:, 0:3])
+            visible &= elevation >= np.radians(stations[station].elevation_mask_deg)
+    if link.occultation:
+        visible &= not_occulted(receiver.states[:, 0:3], transponder.states[:, 0:3])
+    return visible
+
+
+def _truth_and_measurements(scenario: Scenario, model: DynamicsModel):
+    """times_s (m,), {name: trajectory}, noise-free measurements (m, C) with row 0 NaN."""
+    times_s = measurement_times_s(scenario)
+    trajectories = _trajectories(scenario, model, times_s)
+    columns = []
+    for link in scenario.links:
+        receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
+        visible = _visible(scenario, link, trajectories)
+        for observable in link_observables(link):
+            for channel in observable.channels:
+                values = observable.simulate(channel.code, receiver, transponder, scenario.measurement.light_time)
+                columns.append(np.where(visible, values, np.nan))
+    measurements = np.stack(columns, axis=1)
+    measurements[0, :] = np.nan  # the filter starts at t0 with no measurement
+    return times_s, trajectories, measurements
+
+
+def _channels(scenario: Scenario) -> list[Channel]:
+    out = []
+    for index, link in enumerate(scenario.links):
+        for observable in link_observables(link):
+            for kind in observable.channels:
+                out.append(Channel(index, f"{link.receiver}->{link.transponder}", observable.name, kind.code,
+                                   kind.label, kind.unit, kind.scale_si, observable.takes_range_bias,
+                                   observable.clock_coefficients))
+    return out
+
+
+def _layout(scenario: Scenario) -> StateLayout:
+    """Spacecraft blocks, then clocks, then link biases (estimated, or considered last)."""
+    blocks = [StateBlock(BLOCK_SPACECRAFT, 6, name) for name in scenario.spacecraft_names()]
+    blocks += [StateBlock(BLOCK_CLOCK, 2, sc.name) for sc in scenario.spacecraft
+               if sc.role == "estimated" and sc.clock is not None]
+    if scenario.filter.bias != "ignore":
+        consider = scenario.filter.bias == "consider"
+        blocks += [StateBlock(BLOCK_CONSTANT, 1, f"bias {i}", consider) for i in range(len(scenario.links))]
+    return StateLayout(tuple(blocks))
+
+
+def _clock_scale() -> np.ndarray:
+    """Seconds -> LU for the phase, s/s -> LU/TU for the frequency (the filter keeps clocks in range units)."""
+    return np.array([SPEED_OF_LIGHT_M_S / M_PER_LU, SPEED_OF_LIGHT_M_S / M_S_PER_VU])
+
+
+def _matrices(scenario: Scenario, layout: StateLayout):
+    """P0 and Q (n, n), block by block."""
+    n = layout.n
+    P0, Q = np.zeros((n, n)), np.zeros((n, n))
+    flt = scenario.filter
+    interval_s = scenario.measurement.interval_s
+    by_name = {sc.name: sc for sc in scenario.spacecraft}
+    for block, a in zip(layout.blocks, layout.starts):
+        s = slice(a, a + block.size)
+        if block.kind == BLOCK_SPACECRAFT:
+            P0[s, s] = per_axis_block_diagonal(1, (flt.initial_sigma_position_m / M_PER_LU) ** 2,
+                                               (flt.initial_sigma_velocity_m_s / M_S_PER_VU) ** 2)
+            # State-noise compensation: white acceleration sigma_a on each velocity axis, q = (sigma_a dt)^2.
+            own = by_name[block.owner].process_noise_accel_m_s2
+            sigma_a = flt.process_noise_accel_m_s2 if own is None else own
+            Q[s, s] = np.diag([0.0] * 3 + [(sigma_a * interval_s / M_S_PER_VU) ** 2] * 3)
+        elif block.kind == BLOCK_CLOCK:
+            clock = by_name[block.owner].clock
+            scale = _clock_scale()
+            P0[s, s] = np.diag((np.array([clock.initial_offset_sigma_s, clock.initial_frequency_sigma]) * scale) ** 2)
+            Q[s, s] = clock_process_noise(interval_s, clock.sigma1_s_per_sqrt_s, clock.sigma2_per_sqrt_s) * np.outer(
+                scale, scale)
+        else:
+            P0[s, s] = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
+    return P0, Q
+
+
+def _channel_tables(scenario: Scenario, channels, layout: StateLayout, index_of_known):
+    """channel_ends (C, 4), channel_flags (C,), channel_mod_index / _coeff (C, MAX_MODIFIERS)."""
+    n_channels = len(channels)
+    ends = np.full((n_channels, 4), -1, dtype=np.int64)
+    flags = np.zeros(n_channels, dtype=np.int64)
+    mod_index = np.full((n_channels, MAX_MODIFIERS), -1, dtype=np.int64)
+    mod_coeff = np.zeros((n_channels, MAX_MODIFIERS))
+    bias_start = layout.start_of(BLOCK_CONSTANT, "bias 0")
+    for c, ch in enumerate(channels):
+        link = scenario.links[ch.link]
+        for column, who in ((0, link.receiver), (2, link.transponder)):
+            state = layout.start_of(BLOCK_SPACECRAFT, who)
+            ends[c, column] = state
+            ends[c, column + 1] = -1 if state >= 0 else index_of_known[who]
+        flags[c] = OBSERVABLES[ch.observable].filter_flags(scenario.filter)
+        mods = []
+        if ch.takes_range_bias and bias_start >= 0:
+            mods.append((bias_start + ch.link, 1.0))
+        for who, coeff in zip((link.receiver, link.transponder), ch.clock_coefficients):
+            clock = layout.start_of(BLOCK_CLOCK, who)
+            if coeff != 0.0 and clock >= 0:
+                mods.append((clock, coeff))
+        for j, (index, coeff) in enumerate(mods):
+            mod_index[c, j], mod_coeff[c, j] = index, coeff
+    return ends, flags, mod_index, mod_coeff
+
+
+def _channel_sigmas(scenario: Scenario, channels) -> np.ndarray:
+    sigmas, done = [], set()
+    for ch in channels:
+        if (ch.link, ch.observable) in done:
+            continue
+        done.add((ch.link, ch.observable))
+        receiver = scenario.participant(scenario.links[ch.link].receiver)
+        sigmas += OBSERVABLES[ch.observable].sigma(scenario.noise, receiver)
+    return np.array(sigmas)
+
+
+def _clock_truths(scenario: Scenario, channels, layout: StateLayout) -> tuple[ClockTruth, ...]:
+    out = []
+    for sc in scenario.spacecraft:
+        start = layout.start_of(BLOCK_CLOCK, sc.name)
+        if start < 0:
+            continue
+        entries = []
+        for c, ch in enumerate(channels):
+            link = scenario.links[ch.link]
+            for who, coeff in zip((link.receiver, link.transponder), ch.clock_coefficients):
+                if who == sc.name and coeff != 0.0:
+                    entries.append((c, coeff))
+        clock = sc.clock
+        out.append(ClockTruth(sc.name, start, clock.sigma1_s_per_sqrt_s, clock.sigma2_per_sqrt_s,
+                              (clock.initial_offset_sigma_s, clock.initial_frequency_sigma),
+                              tuple(_clock_scale()), tuple(entries)))
+    return tuple(out)
+
+
+def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
+    """Build the arrays of a scenario. Pass the same `truth_cache` dict to a series of scenarios that
+    differ only in noise / filter / seed (a sweep over sigma) and the truth is propagated once."""
+    model = crtbp_model(MU)
+    if truth_cache is None:
+        times_s, trajectories, measurements = _truth_and_measurements(scenario, model)
+    else:
+        key = truth_key(scenario)
+        if key not in truth_cache:
+            truth_cache[key] = _truth_and_measurements(scenario, model)
+        times_s, trajectories, measurements = truth_cache[key]
+
+    names = scenario.spacecraft_names()
+    known = [sc.name for sc in scenario.spacecraft if sc.role == "known"] + [st.name for st in scenario.ground_stations]
+    index_of_known = {name: i for i, name in enumerate(known)}
+    known_states = np.zeros((len(times_s), len(known), 6))
+    for name, i in index_of_known.items():
+        known_states[:, i] = trajectories[name].states
+    layout = _layout(scenario)
+    channels = _channels(scenario)
+    P0, Q = _matrices(scenario, layout)
+    ends, flags, mod_index, mod_coeff = _channel_tables(scenario, channels, layout, index_of_known)
+    flt = scenario.filter
+    arrays = FilterArrays(
+        layout=layout, P0=P0, Q=Q, known_states=known_states,
+        channel_kind=np.array([ch.kind for ch in channels], dtype=np.int64), channel_ends=ends,
+        channel_flags=flags, channel_mod_index=mod_index, channel_mod_coeff=mod_coeff,
+        sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.params,
+        dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
+        divergence_position_lu=flt.divergence_position_km / LU_KM,
+    )
+    ie = scenario.initial_error
+    sc_index = {name: i for i, name in enumerate(names)}
+    return Problem(
+        scenario=scenario,
+        spacecraft=tuple(names),
+        link_labels=tuple(f"{link.receiver}->{link.transponder}" for link in scenario.links),
+        link_ends=tuple((sc_index.get(link.receiver, -1), sc_index.get(link.transponder, -1))
+                        for link in scenario.links),
+        times_s=times_s,
+        truth=np.ascontiguousarray(np.hstack([trajectories[name].states for name in names])),
+        measurements_true=np.ascontiguousarray(measurements),
+        channels=tuple(channels),
+        filter=arrays,
+        sigma_m=scenario.noise.resolved_sigma_m(),
+        bias_lu=scenario.noise.resolved_bias_m() / M_PER_LU,
+        bias_sigma_lu=scenario.noise.bias_sigma_m / M_PER_LU,
+        bias_state_start=layout.start_of(BLOCK_CONSTANT, "bias 0"),
+        clocks=_clock_truths(scenario, channels, layout),
+        initial_error_sigma=np.diag(per_axis_block_diagonal(
+            len(names), ie.sigma_position_m / M_PER_LU, ie.sigma_velocity_m_s / M_S_PER_VU)).copy(),
+        dynamics=model,
+    )
