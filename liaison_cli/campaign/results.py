@@ -109,6 +109,28 @@ def bias_table(result: CampaignResult) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def clock_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
+    """One row per (run, epoch, estimated clock): phase error and 1-sigma in ns, frequency error and 1-sigma
+    (dimensionless, s/s). Empty when the scenario has no clock."""
+    problem = result.problem
+    owners = np.array([c.owner for c in problem.clocks], dtype=object)
+    frames = []
+    for outcome in result.outcomes:
+        if outcome.clock_error_s is None:
+            continue
+        m, n_clocks, _ = outcome.clock_error_s.shape
+        frames.append(pd.DataFrame({
+            "run": np.full(m * n_clocks, outcome.run, dtype=np.int32),
+            "t_s": np.repeat(problem.times_s, n_clocks),
+            "clock": np.tile(owners, m),
+            "phase_error_ns": (1e9 * outcome.clock_error_s[:, :, 0]).reshape(-1).astype(float_dtype),
+            "phase_sigma_ns": (1e9 * outcome.clock_sigma_s[:, :, 0]).reshape(-1).astype(float_dtype),
+            "frequency_error": outcome.clock_error_s[:, :, 1].reshape(-1).astype(float_dtype),
+            "frequency_sigma": outcome.clock_sigma_s[:, :, 1].reshape(-1).astype(float_dtype),
+        }))
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
 def consistency_table(result: CampaignResult) -> pd.DataFrame:
     """Run-averaged NEES per epoch over the runs that finished, with its 95 % chi-square band."""
     good = [o for o in result.outcomes if o.status == "ok"]
@@ -141,11 +163,13 @@ def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dt
         "residuals": out_dir / "residuals.parquet",
         "consistency": out_dir / "consistency.parquet",
         "bias": out_dir / "bias.parquet",
+        "clocks": out_dir / "clocks.parquet",
     }
     write_parquet_atomic(summary_table(result), paths["summary"], meta)
     write_parquet_atomic(timeseries_table(result, float_dtype), paths["timeseries"], meta)
     write_parquet_atomic(residuals_table(result, float_dtype), paths["residuals"], meta)
     write_parquet_atomic(consistency_table(result), paths["consistency"], meta)
     write_parquet_atomic(bias_table(result), paths["bias"], meta)
+    write_parquet_atomic(clock_table(result, float_dtype), paths["clocks"], meta)
     write_text_atomic(scenario_text, out_dir / "scenario.yaml")
     return paths

@@ -37,6 +37,8 @@ class RunOutcome:
     bias_true_m: np.ndarray | None = None  # (L,) per link
     bias_estimate_m: np.ndarray | None = None  # (L,) final filter value (a-priori mean if not estimated)
     bias_sigma_m: np.ndarray | None = None  # (L,) final 1-sigma (NaN if the filter has no bias state)
+    clock_error_s: np.ndarray | None = None  # (m, n_clocks, 2) phase (s) and frequency (s/s) errors
+    clock_sigma_s: np.ndarray | None = None  # (m, n_clocks, 2) their 1-sigma
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +110,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             bias_estimate = np.zeros_like(bias)
             bias_sigma = np.full_like(bias, np.nan)
         scale = problem.channel_scale_si
+        clock_error, clock_sigma = _clock_histories(problem, err, sigma)
         return RunOutcome(
             run=run,
             status="ok" if history.ok else "diverged",
@@ -121,9 +124,21 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             bias_true_m=bias * M_PER_LU,
             bias_estimate_m=bias_estimate,
             bias_sigma_m=bias_sigma,
+            clock_error_s=clock_error,
+            clock_sigma_s=clock_sigma,
         )
     except Exception as exc:  # noqa: BLE001 - a worker reports, never raises
         return RunOutcome(run=run, status="error", reason=f"{type(exc).__name__}: {exc}", fail_time_s=float("nan"))
+
+
+def _clock_histories(problem: Problem, err, sigma):
+    """Each estimated clock's phase / frequency error and 1-sigma in seconds and s/s: (m, n_clocks, 2) x2."""
+    if not problem.clocks:
+        return None, None
+    columns = [(c.state_start, np.array(c.scale)) for c in problem.clocks]
+    error = np.stack([err[:, a : a + 2] / scale for a, scale in columns], axis=1)
+    spread = np.stack([sigma[:, a : a + 2] / scale for a, scale in columns], axis=1)
+    return error, spread
 
 
 def _nan_summary(rows):

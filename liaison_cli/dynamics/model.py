@@ -19,7 +19,7 @@ from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 MODEL_CRTBP = 0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
     """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, by `substeps` fixed RK4 steps."""
     if model == MODEL_CRTBP:

@@ -9,25 +9,6 @@ from numba import njit
 
 
 @njit(cache=True)
-def _predict_pair_6x6(P, Phi, Q, out, ra, rb, diagonal, tmp):
-    """out[a, b] = Phi_a P[a, b] Phi_b^T + Q[a, b] for two 6-state blocks (fixed trip counts: the hot path)."""
-    for i in range(6):  # tmp = Phi_a P[a, b]
-        for j in range(6):
-            acc = 0.0
-            for k in range(6):
-                acc += Phi[ra + i, ra + k] * P[ra + k, rb + j]
-            tmp[i, j] = acc
-    for i in range(6):  # out[a, b] = tmp Phi_b^T + Q[a, b]
-        j0 = i if diagonal else 0
-        for j in range(j0, 6):
-            acc = Q[ra + i, rb + j]
-            for k in range(6):
-                acc += tmp[i, k] * Phi[rb + j, rb + k]
-            out[ra + i, rb + j] = acc
-            out[rb + j, ra + i] = acc
-
-
-@njit(cache=True)
 def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_size):
     """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi, written into `out`.
 
@@ -39,13 +20,35 @@ def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_siz
     """
     n_blocks = block_kind.shape[0]
     tmp = np.empty((6, 6))
+    # The leading spacecraft blocks sit at 6 a: offsets the compiler can see are non-negative multiples
+    # of 6 make this hot path ~1.5x faster than offsets read from block_start.
+    n_sc = 0
+    while n_sc < n_blocks and block_kind[n_sc] == 0 and block_start[n_sc] == 6 * n_sc:
+        n_sc += 1
+    for a in range(n_sc):
+        ra = 6 * a
+        for b in range(a, n_sc):
+            rb = 6 * b
+            for i in range(6):  # tmp = Phi_a P[a, b]
+                for j in range(6):
+                    acc = 0.0
+                    for k in range(6):
+                        acc += Phi[ra + i, ra + k] * P[ra + k, rb + j]
+                    tmp[i, j] = acc
+            for i in range(6):  # out[a, b] = tmp Phi_b^T + Q[a, b]
+                j0 = i if a == b else 0
+                for j in range(j0, 6):
+                    acc = Q[ra + i, rb + j]
+                    for k in range(6):
+                        acc += tmp[i, k] * Phi[rb + j, rb + k]
+                    out[ra + i, rb + j] = acc
+                    out[rb + j, ra + i] = acc
+    if n_sc == n_blocks:
+        return out
     for a in range(n_blocks):
         ra, na, const_a = block_start[a], block_size[a], block_kind[a] == 2
-        for b in range(a, n_blocks):
+        for b in range(max(a, n_sc), n_blocks):
             rb, nb, const_b = block_start[b], block_size[b], block_kind[b] == 2
-            if na == 6 and nb == 6 and not const_a and not const_b:
-                _predict_pair_6x6(P, Phi, Q, out, ra, rb, a == b, tmp)
-                continue
             for i in range(na):  # tmp = Phi_a P[a, b]
                 for j in range(nb):
                     if const_a:

@@ -32,14 +32,14 @@ STATUS_NAMES = {
 END_RECEIVER_STATE, END_RECEIVER_KNOWN, END_TRANSMITTER_STATE, END_TRANSMITTER_KNOWN = 0, 1, 2, 3
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _end_state(x_bar, known_states, k, state_offset, known_index):
     if state_offset >= 0:
         return x_bar[state_offset : state_offset + 6]
     return known_states[k, known_index]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
                  substeps):
     """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11)."""

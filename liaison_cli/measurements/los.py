@@ -47,7 +47,7 @@ def azimuth_elevation_gradients(r_receiver, r_transponder):
     return g_az, g_el
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict_angle(code, x_receiver, x_transponder, g_receiver, g_transponder):
     """Azimuth (code KIND_AZIMUTH) or elevation (rad) and its partials with respect to both ends' states."""
     az, el = azimuth_elevation(x_receiver[0:3], x_transponder[0:3])

@@ -24,7 +24,7 @@ from liaison_cli.measurements.range import (
 KIND_PSEUDORANGE = 4
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
     """Geometric part of the pseudorange (LU) and its partials with respect to both ends' states."""
     g = geometric_range_gradient(x_receiver[0:3], x_transmitter[0:3])

@@ -34,7 +34,7 @@ def geometric_range_gradient(r_receiver, r_transponder):
     return (r_receiver - r_transponder) / rho
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict_range(x_receiver, x_transponder, flags, g_receiver, g_transponder):
     """Filter model of the two-way range (LU) from the two ends' states (6,), (6,); writes the partials
     with respect to each end's state into g_receiver, g_transponder (6,). With FLAG_LIGHT_TIME the value

@@ -34,7 +34,7 @@ def range_rate_gradient(x_receiver, x_transponder):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict_range_rate(x_receiver, x_transponder, flags, g_receiver, g_transponder):
     """Value (LU/TU) and partials with respect to both ends' states (6,) each."""
     g = range_rate_gradient(x_receiver, x_transponder)

@@ -33,7 +33,7 @@ def get_observable(name: str) -> Observable:
         raise ValueError(f"unknown observable {name!r}; allowed: {', '.join(OBSERVABLES)}") from None
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def predict(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
     """Predicted value of a channel of this kind (filter units) from its ends' states (6,) each; writes
     d(value)/d(end state) into g_receiver, g_transmitter (6,). Clock and bias modifiers are added by the
@@ -49,7 +49,7 @@ def predict(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
     return np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def residual(kind, observed, predicted):
     """Observed minus predicted, angles wrapped into (-pi, pi]."""
     r = observed - predicted
