@@ -36,6 +36,15 @@ def user_errors(func):
     return wrapper
 
 
+def _right(text: str, width: int) -> str:
+    """Right-aligned in `width`; a wider value keeps one space before it, so columns never run together."""
+    return text.rjust(width) if len(text) < width else " " + text
+
+
+def _left(text: str, width: int) -> str:
+    return text.ljust(width) if len(text) < width else text + " "
+
+
 def _format_summary(summary: pd.DataFrame, spacecraft) -> str:
     ok = summary[summary.status == "ok"]
     lines = [
@@ -45,9 +54,12 @@ def _format_summary(summary: pd.DataFrame, spacecraft) -> str:
     for name in spacecraft:
         s = ok[ok.spacecraft == name]
         lines.append(
-            f"{name:<12}{s.rms_position_m.mean():>11.1f}{s.rms_position_after_day1_m.mean():>9.1f}"
-            f"{1e3 * s.rms_velocity_m_s.mean():>14.3f}{1e3 * s.rms_velocity_after_day1_m_s.mean():>9.3f}"
-            f"{100 * s.frac_in_2sigma_after_day1.mean():>11.1f}%{100 * s.frac_in_3sigma_after_day1.mean():>11.1f}%"
+            _left(name, 12) + _right(f"{s.rms_position_m.mean():.1f}", 11)
+            + _right(f"{s.rms_position_after_day1_m.mean():.1f}", 9)
+            + _right(f"{1e3 * s.rms_velocity_m_s.mean():.3f}", 14)
+            + _right(f"{1e3 * s.rms_velocity_after_day1_m_s.mean():.3f}", 9)
+            + _right(f"{100 * s.frac_in_2sigma_after_day1.mean():.1f}", 11) + "%"
+            + _right(f"{100 * s.frac_in_3sigma_after_day1.mean():.1f}", 11) + "%"
         )
     return "\n".join(lines)
 
@@ -113,6 +125,13 @@ def table3(
     typer.echo(f"results: {out_dir}")
 
 
+def _plain_name(name: str) -> bool:
+    """A sweep name becomes a folder under results/: it may not climb out of it or hide."""
+    import re
+
+    return bool(re.fullmatch(r"[A-Za-z0-9_+\-][A-Za-z0-9_+.\-]*", name)) and ".." not in name
+
+
 PAPER_FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
 
 
@@ -120,11 +139,12 @@ def _format_curve(curve: pd.DataFrame, grid_keys) -> str:
     header = f"{'scenario':<12}{'spacecraft':<11}" + "".join(f"{k.split('.')[-1]:>12}" for k in grid_keys)
     lines = [header + f"{'runs ok':>9}{'pos RMS m (p10-p90)':>26}{'vel RMS mm/s':>14}"]
     for row in curve.to_dict("records"):
-        cells = "".join(f"{str(row[k]):>12}" for k in grid_keys)
+        cells = "".join(_right(str(row[k]), 12) for k in grid_keys)
         band = f"{row['rms_position_m_mean']:.1f} ({row['rms_position_m_p10']:.0f}-{row['rms_position_m_p90']:.0f})"
         lines.append(
-            f"{row['scenario']:<12}{row['spacecraft']:<11}{cells}{str(row['runs_ok']) + '/' + str(row['runs']):>9}"
-            f"{band:>26}{1e3 * row['rms_velocity_m_s_mean']:>14.3f}"
+            _left(row["scenario"], 12) + _left(row["spacecraft"], 11) + cells
+            + _right(f"{row['runs_ok']}/{row['runs']}", 9) + _right(band, 26)
+            + _right(f"{1e3 * row['rms_velocity_m_s_mean']:.3f}", 14)
         )
     return "\n".join(lines)
 
@@ -169,6 +189,9 @@ def sweep(
     bases = [(*load_scenario(path), str(path)) for path in paths]
     if name is None:
         name = "fig15" if default_formations else "+".join(b[0].name for b in bases)
+    elif not _plain_name(name):
+        raise LiaisonError(f"--name {name!r}: a plain name is needed (letters, digits, '_', '-', '+', '.'; no path "
+                           "separators, no '..', not starting with '.'); use --output to choose a folder")
     plan = plan_sweep(bases, axes, runs, name)
     out_dir = output or Path("results") / f"sweep-{name}"
     if overwrite or not (out_dir / "manifest.jsonl").exists():

@@ -27,6 +27,10 @@ CASES = {
                                 ["links[0].transponder", "'Gateway'", "EML2, Lunar"]),
     "not_a_mapping": ("- just\n- a list\n", ["YAML mapping"]),
     "bad_type": (GOOD.replace("runs: 2", "runs: many"), ["monte_carlo.runs", "'many'", "integer"]),
+    "infinite_sigma": (GOOD.replace("sigma_m: 150", "sigma_m: .inf"), ["noise.sigma_m", "inf", "finite number"]),
+    "nan_interval": (GOOD.replace("interval_s: 187.5", "interval_s: .nan"), ["measurement.interval_s", "finite"]),
+    "infinite_snc": (GOOD.replace("process_noise_accel_m_s2: 1.0e-6", "process_noise_accel_m_s2: .inf"),
+                     ["spacecraft[1].process_noise_accel_m_s2", "finite"]),
 }
 
 

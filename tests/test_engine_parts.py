@@ -195,3 +195,20 @@ def test_clock_filter_consistency_long_study(days, runs):
     table = results_module.consistency_table(run_campaign(scenario, jobs=2, progress=False))
     assert table.runs.iloc[0] == runs
     assert table[table.t_s > 0].inside_band.mean() >= 0.90
+
+
+def test_occultation_blanks_exactly_the_epochs_the_moon_blocks():
+    from liaison_cli.dynamics.constants import MOON_POSITION_LU, MOON_RADIUS_KM
+
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    open_sky = prepare_problem(scenario)
+    blocked = prepare_problem(apply_overrides(scenario, {"links.0.occultation": True}))
+    a, b = open_sky.truth[:, 0:3], open_sky.truth[:, 6:9]
+    # Independent check: distance from the Moon's centre to the segment, sampled at 2,001 points.
+    s = np.linspace(0.0, 1.0, 2001)[None, :, None]
+    points = a[:, None, :] + s * (b - a)[:, None, :]
+    clearance_km = np.min(np.linalg.norm(points - np.array(MOON_POSITION_LU), axis=2), axis=1) * LU_KM
+    hidden = clearance_km[1:] <= MOON_RADIUS_KM
+    assert 0.02 < hidden.mean() < 0.5  # the orbiter passes behind the Moon every revolution
+    assert np.array_equal(np.isnan(blocked.measurements_true[1:, 0]), hidden)
+    assert np.isfinite(open_sky.measurements_true[1:, 0]).all()

@@ -22,7 +22,7 @@ STATUS_ERROR_BEYOND_BOUND = 3
 
 STATUS_NAMES = {
     STATUS_OK: "ok",
-    STATUS_NONFINITE: "diverged: non-finite state or covariance",
+    STATUS_NONFINITE: "diverged: non-finite state, covariance or innovation",
     STATUS_COVARIANCE_NOT_POSITIVE: "diverged: covariance not positive definite",
     STATUS_ERROR_BEYOND_BOUND: "diverged: position error beyond the scenario bound",
 }
@@ -139,6 +139,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
                     H[index] += channel_mod_coeff[c, j]
             y = residual(channel_kind[c], y_meas, predicted)
             dx, P, innovation, S = update_scalar(dx, P, y, H, sigma[c] ** 2, n_gain)
+            if not np.isfinite(innovation):  # a run with a non-finite innovation is never "ok"
+                return err, sig, nees, innovations, innov_std, STATUS_NONFINITE, k
             innovations[k, c] = innovation
             innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
         x_hat = x_bar + dx
