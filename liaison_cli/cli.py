@@ -18,6 +18,10 @@ app = typer.Typer(
 )
 
 
+EXIT_OS_ERROR = 4  # an operating-system fault while reading or writing files
+EXIT_ALL_DIVERGED = 5  # the campaign ran, but no run finished healthy
+
+
 def _fail(message: str, code: int) -> None:
     typer.echo(f"error: {message}", err=True)
     raise typer.Exit(code)
@@ -32,6 +36,9 @@ def user_errors(func):
             return func(*args, **kwargs)
         except LiaisonError as exc:
             _fail(str(exc), exc.exit_code)
+        except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
+            where = exc.filename if exc.filename is not None else "file system"
+            _fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
 
     return wrapper
 
@@ -103,6 +110,9 @@ def run(
     typer.echo(_format_summary(summary, result.problem.spacecraft))
     typer.echo(_status_line(summary))
     typer.echo(f"results: {out_dir}")
+    if not (summary.status == "ok").any():
+        _fail(f"no run of {config.name} finished healthy (see the status line above); results kept in {out_dir}",
+              EXIT_ALL_DIVERGED)
 
 
 @app.command()

@@ -2,6 +2,8 @@
 
 import dataclasses
 
+import pandas as pd
+
 import numpy as np
 import pytest
 
@@ -47,3 +49,29 @@ def test_wide_numbers_keep_a_space_between_columns():
                            "rms_position_m_p90": 1e8, "rms_velocity_m_s_mean": 1e5}])
     row = _format_curve(curve, ["noise.sigma_m"]).splitlines()[1]
     assert row.startswith("a_very_long_scenario spacecraft_x ") and " 3/41381431 " in row
+
+
+def test_a_corrupt_manifest_line_in_the_middle_drops_only_itself(tmp_path):
+    from liaison_cli.campaign.sweep import read_manifest, run_sweep
+    from tests.test_sweep import _smoke_plan
+
+    plan = _smoke_plan(runs=3)
+    full = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)
+    manifest = tmp_path / "s" / "manifest.jsonl"
+    lines = manifest.read_bytes().splitlines(keepends=True)
+    manifest.write_bytes(b"".join(lines[:2]) + b"garbage {\n" + b"".join(lines[3:]))
+    _, records, valid = read_manifest(manifest)
+    assert len(records) == 5 and valid == manifest.stat().st_size  # the later records survive
+    again = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)
+    assert (again.computed, again.reused) == (1, 5)
+    pd.testing.assert_frame_equal(full.runs_table, again.runs_table)
+
+
+def test_os_faults_are_one_line_exit_4(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", blocker / "out")
+    assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
+    line = proc.stderr.strip().splitlines()
+    assert len(line) == 1 and str(blocker) in line[0] and "Not a directory" in line[0]
+    assert blocker.read_text() == "not a folder"

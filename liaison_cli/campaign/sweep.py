@@ -143,14 +143,17 @@ def read_manifest(path: Path) -> tuple[dict | None, dict, int]:
     for line in data.splitlines(keepends=True):
         position += len(line)
         if not line.endswith(b"\n"):
-            break
+            break  # torn last line (killed mid-write): cut away on the next open
         try:
             entry = json.loads(line)
         except json.JSONDecodeError:
-            break
+            if header is None:
+                break
+            valid = position
+            continue  # a corrupt complete line is skipped, not the records after it (its task is recomputed)
         if header is None:
             header = entry
-        else:
+        elif isinstance(entry, dict) and "task" in entry:
             records[entry["task"]] = entry
         valid = position
     return header, records, valid
