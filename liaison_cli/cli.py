@@ -185,7 +185,7 @@ def sweep(
     from liaison_cli.campaign.grid import parse_grid, parse_range
     from liaison_cli.storage import prepare_output_dir
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep
+    from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
     paths = list(scenario_args or []) + list(scenario_opts or [])
     default_formations = not paths
@@ -204,10 +204,11 @@ def sweep(
                            "separators, no '..', not starting with '.'); use --output to choose a folder")
     plan = plan_sweep(bases, axes, runs, name)
     out_dir = output or Path("results") / f"sweep-{name}"
-    if overwrite or not (out_dir / "manifest.jsonl").exists():
-        prepare_output_dir(out_dir, overwrite)
-    result = run_sweep(plan, out_dir, backend=backend, jobs=jobs, scheduler=scheduler,
-                       progress=not quiet and sys.stderr.isatty(), connect_timeout_s=scheduler_timeout)
+    with sweep_lock(out_dir):
+        if overwrite or not (out_dir / "manifest.jsonl").exists():
+            prepare_output_dir(out_dir, overwrite)
+        result = run_sweep(plan, out_dir, backend=backend, jobs=jobs, scheduler=scheduler,
+                           progress=not quiet and sys.stderr.isatty(), connect_timeout_s=scheduler_timeout)
     typer.echo(_format_curve(result.curve_table, [k for k, _ in axes]))
     excluded = int(result.curve_table.runs_excluded.sum())
     total = len(plan.tasks)

@@ -75,3 +75,56 @@ def test_os_faults_are_one_line_exit_4(tmp_path):
     line = proc.stderr.strip().splitlines()
     assert len(line) == 1 and str(blocker) in line[0] and "Not a directory" in line[0]
     assert blocker.read_text() == "not a folder"
+
+
+def _sweep_args(out, runs=30, jobs=1):
+    return ["sweep", "--scenario", SCENARIOS / "smoke.yaml", "--sigma", "100:300:100", "--grid", "duration_days=4",
+            "--runs", str(runs), "--jobs", str(jobs), "--quiet", "--output", out]
+
+
+def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path):
+    from liaison_cli.campaign.sweep import sweep_lock
+
+    out = tmp_path / "busy"
+    with sweep_lock(out):  # another sweep holds the folder
+        proc = run_cli(*_sweep_args(out, runs=1))
+    assert proc.returncode == 2 and "another liaison sweep" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not out.exists()
+    proc = run_cli(*_sweep_args(out, runs=1))  # free again
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_ctrl_c_saves_what_finished_and_says_how_to_resume(tmp_path, jobs):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from tests.conftest import REPO
+
+    out = tmp_path / "interrupted"
+    # A shell that starts the tests in the background hands its children SIGINT ignored; a user's terminal
+    # does not: restore the default so the child sees Ctrl-C as a user would.
+    # Its own process group, as a terminal would have: Ctrl-C reaches the CLI and its workers alike.
+    proc = subprocess.Popen([sys.executable, "-m", "liaison_cli", *map(str, _sweep_args(out, jobs=jobs))],
+                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL), start_new_session=True)
+    manifest = out / "manifest.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if manifest.exists() and manifest.read_bytes().count(b"\n") >= 11:
+            break
+        time.sleep(0.005)
+    assert proc.poll() is None, "the sweep finished before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "Traceback" not in stderr, stderr
+    lines = [line for line in stderr.strip().splitlines() if line.strip()]
+    assert len(lines) == 1 and "interrupted:" in lines[0] and "of 90 tasks saved" in lines[0]
+    assert "rerun the same command to resume" in lines[0]
+    saved = int(lines[0].split("interrupted: ")[1].split(" of")[0])
+    assert saved == manifest.read_bytes().count(b"\n") - 1
+    resumed = run_cli(*_sweep_args(out))
+    assert resumed.returncode == 0 and f"{90 - saved} computed, {saved} reused" in resumed.stdout

@@ -9,6 +9,8 @@ interrupted-and-resumed sweep writes the same bytes as an uninterrupted one, wha
 
 import hashlib
 import itertools
+import warnings
+from contextlib import contextmanager
 import json
 import os
 from dataclasses import dataclass, field
@@ -32,6 +34,34 @@ SIGMA_KEY = "noise.sigma_m"
 
 class SweepError(LiaisonError):
     """The output folder holds a different sweep, or the sweep definition is inconsistent."""
+
+
+class SweepInterrupted(LiaisonError):
+    """Ctrl-C: what finished is in the manifest; the same command resumes."""
+
+    exit_code = 130
+
+
+@contextmanager
+def sweep_lock(out_dir: Path):
+    """One sweep at a time per folder: an exclusive lock on `.<folder>.lock` beside it (outside the folder,
+    so `--overwrite` cannot remove it from under another sweep). A busy folder is one line, exit 2."""
+    import fcntl
+
+    out_dir = Path(out_dir)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    handle = open(out_dir.parent / f".{out_dir.name}.lock", "a")
+    try:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        handle.close()
+        raise SweepError(f"{out_dir}: another liaison sweep is writing into this folder; wait for it to finish "
+                         "or choose --output") from None
+    try:
+        yield
+    finally:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+        handle.close()
 
 
 def scenario_hash(scenario: Scenario) -> str:
@@ -204,6 +234,7 @@ def _header_mismatch(path, old, new) -> str:
 
 def execute_batch(problem, tasks: list[SweepTask]) -> list[dict]:
     """Worker side: one JSON-ready record per task. Never raises (execute_run reports failures)."""
+    _ignore_sigint_in_worker_processes()
     records = []
     for task in tasks:
         outcome = execute_run(problem, RunTask(task.run))
@@ -230,6 +261,34 @@ def _batches(pending: list[SweepTask], batch_runs: int) -> list[tuple[int, list[
         group = list(group)
         batches += [(point, group[i : i + batch_runs]) for i in range(0, len(group), batch_runs)]
     return batches
+
+
+def _ignore_sigint_in_worker_processes() -> None:
+    """Ctrl-C reaches every process of the terminal's group; a worker process leaves it to the main process
+    (which saves what finished and stops the pool) instead of printing its own traceback."""
+    import multiprocessing
+    import signal
+    import threading
+
+    if multiprocessing.parent_process() is not None and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _catch_sigint(flag: list):
+    """SIGINT appends to `flag` instead of raising (main thread only; elsewhere nothing changes)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGINT, lambda signum, frame: flag.append(signum))
+
+
+def _restore_sigint(previous) -> None:
+    import signal
+
+    if previous is not None:
+        signal.signal(signal.SIGINT, previous)
 
 
 @dataclass(frozen=True, eq=False)
@@ -261,10 +320,28 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
         del truth_cache
         bar = tqdm(total=len(tasks), initial=reused, desc=f"sweep {plan.name}", unit="run",
                    disable=not progress, smoothing=0.1)
-        for records in map_batches(execute_batch, problems, _batches(pending, batch_runs), backend, jobs, scheduler,
-                                   connect_timeout_s):
-            manifest.append(records)
-            bar.update(len(records))
+        # Ctrl-C only raises a flag, checked between batches: a KeyboardInterrupt raised inside compiled code
+        # (numba's callbacks) can be swallowed, and a batch cut in half would be recomputed anyway.
+        interrupted = []
+        previous = _catch_sigint(interrupted)
+        results = map_batches(execute_batch, problems, _batches(pending, batch_runs), backend, jobs, scheduler,
+                              connect_timeout_s)
+        try:
+            for records in results:
+                manifest.append(records)
+                bar.update(len(records))
+                if interrupted:
+                    raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            bar.close()
+            with warnings.catch_warnings():  # joblib's note on cancelled tasks: they are simply not saved
+                warnings.simplefilter("ignore")
+                getattr(results, "close", lambda: None)()
+            saved = sum(1 for t in tasks if t.task_id in manifest.records)
+            raise SweepInterrupted(f"interrupted: {saved} of {len(tasks)} tasks saved in {manifest.path}; rerun the "
+                                   "same command to resume") from None
+        finally:
+            _restore_sigint(previous)
         bar.close()
         _, records, _ = read_manifest(manifest.path)  # tables come from what is on disk, nothing else
     finally:
