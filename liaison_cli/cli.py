@@ -94,14 +94,15 @@ def run(
 ):
     """Run a scenario's Monte Carlo EKF campaign and write Parquet results."""
     from liaison_cli.campaign.results import summary_table, write_campaign
-    from liaison_cli.storage import prepare_output_dir
     from liaison_cli.campaign.runner import run_campaign
     from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.storage import staged_output
 
     config, text = load_scenario(scenario)
-    out_dir = prepare_output_dir(output or Path("results") / config.name, overwrite)
-    result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty())
-    write_campaign(result, out_dir, text, float_dtype="float64" if float64 else "float32")
+    out_dir = output or Path("results") / config.name
+    with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
+        result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty())
+        write_campaign(result, stage, text, float_dtype="float64" if float64 else "float32")
     summary = summary_table(result)
     typer.echo(
         f"{config.name}: {len(result.problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
@@ -127,12 +128,12 @@ def table3(
 ):
     """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
     from liaison_cli.report.table3 import run_table3
-    from liaison_cli.storage import prepare_output_dir
+    from liaison_cli.storage import staged_output
 
-    out_dir = prepare_output_dir(output, overwrite)
-    result = run_table3(scenarios, out_dir, runs, jobs, progress=not quiet and sys.stderr.isatty())
+    with staged_output(output, overwrite) as stage:
+        result = run_table3(scenarios, stage, runs, jobs, progress=not quiet and sys.stderr.isatty())
     typer.echo(result.markdown)
-    typer.echo(f"results: {out_dir}")
+    typer.echo(f"results: {output}")
 
 
 def _plain_name(name: str) -> bool:
@@ -460,24 +461,24 @@ def compare(
 ):
     """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
     from liaison_cli.campaign.results import summary_table
-    from liaison_cli.storage import prepare_output_dir
     from liaison_cli.campaign.runner import run_campaign
-    from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.report.compare import compare_rows, write_compare
+    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.storage import staged_output
 
     loaded = [(path, *load_scenario(path)) for path in scenarios]
-    out_dir = prepare_output_dir(output, overwrite)
     rows, summaries, texts = [], [], {}
-    for path, config, text in loaded:
-        result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
-                              description=config.name)
-        summary = summary_table(result)
-        rows.append(compare_rows(config, summary))
-        summaries.append(summary.assign(scenario=config.name))
-        texts[config.name] = text
-    table, markdown = write_compare(rows, summaries, texts, out_dir)
+    with staged_output(output, overwrite) as stage:
+        for path, config, text in loaded:
+            result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
+                                  description=config.name)
+            summary = summary_table(result)
+            rows.append(compare_rows(config, summary))
+            summaries.append(summary.assign(scenario=config.name))
+            texts[config.name] = text
+        table, markdown = write_compare(rows, summaries, texts, stage)
     typer.echo(markdown)
-    typer.echo(f"results: {out_dir}")
+    typer.echo(f"results: {output}")
 
 
 @app.command()

@@ -63,8 +63,15 @@ def test_existing_output_needs_overwrite(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1
     assert str(out) in proc.stderr and "--overwrite" in proc.stderr
     assert (out / "summary.parquet").read_text() == "old"
+    # --overwrite replaces only what liaison wrote: this folder is not a liaison result.
     proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", out, "--overwrite", "--runs", "1")
+    assert proc.returncode == 2 and "not a liaison result" in proc.stderr
+    assert (out / "summary.parquet").read_text() == "old"
+    mine = tmp_path / "mine"
+    assert run_cli("run", SCENARIOS / "smoke.yaml", "--output", mine, "--runs", "1").returncode == 0
+    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", mine, "--overwrite", "--runs", "2")
     assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "out"]  # no staging folder left behind
 
 
 def test_yaml_tags_are_not_executed(tmp_path):

@@ -128,3 +128,31 @@ def test_ctrl_c_saves_what_finished_and_says_how_to_resume(tmp_path, jobs):
     assert saved == manifest.read_bytes().count(b"\n") - 1
     resumed = run_cli(*_sweep_args(out))
     assert resumed.returncode == 0 and f"{90 - saved} computed, {saved} reused" in resumed.stdout
+
+
+def test_a_killed_overwrite_keeps_the_old_result(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from tests.conftest import REPO
+
+    out = tmp_path / "result"
+    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    proc = subprocess.Popen([sys.executable, "-m", "liaison_cli", "run", str(SCENARIOS / "eml2_lunar.yaml"),
+                             "--runs", "200", "--jobs", "1", "--output", str(out), "--overwrite"], cwd=REPO,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list(tmp_path.glob(".result.partial-*")):
+        time.sleep(0.01)
+    time.sleep(1.0)  # well into the computation
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old result is intact
+    # The rerun replaces it; nothing of the killed run's is left but its hidden staging folder, and a
+    # successful run leaves no staging folder of its own.
+    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--output", out, "--overwrite").returncode == 0
+    assert (out / ".liaison-result").exists() and len(list(tmp_path.glob(".result.old-*"))) == 0

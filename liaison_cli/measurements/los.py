@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.measurements.observable import ChannelKind, Observable
+from liaison_cli.measurements.range import write_position_partials
 
 KIND_AZIMUTH = 2
 KIND_ELEVATION = 3
@@ -52,12 +53,7 @@ def predict_angle(code, x_receiver, x_transponder, g_receiver, g_transponder):
     """Azimuth (code KIND_AZIMUTH) or elevation (rad) and its partials with respect to both ends' states."""
     az, el = azimuth_elevation(x_receiver[0:3], x_transponder[0:3])
     g_az, g_el = azimuth_elevation_gradients(x_receiver[0:3], x_transponder[0:3])
-    g = g_az if code == KIND_AZIMUTH else g_el
-    for i in range(3):
-        g_receiver[i] = g[i]
-        g_transponder[i] = -g[i]
-        g_receiver[3 + i] = 0.0
-        g_transponder[3 + i] = 0.0
+    write_position_partials(g_az if code == KIND_AZIMUTH else g_el, g_receiver, g_transponder)
     return az if code == KIND_AZIMUTH else el
 
 

@@ -18,7 +18,10 @@ from liaison_cli.measurements.range import (
     FLAG_LIGHT_TIME,
     geometric_range,
     geometric_range_gradient,
+    light_time_flags,
     one_way_light_time,
+    range_sigma,
+    write_position_partials,
 )
 
 KIND_PSEUDORANGE = 4
@@ -28,11 +31,7 @@ KIND_PSEUDORANGE = 4
 def predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
     """Geometric part of the pseudorange (LU) and its partials with respect to both ends' states."""
     g = geometric_range_gradient(x_receiver[0:3], x_transmitter[0:3])
-    for i in range(3):
-        g_receiver[i] = g[i]
-        g_transmitter[i] = -g[i]
-        g_receiver[3 + i] = 0.0
-        g_transmitter[3 + i] = 0.0
+    write_position_partials(g, g_receiver, g_transmitter)
     rho = geometric_range(x_receiver[0:3], x_transmitter[0:3])
     if flags & FLAG_LIGHT_TIME:
         vx = x_transmitter[3] - x_transmitter[1]  # v_T + z x r_T
@@ -49,18 +48,14 @@ def _simulate(code, receiver, transmitter, light_time: bool):
     return np.linalg.norm(transmitter.inertial_position_before(tau) - receiver.states[:, 0:3], axis=1)
 
 
-def _sigma(noise, receiver):
-    return (noise.resolved_sigma_m() / M_PER_LU,)
-
-
 OBSERVABLE = Observable(
     name="pseudorange",
     channels=(ChannelKind(KIND_PSEUDORANGE, "pseudorange", "m", M_PER_LU),),
-    sigma=_sigma,
+    sigma=range_sigma,
     simulate=_simulate,
     takes_range_bias=True,
     clock_coefficients=(1.0, -1.0),
     needs_receiver_clock=True,
-    filter_flags=lambda filter_spec: FLAG_LIGHT_TIME if filter_spec.range_model == "light_time" else 0,
+    filter_flags=light_time_flags,
     description="one-way pseudorange timed by the receiver's clock; sigma: noise.sigma_m (as range)",
 )

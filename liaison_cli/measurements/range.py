@@ -35,6 +35,17 @@ def geometric_range_gradient(r_receiver, r_transponder):
 
 
 @njit(cache=True, inline="always")
+def write_position_partials(g, g_receiver, g_transmitter):
+    """A value that depends on r_receiver - r_transmitter only: d/d(receiver state) = [g, 0, 0, 0],
+    d/d(transmitter state) = [-g, 0, 0, 0]."""
+    for i in range(3):
+        g_receiver[i] = g[i]
+        g_transmitter[i] = -g[i]
+        g_receiver[3 + i] = 0.0
+        g_transmitter[3 + i] = 0.0
+
+
+@njit(cache=True, inline="always")
 def predict_range(x_receiver, x_transponder, flags, g_receiver, g_transponder):
     """Filter model of the two-way range (LU) from the two ends' states (6,), (6,); writes the partials
     with respect to each end's state into g_receiver, g_transponder (6,). With FLAG_LIGHT_TIME the value
@@ -43,12 +54,7 @@ def predict_range(x_receiver, x_transponder, flags, g_receiver, g_transponder):
     predicted = geometric_range(x_receiver[0:3], x_transponder[0:3])
     if flags & FLAG_LIGHT_TIME:
         predicted -= range_rate(x_receiver, x_transponder) * predicted / SPEED_OF_LIGHT_LU_TU
-    g = geometric_range_gradient(x_receiver[0:3], x_transponder[0:3])
-    for i in range(3):
-        g_receiver[i] = g[i]
-        g_transponder[i] = -g[i]
-        g_receiver[3 + i] = 0.0
-        g_transponder[3 + i] = 0.0
+    write_position_partials(geometric_range_gradient(x_receiver[0:3], x_transponder[0:3]), g_receiver, g_transponder)
     return predicted
 
 
@@ -94,16 +100,22 @@ def _simulate(code, receiver, transponder, light_time: bool):
     return np.linalg.norm(receiver.states[:, 0:3] - transponder.states[:, 0:3], axis=1)
 
 
-def _sigma(noise, receiver):
+def range_sigma(noise, receiver):
+    """The ranging sigma (noise.sigma_m or the link budget), in LU: shared by every range-like observable."""
     return (noise.resolved_sigma_m() / M_PER_LU,)
+
+
+def light_time_flags(filter_spec) -> int:
+    """filter.range_model: light_time -> FLAG_LIGHT_TIME for every range-like observable."""
+    return FLAG_LIGHT_TIME if filter_spec.range_model == "light_time" else 0
 
 
 OBSERVABLE = Observable(
     name="range",
     channels=(ChannelKind(KIND_RANGE, "range", "m", M_PER_LU),),
-    sigma=_sigma,
+    sigma=range_sigma,
     simulate=_simulate,
     takes_range_bias=True,
-    filter_flags=lambda filter_spec: FLAG_LIGHT_TIME if filter_spec.range_model == "light_time" else 0,
+    filter_flags=light_time_flags,
     description="two-way range through a transponder (Eq. 14-17); sigma: noise.sigma_m or the link budget",
 )
