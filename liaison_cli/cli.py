@@ -98,6 +98,7 @@ def run(
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
 
+    _check_runs(runs)
     config, text = load_scenario(scenario)
     out_dir = output or Path("results") / config.name
     with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
@@ -130,10 +131,19 @@ def table3(
     from liaison_cli.report.table3 import run_table3
     from liaison_cli.storage import staged_output
 
+    _check_runs(runs)
     with staged_output(output, overwrite) as stage:
         result = run_table3(scenarios, stage, runs, jobs, progress=not quiet and sys.stderr.isatty())
     typer.echo(result.markdown)
     typer.echo(f"results: {output}")
+
+
+def _check_runs(runs) -> None:
+    """--runs obeys the same cap as the scenario's monte_carlo.runs."""
+    from liaison_cli.scenario.schema import MAX_RUNS
+
+    if runs is not None and runs > MAX_RUNS:
+        raise LiaisonError(f"--runs {runs}: at most {MAX_RUNS:,} runs (the cap of monte_carlo.runs)")
 
 
 def _plain_name(name: str) -> bool:
@@ -188,6 +198,7 @@ def sweep(
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
+    _check_runs(runs)
     paths = list(scenario_args or []) + list(scenario_opts or [])
     default_formations = not paths
     if default_formations:
@@ -466,6 +477,7 @@ def compare(
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
 
+    _check_runs(runs)
     loaded = [(path, *load_scenario(path)) for path in scenarios]
     rows, summaries, texts = [], [], {}
     with staged_output(output, overwrite) as stage:

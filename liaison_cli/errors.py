@@ -13,3 +13,9 @@ class ScenarioError(LiaisonError):
 
 class OutputExistsError(LiaisonError):
     """The output directory exists and --overwrite was not given."""
+
+
+class UnreadableFileError(LiaisonError):
+    """A file liaison should read is corrupt or not what it claims to be (e.g. a damaged Parquet table)."""
+
+    exit_code = 4

@@ -156,3 +156,21 @@ def test_a_killed_overwrite_keeps_the_old_result(tmp_path):
     # successful run leaves no staging folder of its own.
     assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--output", out, "--overwrite").returncode == 0
     assert (out / ".liaison-result").exists() and len(list(tmp_path.glob(".result.old-*"))) == 0
+
+
+def test_a_corrupt_curve_given_to_plot_is_one_line_exit_4(tmp_path):
+    sweep = tmp_path / "sweep"
+    sweep.mkdir()
+    (sweep / "curve.parquet").write_bytes(b"PAR1" + b"\x00" * 64)
+    proc = run_cli("plot", "fig15", sweep)
+    assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(sweep / "curve.parquet") in lines[0] and "not a readable Parquet" in lines[0]
+
+
+@pytest.mark.parametrize("command", [["run", SCENARIOS / "smoke.yaml"], ["sweep", SCENARIOS / "smoke.yaml",
+                                                                         "--sigma", "100"]])
+def test_runs_on_the_command_line_obey_the_scenario_cap(tmp_path, command):
+    proc = run_cli(*command, "--runs", "10000000", "--output", tmp_path / "o")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "--runs 10000000" in proc.stderr and "1,000,000" in proc.stderr and not (tmp_path / "o").exists()

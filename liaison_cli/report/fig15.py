@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liaison_cli.errors import LiaisonError
+from liaison_cli.errors import LiaisonError, UnreadableFileError
 from liaison_cli.report.table3 import paper_table3
 
 FORMATION_LABELS = {"eml2_lunar": "EML2 halo – lunar", "eml1_lunar": "EML1 halo – lunar",
@@ -28,7 +28,12 @@ def load_curve(sweep_dir) -> pd.DataFrame:
     path = Path(sweep_dir) / "curve.parquet"
     if not path.exists():
         raise PlotError(f"{sweep_dir}: no curve.parquet here; give a folder written by 'liaison sweep'")
-    curve = pd.read_parquet(path)
+    try:
+        curve = pd.read_parquet(path)
+    except (OSError, ValueError) as exc:  # pyarrow: ArrowInvalid is a ValueError, ArrowIOError an OSError
+        raise UnreadableFileError(f"{path}: not a readable Parquet table ({type(exc).__name__}: "
+                                  f"{str(exc).splitlines()[0] if str(exc) else 'no detail'}); rerun the sweep "
+                                  "to rebuild it from its manifest") from None
     if curve.groupby(["scenario", "spacecraft"]).sigma_m.nunique().max() < 2:
         raise PlotError(f"{path}: sigma_m takes fewer than 2 values per scenario; Fig. 15 needs a --sigma sweep")
     return curve

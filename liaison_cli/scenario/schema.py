@@ -22,6 +22,7 @@ from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
+MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
 
@@ -365,7 +366,7 @@ class InitialErrorSpec(StrictModel):
 
 
 class MonteCarloSpec(StrictModel):
-    runs: int = Field(ge=1, le=1_000_000)
+    runs: int = Field(ge=1, le=MAX_RUNS)
     seed: int = Field(ge=0)
 
 
