@@ -93,8 +93,7 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Run a scenario's Monte Carlo EKF campaign and write Parquet results."""
-    from liaison_cli.campaign.results import summary_table, write_campaign
-    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.results import stream_campaign
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
 
@@ -102,14 +101,14 @@ def run(
     config, text = load_scenario(scenario)
     out_dir = output or Path("results") / config.name
     with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
-        result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty())
-        write_campaign(result, stage, text, float_dtype="float64" if float64 else "float32")
-    summary = summary_table(result)
+        problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
+                                           progress=not quiet and sys.stderr.isatty(),
+                                           float_dtype="float64" if float64 else "float32")
     typer.echo(
-        f"{config.name}: {len(result.problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
-        f"sigma {result.problem.sigma_m:.1f} m, {config.duration_days:g} d, seed {config.monte_carlo.seed}"
+        f"{config.name}: {len(problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
+        f"sigma {problem.sigma_m:.1f} m, {config.duration_days:g} d, seed {config.monte_carlo.seed}"
     )
-    typer.echo(_format_summary(summary, result.problem.spacecraft))
+    typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_status_line(summary))
     typer.echo(f"results: {out_dir}")
     if not (summary.status == "ok").any():
@@ -194,7 +193,7 @@ def sweep(
 ):
     """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
     from liaison_cli.campaign.grid import parse_grid, parse_range
-    from liaison_cli.storage import prepare_output_dir
+    from liaison_cli.storage import resumable_output
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
@@ -216,10 +215,8 @@ def sweep(
                            "separators, no '..', not starting with '.'); use --output to choose a folder")
     plan = plan_sweep(bases, axes, runs, name)
     out_dir = output or Path("results") / f"sweep-{name}"
-    with sweep_lock(out_dir):
-        if overwrite or not (out_dir / "manifest.jsonl").exists():
-            prepare_output_dir(out_dir, overwrite)
-        result = run_sweep(plan, out_dir, backend=backend, jobs=jobs, scheduler=scheduler,
+    with sweep_lock(out_dir), resumable_output(out_dir, overwrite, plan.key()) as work_dir:
+        result = run_sweep(plan, work_dir, backend=backend, jobs=jobs, scheduler=scheduler,
                            progress=not quiet and sys.stderr.isatty(), connect_timeout_s=scheduler_timeout)
     typer.echo(_format_curve(result.curve_table, [k for k, _ in axes]))
     excluded = int(result.curve_table.runs_excluded.sum())
@@ -229,6 +226,14 @@ def sweep(
                + (f"; {excluded} spacecraft-runs diverged or failed and are excluded from the curves"
                   if excluded else ""))
     typer.echo(f"results: {out_dir}")
+    curve = result.curve_table
+    empty = curve[curve.runs_ok == 0].drop_duplicates("point")
+    if len(empty) == curve.point.nunique():
+        _fail(f"no run of sweep {name} finished healthy (see the manifest's reasons); results kept in {out_dir}",
+              EXIT_ALL_DIVERGED)
+    if len(empty):
+        typer.echo(f"warning: no healthy run at {len(empty)} grid point(s) ({', '.join(map(str, empty.point))}); "
+                   "their curve values are empty", err=True)
 
 
 plot_app = typer.Typer(no_args_is_help=True, help="Figures from result folders (PNG + SVG).")
@@ -411,15 +416,16 @@ def observability(
     no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
 ):
     """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
-    from liaison_cli.storage import prepare_output_dir
+    from liaison_cli.storage import staged_output
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.report.observability_report import observability_report
 
     config, text = load_scenario(scenario)
     if range_rate_sigma_m_s is None:
         range_rate_sigma_m_s = config.noise.resolved_range_rate_sigma_m_s() or 1e-3
-    out_dir = prepare_output_dir(output or Path("results") / f"observability-{config.name}", overwrite)
-    summary = observability_report(config, text, out_dir, range_rate_sigma_m_s, taylor=not no_taylor)
+    out_dir = output or Path("results") / f"observability-{config.name}"
+    with staged_output(out_dir, overwrite) as stage:
+        summary = observability_report(config, text, stage, range_rate_sigma_m_s, taylor=not no_taylor)
     for observable, values in summary["observables"].items():
         least = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["least_observable"])
         most = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["most_observable"])
@@ -446,11 +452,12 @@ def geometry(
     interval_s: float = typer.Option(600.0, "--interval", min=10.0, help="sampling interval of the links, s"),
 ):
     """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter."""
-    from liaison_cli.storage import prepare_output_dir
+    from liaison_cli.storage import staged_output
     from liaison_cli.report.geometry import run_study
 
-    out_dir = prepare_output_dir(output, overwrite)
-    tables = run_study(out_dir, count, interval_s)
+    out_dir = output
+    with staged_output(out_dir, overwrite) as stage:
+        tables = run_study(stage, count, interval_s)
     for key, table in tables.items():
         for observable in ("range", "range_rate"):
             col = table[f"{observable}_condition_number"]
@@ -471,8 +478,7 @@ def compare(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
-    from liaison_cli.campaign.results import summary_table
-    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.results import summarise_campaign
     from liaison_cli.report.compare import compare_rows, write_compare
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
@@ -482,9 +488,8 @@ def compare(
     rows, summaries, texts = [], [], {}
     with staged_output(output, overwrite) as stage:
         for path, config, text in loaded:
-            result = run_campaign(config, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
-                                  description=config.name)
-            summary = summary_table(result)
+            _, summary = summarise_campaign(config, runs=runs, jobs=jobs,
+                                            progress=not quiet and sys.stderr.isatty(), description=config.name)
             rows.append(compare_rows(config, summary))
             summaries.append(summary.assign(scenario=config.name))
             texts[config.name] = text

@@ -29,16 +29,39 @@ def _temp_beside(path: Path) -> str:
     return tmp
 
 
+@contextmanager
+def naming(path):
+    """Re-raise an OSError that does not say which file it is about (pyarrow's do not) with `path` named,
+    so the CLI's one line names the path and the cause."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        code = exc.errno if exc.errno is not None else _errno_in_text(str(exc))
+        cause = os.strerror(code) if code is not None else str(exc)
+        raise OSError(code, cause, str(path)) from exc
+
+
+def _errno_in_text(text: str) -> int | None:
+    """pyarrow puts the errno in its message ('... [errno 28] No space left on device')."""
+    import re
+
+    found = re.search(r"\[errno (\d+)\]", text, re.IGNORECASE)
+    return int(found.group(1)) if found else None
+
+
 def _write_atomic(path, write) -> None:
     """Call write(temp_path), fsync, rename onto `path`; the temp file never survives a failure."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = _temp_beside(path)
     try:
-        write(tmp)
-        with open(tmp, "rb") as handle:
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
+        with naming(path):
+            write(tmp)
+            with open(tmp, "rb") as handle:
+                os.fsync(handle.fileno())
+            os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -62,6 +85,89 @@ def write_parquet_atomic(df, path, metadata: dict) -> None:
     merged[METADATA_KEY] = json.dumps(metadata, sort_keys=True).encode()
     table = table.replace_schema_metadata(merged)
     _write_atomic(path, lambda tmp: pq.write_table(table, tmp))
+
+
+class ParquetStream:
+    """One Parquet table written as its rows arrive, so a campaign of any size holds only a buffer.
+
+    `append` takes columns (name -> 1-D array, the same names and dtypes each time); up to `flush_rows`
+    rows are buffered and written as one row group (`dictionary_columns`: those whose values repeat). The file is built under a temporary name beside
+    `path`, fsynced and renamed onto it by `close()` (`abort()` drops it). With no rows at all it writes an
+    empty table, as `write_parquet_atomic(pd.DataFrame())` does.
+    """
+
+    def __init__(self, path, metadata: dict, flush_rows: int = 200_000, dictionary_columns=()):
+        self._dictionary_columns = set(dictionary_columns)
+        self.path = Path(path)
+        self._metadata = metadata
+        self._flush_rows = flush_rows
+        self._buffer: list[dict] = []
+        self._buffered_rows = 0
+        self._tmp: str | None = None
+        self._writer = None
+
+    def append(self, columns: dict) -> None:
+        rows = len(next(iter(columns.values()))) if columns else 0
+        if rows:
+            self._buffer.append(columns)
+            self._buffered_rows += rows
+        if self._buffered_rows >= self._flush_rows:
+            with naming(self.path):
+                self._flush()
+
+    def _flush(self) -> None:
+        import numpy as np
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        if not self._buffer:
+            return
+        names = list(self._buffer[0])
+        table = pa.table({name: np.concatenate([part[name] for part in self._buffer]) for name in names})
+        self._buffer, self._buffered_rows = [], 0
+        if self._writer is None:
+            table = table.replace_schema_metadata(
+                {METADATA_KEY: json.dumps(self._metadata, sort_keys=True).encode()})
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._tmp = _temp_beside(self.path)
+            # Dictionary encoding only where values repeat (labels, run, epoch): on the float columns it
+            # costs more time than it saves space; zstd is both faster and smaller than the default here.
+            self._writer = pq.ParquetWriter(self._tmp, table.schema, compression="zstd",
+                                            use_dictionary=[n for n in names if n in self._dictionary_columns])
+        else:
+            table = table.cast(self._writer.schema)
+        self._writer.write_table(table)
+
+    def close(self) -> None:
+        try:
+            with naming(self.path):
+                self._close()
+        except BaseException:
+            self.abort()
+            raise
+
+    def _close(self) -> None:
+        self._flush()
+        if self._writer is None:
+            import pandas as pd
+
+            write_parquet_atomic(pd.DataFrame(), self.path, self._metadata)
+            return
+        self._writer.close()
+        with open(self._tmp, "rb") as handle:
+            os.fsync(handle.fileno())
+        os.replace(self._tmp, self.path)
+        self._tmp = None
+
+    def abort(self) -> None:
+        if self._writer is not None:
+            try:
+                self._writer.close()
+            except Exception:  # noqa: BLE001 - the file is dropped anyway
+                pass
+        if self._tmp is not None:
+            Path(self._tmp).unlink(missing_ok=True)
+        self._writer, self._tmp, self._buffer = None, None, []
 
 
 def read_metadata(path) -> dict:
@@ -91,8 +197,8 @@ def _check_replaceable(path: Path, overwrite: bool) -> bool:
     --overwrite, and any file or folder liaison did not write even with it."""
     if not path.exists() and not path.is_symlink():
         return False
-    if path.is_dir() and not any(path.iterdir()):
-        return False
+    if path.is_dir() and all(entry.name == RESULT_MARKER for entry in path.iterdir()):
+        return False  # empty, or only our marker (a job that failed before writing anything)
     if not overwrite:
         kind = "directory" if path.is_dir() else "a file, not a directory, and"
         raise OutputExistsError(
@@ -134,21 +240,60 @@ def staged_output(path, overwrite: bool):
     path = Path(path)
     replace = _check_replaceable(path, overwrite)
     _make_parent(path)
-    stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+    except OSError as exc:  # read-only, no permission, full: say where the result was to go
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
     try:
         yield stage
         (stage / RESULT_MARKER).write_text("written by liaison\n", encoding="utf-8")
         os.chmod(stage, 0o777 & ~_umask())
-        if replace:
-            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
-            os.replace(path, old / path.name)
-            os.replace(stage, path)
-            shutil.rmtree(old)
-        else:
-            os.replace(stage, path)
+        _swap_in(stage, path, replace)
+    except OSError as exc:
+        shutil.rmtree(stage, ignore_errors=True)
+        if exc.filename is not None and str(exc.filename).startswith(str(stage)):
+            # Name the file as the user knows it; the staging folder is gone.
+            destination = path / Path(exc.filename).relative_to(stage)
+            raise OSError(exc.errno, exc.strerror, str(destination)) from exc
+        raise
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
+
+
+def _swap_in(stage: Path, path: Path, replace: bool) -> None:
+    """Put the complete folder `stage` at `path`; a previous result there is moved aside, then removed."""
+    if replace:
+        old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
+        os.replace(path, old / path.name)
+        os.replace(stage, path)
+        shutil.rmtree(old)
+    else:
+        os.replace(stage, path)
+
+
+@contextmanager
+def resumable_output(path, overwrite: bool, key: str):
+    """Yield the folder a resumable job (a sweep, whose manifest records what is done) writes into.
+
+    Without `overwrite`, or with nothing to replace: `path` itself (an existing liaison folder is resumed;
+    a non-empty folder that is not, refused). With `overwrite` of an existing liaison result: a hidden
+    sibling `.NAME.replacing-KEY`, swapped in when the block completes and kept if it is interrupted, so the
+    same command (same `key`) resumes it while the old result stays in place until then.
+    """
+    path = Path(path)
+    if not overwrite or not _check_replaceable(path, overwrite):
+        if not (path / "manifest.jsonl").exists():
+            prepare_output_dir(path, overwrite=False)
+        yield path
+        return
+    stage = path.parent / f".{path.name}.replacing-{key}"
+    if stage.exists() and not _is_ours(stage) and any(stage.iterdir()):
+        raise OutputExistsError(f"{stage}: not a liaison folder; remove it yourself or choose --output")
+    stage.mkdir(exist_ok=True)
+    (stage / RESULT_MARKER).write_text("written by liaison\n", encoding="utf-8")
+    yield stage
+    _swap_in(stage, path, replace=True)
 
 
 def _umask() -> int:

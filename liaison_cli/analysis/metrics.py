@@ -60,11 +60,40 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
     return rows, norms
 
 
+def chi2_quantile(probability: float, dof: float) -> float:
+    """The chi-square quantile, 2 * P^-1(dof / 2, p) with P the regularised lower incomplete gamma function
+    (scipy.special: importing scipy.stats for chi2.ppf would cost about a second)."""
+    from scipy.special import gammaincinv
+
+    return 2.0 * float(gammaincinv(0.5 * dof, probability))
+
+
 def nees_band(state_size: int, n_runs: int, confidence: float = 0.95):
     """Two-sided band for the run-averaged NEES: chi2(n_runs * state_size) / n_runs."""
-    from scipy.stats import chi2  # imported here: scipy.stats costs ~1 s and workers never need it
-
     dof = n_runs * state_size
-    lo = chi2.ppf((1.0 - confidence) / 2.0, dof) / n_runs
-    hi = chi2.ppf(1.0 - (1.0 - confidence) / 2.0, dof) / n_runs
-    return float(lo), float(hi)
+    lo = chi2_quantile((1.0 - confidence) / 2.0, dof) / n_runs
+    hi = chi2_quantile(1.0 - (1.0 - confidence) / 2.0, dof) / n_runs
+    return lo, hi
+
+
+NEES_DIVERGENCE_PROBABILITY = 0.999
+
+
+def nees_divergence_limit(state_size: int, factor: float) -> float:
+    """The NEES a run must exceed throughout the window to count as diverged: `factor` times the 99.9 %
+    chi-square quantile of the estimated state size."""
+    return factor * chi2_quantile(NEES_DIVERGENCE_PROBABILITY, state_size)
+
+
+def sustained_excess_step(nees, limit: float, window_steps: int) -> int:
+    """The first epoch at which `nees` has been above `limit` for `window_steps` consecutive epochs (the
+    epoch a navigator watching the filter would call it lost), or -1. Epoch 0 (the a-priori) is skipped."""
+    above = np.asarray(nees)[1:] > limit
+    if window_steps < 1 or above.size < window_steps:
+        return -1
+    run = 0
+    for k, is_above in enumerate(above):
+        run = run + 1 if is_above else 0
+        if run == window_steps:
+            return k + 1
+    return -1

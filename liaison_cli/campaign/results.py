@@ -7,12 +7,15 @@ import pandas as pd
 
 from liaison_cli import __version__
 from liaison_cli.analysis.metrics import nees_band
-from liaison_cli.campaign.runner import CampaignResult
-from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+from liaison_cli.campaign.runner import CampaignResult, iter_outcomes
+from liaison_cli.campaign.worker import RunOutcome
+from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.setup import Problem, prepare_problem
+from liaison_cli.storage import ParquetStream, write_parquet_atomic, write_text_atomic
 
 
-def provenance(result: CampaignResult, scenario_text: str, extra: dict | None = None) -> dict:
-    scenario = result.scenario
+def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | None = None) -> dict:
+    scenario = problem.scenario
     meta = {
         "package": "liaison",
         "package_version": __version__,
@@ -20,156 +23,217 @@ def provenance(result: CampaignResult, scenario_text: str, extra: dict | None = 
         "scenario_yaml": scenario_text,
         "scenario_effective": scenario.model_dump(mode="json"),
         "seed": scenario.monte_carlo.seed,
-        "runs": len(result.outcomes),
-        "sigma_m": result.problem.sigma_m,
+        "runs": n_runs,
+        "sigma_m": problem.sigma_m,
         "seeding": "numpy SeedSequence(seed, spawn_key=(run,)); initial error drawn first, then noise",
     }
     meta.update(extra or {})
     return meta
 
 
+def _summary_rows(problem: Problem, outcome: RunOutcome) -> list[dict]:
+    per_sc = outcome.summary or [{"spacecraft": name} for name in problem.spacecraft]
+    return [{"run": outcome.run, **row, "status": outcome.status, "reason": outcome.reason,
+             "fail_time_s": outcome.fail_time_s} for row in per_sc]
+
+
+def _summary_frame(rows: list[dict]) -> pd.DataFrame:
+    return pd.DataFrame(rows).astype({"run": "int32"})
+
+
+# Per-run builders return columns (name -> 1-D array), not DataFrames: the writer stacks them per row
+# group, which keeps the main process far ahead of the workers.
+Columns = dict
+
+
+def _timeseries_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
+    """One row per (epoch, spacecraft) of one run: error norms, 3-sigma bounds, whole-state NEES."""
+    if not outcome.norms:
+        return None
+    m, n_sc = outcome.norms["position_error_m"].shape
+    columns = {
+        "run": np.full(m * n_sc, outcome.run, dtype=np.int32),
+        "t_s": np.repeat(problem.times_s, n_sc),
+        "spacecraft": np.tile(np.array(problem.spacecraft, dtype=object), m),
+    }
+    for key in ("position_error_m", "velocity_error_m_s", "position_3sigma_m", "velocity_3sigma_m_s"):
+        columns[key] = outcome.norms[key].reshape(-1).astype(float_dtype)
+    columns["nees"] = np.repeat(outcome.nees, n_sc).astype(float_dtype)
+    return columns
+
+
+def _residuals_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
+    """One row per (epoch, measurement channel) of one run: innovation (observed minus predicted) and its
+    predicted standard deviation, in the channel's unit (m for range, m/s for range-rate, rad for angles)."""
+    if outcome.innovation_m is None:
+        return None
+    channels = problem.channel_labels
+    m, n_channels = outcome.innovation_m[1:].shape
+    return {
+        "run": np.full(m * n_channels, outcome.run, dtype=np.int32),
+        "t_s": np.repeat(problem.times_s[1:], n_channels),
+        "link": np.tile(np.array([c[0] for c in channels], dtype=object), m),
+        "observable": np.tile(np.array([c[1] for c in channels], dtype=object), m),
+        "unit": np.tile(np.array([c[2] for c in channels], dtype=object), m),
+        "innovation": outcome.innovation_m[1:].reshape(-1).astype(float_dtype),
+        "innovation_std": outcome.innovation_std_m[1:].reshape(-1).astype(float_dtype),
+    }
+
+
+def _bias_columns(problem: Problem, outcome: RunOutcome, float_dtype=None) -> Columns | None:
+    """One row per link of one run: true range bias, the filter's final value and 1-sigma (m)."""
+    if outcome.bias_true_m is None:
+        return None
+    n_links = len(problem.link_labels)
+    return {
+        "run": np.full(n_links, outcome.run, dtype=np.int64),
+        "link": np.array(problem.link_labels, dtype=object),
+        "status": np.full(n_links, outcome.status, dtype=object),
+        "bias_true_m": np.asarray(outcome.bias_true_m, dtype=float),
+        "bias_estimate_m": np.asarray(outcome.bias_estimate_m, dtype=float),
+        "bias_sigma_m": np.asarray(outcome.bias_sigma_m, dtype=float),
+        "treatment": np.full(n_links, problem.scenario.filter.bias, dtype=object),
+    }
+
+
+def _clock_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
+    """One row per (epoch, estimated clock) of one run: phase error and 1-sigma in ns, frequency error and
+    1-sigma (dimensionless, s/s)."""
+    if outcome.clock_error_s is None:
+        return None
+    m, n_clocks, _ = outcome.clock_error_s.shape
+    return {
+        "run": np.full(m * n_clocks, outcome.run, dtype=np.int32),
+        "t_s": np.repeat(problem.times_s, n_clocks),
+        "clock": np.tile(np.array([c.owner for c in problem.clocks], dtype=object), m),
+        "phase_error_ns": (1e9 * outcome.clock_error_s[:, :, 0]).reshape(-1).astype(float_dtype),
+        "phase_sigma_ns": (1e9 * outcome.clock_sigma_s[:, :, 0]).reshape(-1).astype(float_dtype),
+        "frequency_error": outcome.clock_error_s[:, :, 1].reshape(-1).astype(float_dtype),
+        "frequency_sigma": outcome.clock_sigma_s[:, :, 1].reshape(-1).astype(float_dtype),
+    }
+
+
+# Per-run tables, streamed: file stem -> frame builder.
+# Columns whose values repeat from row to row (dictionary-encoded in the streamed files).
+REPEATING_COLUMNS = ("run", "t_s", "spacecraft", "link", "observable", "unit", "clock", "status", "treatment")
+PER_RUN_TABLES = {"timeseries": _timeseries_columns, "residuals": _residuals_columns, "bias": _bias_columns,
+                  "clocks": _clock_columns}
+
+
+def _concat(parts) -> pd.DataFrame:
+    parts = [p for p in parts if p is not None]
+    if not parts:
+        return pd.DataFrame()
+    return pd.DataFrame({key: np.concatenate([p[key] for p in parts]) for key in parts[0]})
+
+
 def summary_table(result: CampaignResult) -> pd.DataFrame:
-    rows = []
-    for outcome in result.outcomes:
-        per_sc = outcome.summary or [{"spacecraft": name} for name in result.problem.spacecraft]
-        for row in per_sc:
-            rows.append(
-                {"run": outcome.run, **row, "status": outcome.status, "reason": outcome.reason,
-                 "fail_time_s": outcome.fail_time_s}
-            )
-    df = pd.DataFrame(rows)
-    return df.astype({"run": "int32"})
+    return _summary_frame([row for o in result.outcomes for row in _summary_rows(result.problem, o)])
 
 
 def timeseries_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
-    """One row per (run, epoch, spacecraft): error norms, 3-sigma bounds, whole-state NEES."""
-    times = result.problem.times_s
-    names = result.problem.spacecraft
-    frames = []
-    for outcome in result.outcomes:
-        if not outcome.norms:
-            continue
-        m, n_sc = outcome.norms["position_error_m"].shape
-        frame = {
-            "run": np.full(m * n_sc, outcome.run, dtype=np.int32),
-            "t_s": np.repeat(times, n_sc),
-            "spacecraft": np.tile(np.array(names, dtype=object), m),
-        }
-        for key in ("position_error_m", "velocity_error_m_s", "position_3sigma_m", "velocity_3sigma_m_s"):
-            frame[key] = outcome.norms[key].reshape(-1).astype(float_dtype)
-        frame["nees"] = np.repeat(outcome.nees, n_sc).astype(float_dtype)
-        frames.append(pd.DataFrame(frame))
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return _concat(_timeseries_columns(result.problem, o, float_dtype) for o in result.outcomes)
 
 
 def residuals_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
-    """One row per (run, epoch, measurement channel): innovation (observed minus predicted) and its
-    predicted standard deviation, in the channel's unit (m for range, m/s for range-rate, rad for angles)."""
-    problem = result.problem
-    times = problem.times_s[1:]
-    channels = problem.channel_labels
-    links = np.array([c[0] for c in channels], dtype=object)
-    observables = np.array([c[1] for c in channels], dtype=object)
-    units = np.array([c[2] for c in channels], dtype=object)
-    frames = []
-    for outcome in result.outcomes:
-        if outcome.innovation_m is None:
-            continue
-        m, n_channels = outcome.innovation_m[1:].shape
-        frames.append(
-            pd.DataFrame(
-                {
-                    "run": np.full(m * n_channels, outcome.run, dtype=np.int32),
-                    "t_s": np.repeat(times, n_channels),
-                    "link": np.tile(links, m),
-                    "observable": np.tile(observables, m),
-                    "unit": np.tile(units, m),
-                    "innovation": outcome.innovation_m[1:].reshape(-1).astype(float_dtype),
-                    "innovation_std": outcome.innovation_std_m[1:].reshape(-1).astype(float_dtype),
-                }
-            )
-        )
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return _concat(_residuals_columns(result.problem, o, float_dtype) for o in result.outcomes)
 
 
 def bias_table(result: CampaignResult) -> pd.DataFrame:
-    """One row per (run, link): true range bias, the filter's final value and 1-sigma (m)."""
-    problem = result.problem
-    labels = problem.link_labels
-    rows = []
-    for outcome in result.outcomes:
-        if outcome.bias_true_m is None:
-            continue
-        for l, label in enumerate(labels):
-            rows.append({"run": outcome.run, "link": label, "status": outcome.status,
-                         "bias_true_m": float(outcome.bias_true_m[l]),
-                         "bias_estimate_m": float(outcome.bias_estimate_m[l]),
-                         "bias_sigma_m": float(outcome.bias_sigma_m[l]),
-                         "treatment": problem.scenario.filter.bias})
-    return pd.DataFrame(rows)
+    return _concat(_bias_columns(result.problem, o) for o in result.outcomes)
 
 
 def clock_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
-    """One row per (run, epoch, estimated clock): phase error and 1-sigma in ns, frequency error and 1-sigma
-    (dimensionless, s/s). Empty when the scenario has no clock."""
-    problem = result.problem
-    owners = np.array([c.owner for c in problem.clocks], dtype=object)
-    frames = []
-    for outcome in result.outcomes:
-        if outcome.clock_error_s is None:
-            continue
-        m, n_clocks, _ = outcome.clock_error_s.shape
-        frames.append(pd.DataFrame({
-            "run": np.full(m * n_clocks, outcome.run, dtype=np.int32),
-            "t_s": np.repeat(problem.times_s, n_clocks),
-            "clock": np.tile(owners, m),
-            "phase_error_ns": (1e9 * outcome.clock_error_s[:, :, 0]).reshape(-1).astype(float_dtype),
-            "phase_sigma_ns": (1e9 * outcome.clock_sigma_s[:, :, 0]).reshape(-1).astype(float_dtype),
-            "frequency_error": outcome.clock_error_s[:, :, 1].reshape(-1).astype(float_dtype),
-            "frequency_sigma": outcome.clock_sigma_s[:, :, 1].reshape(-1).astype(float_dtype),
-        }))
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return _concat(_clock_columns(result.problem, o, float_dtype) for o in result.outcomes)
+
+
+class NeesAccumulator:
+    """Run-averaged NEES per epoch over the runs that finished 'ok', summed as they arrive."""
+
+    def __init__(self, problem: Problem):
+        self.problem = problem
+        self.total = np.zeros(len(problem.times_s))
+        self.runs = 0
+
+    def add(self, outcome: RunOutcome) -> None:
+        if outcome.status == "ok":
+            self.total += outcome.nees
+            self.runs += 1
+
+    def table(self) -> pd.DataFrame:
+        """The mean NEES per epoch with its 95 % chi-square band (empty when no run finished)."""
+        if not self.runs:
+            return pd.DataFrame()
+        state_size = self.problem.filter.n_nees  # the states the NEES covers (consider parameters excluded)
+        lo, hi = nees_band(state_size, self.runs)
+        mean = self.total / self.runs
+        return pd.DataFrame({"t_s": self.problem.times_s, "mean_nees": mean, "band_low": lo, "band_high": hi,
+                             "inside_band": (mean >= lo) & (mean <= hi), "runs": self.runs,
+                             "state_size": state_size})
 
 
 def consistency_table(result: CampaignResult) -> pd.DataFrame:
     """Run-averaged NEES per epoch over the runs that finished, with its 95 % chi-square band."""
-    good = [o for o in result.outcomes if o.status == "ok"]
-    if not good:
-        return pd.DataFrame()
-    nees = np.stack([o.nees for o in good])
-    state_size = result.problem.filter.n_nees  # the states the NEES covers (consider parameters excluded)
-    lo, hi = nees_band(state_size, len(good))
-    mean = nees.mean(axis=0)
-    return pd.DataFrame(
-        {
-            "t_s": result.problem.times_s,
-            "mean_nees": mean,
-            "band_low": lo,
-            "band_high": hi,
-            "inside_band": (mean >= lo) & (mean <= hi),
-            "runs": len(good),
-            "state_size": state_size,
-        }
-    )
+    accumulator = NeesAccumulator(result.problem)
+    for outcome in result.outcomes:
+        accumulator.add(outcome)
+    return accumulator.table()
 
 
-def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> dict:
-    """Write summary / timeseries / residuals / consistency Parquet and the scenario text. Returns paths."""
+def write_outcomes(problem: Problem, outcomes, n_runs: int, out_dir, scenario_text: str,
+                   float_dtype="float32", flush_rows: int = 200_000) -> pd.DataFrame:
+    """Write every table of a campaign while its outcomes arrive (in run order), holding only the summary
+    rows, a running NEES sum and a buffer of up to `flush_rows` rows per table. Returns the summary table."""
     out_dir = Path(out_dir)
-    meta = provenance(result, scenario_text, {"float_dtype": float_dtype})
-    paths = {
-        "summary": out_dir / "summary.parquet",
-        "timeseries": out_dir / "timeseries.parquet",
-        "residuals": out_dir / "residuals.parquet",
-        "consistency": out_dir / "consistency.parquet",
-        "bias": out_dir / "bias.parquet",
-        "clocks": out_dir / "clocks.parquet",
-    }
-    write_parquet_atomic(summary_table(result), paths["summary"], meta)
-    write_parquet_atomic(timeseries_table(result, float_dtype), paths["timeseries"], meta)
-    write_parquet_atomic(residuals_table(result, float_dtype), paths["residuals"], meta)
-    write_parquet_atomic(consistency_table(result), paths["consistency"], meta)
-    write_parquet_atomic(bias_table(result), paths["bias"], meta)
-    write_parquet_atomic(clock_table(result, float_dtype), paths["clocks"], meta)
+    meta = provenance(problem, n_runs, scenario_text, {"float_dtype": float_dtype})
+    streams = {name: ParquetStream(out_dir / f"{name}.parquet", meta, flush_rows, REPEATING_COLUMNS) for name in PER_RUN_TABLES}
+    accumulator = NeesAccumulator(problem)
+    rows: list[dict] = []
+    try:
+        for outcome in outcomes:
+            rows.extend(_summary_rows(problem, outcome))
+            accumulator.add(outcome)
+            for name, build in PER_RUN_TABLES.items():
+                columns = build(problem, outcome, float_dtype)
+                if columns is not None:
+                    streams[name].append(columns)
+        for stream in streams.values():
+            stream.close()
+    except BaseException:
+        for stream in streams.values():
+            stream.abort()
+        raise
+    summary = _summary_frame(rows)
+    write_parquet_atomic(summary, out_dir / "summary.parquet", meta)
+    write_parquet_atomic(accumulator.table(), out_dir / "consistency.parquet", meta)
     write_text_atomic(scenario_text, out_dir / "scenario.yaml")
-    return paths
+    return summary
+
+
+def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> pd.DataFrame:
+    """Write summary / timeseries / residuals / consistency / bias / clocks Parquet and the scenario text of
+    a campaign held in memory. Returns the summary table."""
+    return write_outcomes(result.problem, result.outcomes, len(result.outcomes), out_dir, scenario_text,
+                          float_dtype)
+
+
+def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int | None = None, jobs: int = 2,
+                    progress: bool = True, float_dtype="float32") -> tuple[Problem, pd.DataFrame]:
+    """Run a campaign and write its tables as runs finish: memory does not grow with the run count.
+    Returns the problem and the summary table."""
+    problem = prepare_problem(scenario)
+    n_runs = scenario.monte_carlo.runs if runs is None else runs
+    summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress), n_runs, out_dir,
+                             scenario_text, float_dtype)
+    return problem, summary
+
+
+def summarise_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
+                       description: str | None = None, truth_cache: dict | None = None
+                       ) -> tuple[Problem, pd.DataFrame]:
+    """Run a campaign and keep only its summary rows (for tables across scenarios: compare, Table 3)."""
+    problem = prepare_problem(scenario, truth_cache)
+    n_runs = scenario.monte_carlo.runs if runs is None else runs
+    rows = [row for outcome in iter_outcomes(problem, n_runs, jobs, progress, description)
+            for row in _summary_rows(problem, outcome)]
+    return problem, _summary_frame(rows)

@@ -24,30 +24,42 @@ def _execute_batch(problem, tasks):
     return [execute_run(problem, task) for task in tasks]
 
 
+def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool = True,
+                  description: str | None = None):
+    """Yield the outcomes of runs 0 … n_runs-1 in run order, as they finish.
+
+    Work is dispatched a few batches ahead of what has been consumed (joblib's pre-dispatch), so the
+    memory held is bounded by the batch size and the worker count, not by `n_runs`.
+    """
+    bar = tqdm(total=n_runs, desc=description or problem.scenario.name, unit="run", disable=not progress,
+               leave=False)
+    try:
+        if jobs == 1 or n_runs == 1:
+            for run in range(n_runs):
+                yield execute_run(problem, RunTask(run))
+                bar.update(1)
+            return
+        # A few tasks per dispatch keeps the pipes busy without starving the bar.
+        chunk = max(1, min(8, n_runs // (4 * jobs)))
+        batches = (tuple(RunTask(i) for i in range(start, min(start + chunk, n_runs)))
+                   for start in range(0, n_runs, chunk))
+        parallel = Parallel(n_jobs=jobs, return_as="generator", pre_dispatch="2*n_jobs")
+        for batch in parallel(delayed(_execute_batch)(problem, b) for b in batches):
+            yield from batch
+            bar.update(len(batch))
+    finally:
+        bar.close()
+
+
 def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
                  description: str | None = None, truth_cache: dict | None = None) -> CampaignResult:
-    """Run `runs` (default: the scenario's) Monte Carlo runs; outcomes come back ordered by run index.
+    """Run `runs` (default: the scenario's) Monte Carlo runs and keep every outcome in memory, ordered by
+    run index (for studies of a few hundred runs; `liaison run` streams instead, see results.stream_campaign).
 
     The numbers of a run depend only on (scenario, seed, run index), never on `jobs`.
     `truth_cache`: see `prepare_problem`.
     """
     problem = prepare_problem(scenario, truth_cache)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
-    tasks = [RunTask(i) for i in range(n_runs)]
-    bar = tqdm(total=n_runs, desc=description or scenario.name, unit="run", disable=not progress, leave=False)
-    outcomes: list[RunOutcome] = []
-    if jobs == 1 or n_runs == 1:
-        for task in tasks:
-            outcomes.append(execute_run(problem, task))
-            bar.update(1)
-    else:
-        # A few tasks per dispatch keeps the pipes busy without starving the bar.
-        chunk = max(1, min(8, n_runs // (4 * jobs)))
-        batches = [tasks[i : i + chunk] for i in range(0, n_runs, chunk)]
-        parallel = Parallel(n_jobs=jobs, return_as="generator")
-        for batch in parallel(delayed(_execute_batch)(problem, b) for b in batches):
-            outcomes.extend(batch)
-            bar.update(len(batch))
-    bar.close()
-    outcomes.sort(key=lambda o: o.run)
-    return CampaignResult(problem=problem, outcomes=tuple(outcomes))
+    outcomes = tuple(iter_outcomes(problem, n_runs, jobs, progress, description))
+    return CampaignResult(problem=problem, outcomes=outcomes)

@@ -22,7 +22,7 @@ import pandas as pd
 from liaison_cli import __version__, core_source_hash
 from liaison_cli.campaign.backends import check_backend, map_batches
 from liaison_cli.scenario.setup import prepare_problem
-from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+from liaison_cli.storage import naming, write_parquet_atomic, write_text_atomic
 from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.errors import LiaisonError
@@ -109,6 +109,10 @@ class SweepPlan:
     @property
     def tasks(self) -> list[SweepTask]:
         return [SweepTask(f"{p.point_hash}/{r}", p.index, r) for p in self.points for r in range(self.runs)]
+
+    def key(self) -> str:
+        """A short digest of the header: the same sweep definition (any run count) has the same key."""
+        return hashlib.sha256(json.dumps(self.header(), sort_keys=True).encode()).hexdigest()[:12]
 
     def header(self) -> dict:
         return {
@@ -203,9 +207,10 @@ class Manifest:
             self._write([header])
 
     def _write(self, entries):
-        self.handle.write(b"".join(json.dumps(e, sort_keys=True).encode() + b"\n" for e in entries))
-        self.handle.flush()
-        os.fsync(self.handle.fileno())
+        with naming(self.path):  # a full disk here names the manifest; a torn last line is dropped on resume
+            self.handle.write(b"".join(json.dumps(e, sort_keys=True).encode() + b"\n" for e in entries))
+            self.handle.flush()
+            os.fsync(self.handle.fileno())
 
     def append(self, records: list[dict]) -> None:
         self._write(records)
@@ -213,7 +218,8 @@ class Manifest:
             self.records[record["task"]] = record
 
     def close(self):
-        self.handle.close()
+        with naming(self.path):
+            self.handle.close()
 
 
 def _header_mismatch(path, old, new) -> str:

@@ -1,13 +1,13 @@
 """One Monte Carlo run as a work unit. A worker never raises: a failure is an outcome with a status."""
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from liaison_cli.analysis.metrics import summary_rows
+from liaison_cli.analysis.metrics import nees_divergence_limit, summary_rows, sustained_excess_step
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
-from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
+from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.setup import Problem
 
@@ -95,7 +95,8 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
     run = task.run_index
     try:
         inputs = draw_run_inputs(problem, run)
-        history = estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
+        history = _check_consistency(problem, estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat,
+                                                       inputs.y_obs, inputs.truth))
         n_dyn = 6 * problem.n_spacecraft
         err, sigma = history.err, history.sigma
         summary, norms = summary_rows(problem.times_s, err[:, :n_dyn], sigma[:, :n_dyn], problem.spacecraft,
@@ -129,6 +130,24 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         )
     except Exception as exc:  # noqa: BLE001 - a worker reports, never raises
         return RunOutcome(run=run, status="error", reason=f"{type(exc).__name__}: {exc}", fail_time_s=float("nan"))
+
+
+def _check_consistency(problem: Problem, history):
+    """The estimator's own health checks, plus the consistency rule: a run whose whole-state NEES stays above
+    divergence_nees_factor x its 99.9 % chi-square quantile for divergence_window_days has lost track (its
+    errors are many sigmas out, not merely optimistic) and is diverged from the epoch that completes the
+    window."""
+    if not history.ok:
+        return history
+    spec = problem.scenario.filter
+    limit = nees_divergence_limit(problem.filter.n_nees, spec.divergence_nees_factor)
+    window = int(round(spec.divergence_window_days * SECONDS_PER_DAY / problem.scenario.measurement.interval_s))
+    step = sustained_excess_step(history.nees, limit, window)
+    if step < 0:
+        return history
+    reason = (f"diverged: NEES above {limit:.4g} ({spec.divergence_nees_factor:g} x the 99.9 % chi-square "
+              f"quantile of {problem.filter.n_nees} states) for {spec.divergence_window_days:g} d")
+    return replace(history, ok=False, reason=reason, fail_step=step)
 
 
 def _clock_histories(problem: Problem, err, sigma):

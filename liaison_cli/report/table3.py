@@ -7,8 +7,6 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from liaison_cli.campaign.runner import CampaignResult
-from liaison_cli.campaign.results import summary_table
 
 FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
 SIGMAS_M = (150.0, 300.0)
@@ -29,19 +27,18 @@ def tolerances() -> dict:
     return yaml.safe_load(files("liaison_cli.report").joinpath("data/table3_tolerances.yaml").read_text())
 
 
-def case_rows(formation: str, sigma_m: float, result: CampaignResult) -> list[dict]:
+def case_rows(formation: str, sigma_m: float, spacecraft, summary: pd.DataFrame) -> list[dict]:
     """Mean over the runs that finished of each spacecraft's RMS metrics, plus run counts."""
-    summary = summary_table(result)
     ok = summary[summary.status == "ok"]
     rows = []
-    for name in result.problem.spacecraft:
+    for name in spacecraft:
         mine = ok[ok.spacecraft == name]
         row = {
             "formation": formation,
             "spacecraft": name,
             "sigma_m": float(sigma_m),
             "runs_ok": int(mine.run.nunique()),
-            "runs_total": len(result.outcomes),
+            "runs_total": int(summary.run.nunique()),
         }
         for metric, (ours_col, _) in METRICS.items():
             row[f"ours_{metric}"] = float(mine[ours_col].mean()) if len(mine) else np.nan
@@ -155,7 +152,7 @@ def run_table3(scenarios_dir, out_dir, runs: int, jobs: int, progress: bool) -> 
     from pathlib import Path
 
     from liaison_cli import __version__
-    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.results import summarise_campaign
     from liaison_cli.scenario.schema import apply_overrides, load_scenario
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
@@ -167,10 +164,10 @@ def run_table3(scenarios_dir, out_dir, runs: int, jobs: int, progress: bool) -> 
     for case in cases():
         base, text = loaded[case.formation]
         config = apply_overrides(base, {"noise.sigma_m": case.sigma_m}, f"table3 case {case.label}")
-        result = run_campaign(config, runs=runs, jobs=jobs, progress=progress, description=case.label,
-                              truth_cache=truth_cache)
-        rows += case_rows(case.formation, case.sigma_m, result)
-        summaries.append(summary_table(result).assign(formation=case.formation, sigma_m=case.sigma_m))
+        problem, summary = summarise_campaign(config, runs=runs, jobs=jobs, progress=progress,
+                                              description=case.label, truth_cache=truth_cache)
+        rows += case_rows(case.formation, case.sigma_m, problem.spacecraft, summary)
+        summaries.append(summary.assign(formation=case.formation, sigma_m=case.sigma_m))
         texts[case.formation] = text
     table = compare(pd.DataFrame(rows))
     checks = ordering_checks(table)

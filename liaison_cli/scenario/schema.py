@@ -340,6 +340,10 @@ class FilterSpec(StrictModel):
     initial_sigma_velocity_m_s: float = Field(0.01, gt=0)
     process_noise_accel_m_s2: float = Field(1e-7, ge=0)
     divergence_position_km: float = Field(1e4, gt=0)
+    divergence_nees_factor: float = Field(
+        100.0, ge=1, description="a run whose NEES stays above this many times its 99.9 % chi-square quantile "
+        "for divergence_window_days is diverged")
+    divergence_window_days: float = Field(1.0, gt=0)
     rk4_substeps: int = Field(4, ge=1, le=256)
     range_model: Literal["geometric", "light_time"] = Field(
         "geometric", description="filter's two-way range: geometric (paper Eq. 17) or light-time corrected"
