@@ -379,3 +379,23 @@ def test_an_injected_disk_full_fault_names_the_file(tmp_path, monkeypatch):
     assert result.exit_code == 4, result.output
     assert f"{out}/timeseries.parquet: No space left on device" in result.output
     assert list(tmp_path.iterdir()) == []
+
+
+def test_no_permission_is_one_line_exit_4(tmp_path, monkeypatch):
+    """EACCES (injected: the tests may run as root, whom permissions do not stop) names the result folder."""
+    import errno
+    import os
+    import tempfile
+
+    from typer.testing import CliRunner
+
+    from liaison_cli.cli import app
+
+    def refused(*args, dir=None, **kwargs):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(dir))
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refused)
+    out = tmp_path / "locked" / "out"
+    result = CliRunner().invoke(app, ["run", str(SCENARIOS / "smoke.yaml"), "--runs", "1", "--output", str(out)])
+    assert result.exit_code == 4, result.output
+    assert result.output.strip() == f"error: {out}: Permission denied"
