@@ -157,3 +157,39 @@ def jacobi_constant(state, mu):
     r2 = np.sqrt((x - 1.0 + mu) ** 2 + y * y + z * z)
     u = 0.5 * (x * x + y * y) + (1.0 - mu) / r1 + mu / r2
     return 2.0 * u - (state[3] ** 2 + state[4] ** 2 + state[5] ** 2)
+
+
+@njit(cache=True)
+def rk4_states(state0, times_tu, max_step_tu, mu):
+    """Sample one trajectory (6,) -> (m, 6) at times_tu (times_tu[0] = epoch of state0) by fixed RK4 steps
+    of at most max_step_tu between consecutive samples (the compiled truth propagator: no Python in the
+    loop, no scipy import)."""
+    m = times_tu.shape[0]
+    out = np.empty((m, 6))
+    y = state0.copy()
+    out[0] = y
+    k1 = np.empty(6)
+    k2 = np.empty(6)
+    k3 = np.empty(6)
+    k4 = np.empty(6)
+    tmp = np.empty(6)
+    for j in range(1, m):
+        span = times_tu[j] - times_tu[j - 1]
+        substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
+        h = span / substeps
+        for _ in range(substeps):
+            k1[:] = derivative(y, mu)
+            for i in range(6):
+                tmp[i] = y[i] + 0.5 * h * k1[i]
+            k2[:] = derivative(tmp, mu)
+            for i in range(6):
+                tmp[i] = y[i] + 0.5 * h * k2[i]
+            k3[:] = derivative(tmp, mu)
+            for i in range(6):
+                tmp[i] = y[i] + h * k3[i]
+            k4[:] = derivative(tmp, mu)
+            for i in range(6):
+                y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        out[j] = y
+    return out
+
