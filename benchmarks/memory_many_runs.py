@@ -9,33 +9,13 @@ of the main process, peak RSS summed over the tree, and the size of the results 
 """
 
 import argparse
-import os
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-PAGE_KB = os.sysconf("SC_PAGE_SIZE") // 1024
-
-
-def _children(pid: int) -> list[int]:
-    found = []
-    for task in Path(f"/proc/{pid}/task").glob("*"):
-        try:
-            found += [int(c) for c in (task / "children").read_text().split()]
-        except OSError:
-            continue
-    return found
-
-
-def _tree(pid: int) -> list[int]:
-    pids, queue = [], [pid]
-    while queue:
-        current = queue.pop()
-        pids.append(current)
-        queue += _children(current)
-    return pids
+from benchmarks.campaign_timing import PAGE_KB, _tree_rss_kb
 
 
 def _rss_mb(pid: int) -> float:
@@ -55,7 +35,7 @@ def measure(scenario: str, runs: int, jobs: int) -> dict:
         peak_main = peak_tree = 0.0
         while process.poll() is None:
             peak_main = max(peak_main, _rss_mb(process.pid))
-            peak_tree = max(peak_tree, sum(_rss_mb(p) for p in _tree(process.pid)))
+            peak_tree = max(peak_tree, _tree_rss_kb(process.pid) / 1024)
             time.sleep(0.2)
         wall = time.perf_counter() - start
         if process.returncode != 0:

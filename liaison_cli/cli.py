@@ -138,11 +138,37 @@ def table3(
 
 
 def _check_runs(runs) -> None:
-    """--runs obeys the same cap as the scenario's monte_carlo.runs."""
+    """--runs obeys the same cap as the scenario's monte_carlo.runs. Every command that runs filters calls
+    this first, so it is also where the first-compilation notice is armed."""
     from liaison_cli.scenario.schema import MAX_RUNS
 
     if runs is not None and runs > MAX_RUNS:
         raise LiaisonError(f"--runs {runs}: at most {MAX_RUNS:,} runs (the cap of monte_carlo.runs)")
+    _announce_compilation()
+
+
+COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first run after installing or "
+                  "upgrading: about half a minute; cached afterwards)")
+
+
+def _announce_compilation() -> None:
+    """One line on stderr when numba starts compiling liaison code (a cache miss), so a new user knows why
+    the first run is slow. Loading from the cache is not compiling and stays silent."""
+    from numba.core import event
+
+    class Notice(event.Listener):
+        shown = False
+
+        def on_start(self, ev):
+            function = getattr(ev.data.get("dispatcher"), "py_func", None)
+            if not Notice.shown and getattr(function, "__module__", "").startswith("liaison_cli"):
+                Notice.shown = True
+                typer.echo(COMPILE_NOTICE, err=True)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Notice())
 
 
 def _plain_name(name: str) -> bool:

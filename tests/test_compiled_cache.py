@@ -27,3 +27,19 @@ def test_hash_covers_callees_of_the_filter_loop(tmp_path, monkeypatch):
     before = liaison_cli.core_source_hash()
     (fake / "dynamics" / "crtbp.py").write_text((fake / "dynamics" / "crtbp.py").read_text() + "\n# changed\n")
     assert liaison_cli.core_source_hash() != before
+
+
+def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
+    """The first run on a machine compiles the core (about half a minute) and says so in one line; the next
+    run loads the cache and says nothing."""
+    from liaison_cli.cli import COMPILE_NOTICE
+    from tests.conftest import SCENARIOS
+
+    env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("NUMBA_CACHE_DIR", None)
+    args = [sys.executable, "-m", "liaison_cli", "run", str(SCENARIOS / "smoke.yaml"), "--runs", "1", "--quiet"]
+    cold = subprocess.run([*args, "--output", str(tmp_path / "a")], capture_output=True, text=True, env=env)
+    assert cold.returncode == 0, cold.stderr
+    assert cold.stderr.count(COMPILE_NOTICE) == 1
+    warm = subprocess.run([*args, "--output", str(tmp_path / "b")], capture_output=True, text=True, env=env)
+    assert warm.returncode == 0 and warm.stderr == "", warm.stderr

@@ -328,6 +328,10 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
                    disable=not progress, smoothing=0.1)
         # Ctrl-C only raises a flag, checked between batches: a KeyboardInterrupt raised inside compiled code
         # (numba's callbacks) can be swallowed, and a batch cut in half would be recomputed anyway.
+        if pending and backend == "joblib" and jobs > 1:
+            # One run here first (its result is recomputed by its batch): the compiled core is loaded, or on
+            # a cold cache compiled once instead of once per worker, before the pool starts.
+            execute_run(problems[pending[0].point], RunTask(pending[0].run))
         interrupted = []
         previous = _catch_sigint(interrupted)
         results = map_batches(execute_batch, problems, _batches(pending, batch_runs), backend, jobs, scheduler,
