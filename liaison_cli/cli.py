@@ -4,12 +4,15 @@ import functools
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
 import typer
 
 from liaison_cli import __version__
 from liaison_cli.errors import LiaisonError
+
+if TYPE_CHECKING:  # pandas costs ~0.6 s to import; `version` and `--help` need not pay for it
+    import pandas as pd
 
 app = typer.Typer(
     add_completion=False,
@@ -52,7 +55,7 @@ def _left(text: str, width: int) -> str:
     return text.ljust(width) if len(text) < width else text + " "
 
 
-def _format_summary(summary: pd.DataFrame, spacecraft) -> str:
+def _format_summary(summary: "pd.DataFrame", spacecraft) -> str:
     ok = summary[summary.status == "ok"]
     lines = [
         f"{'spacecraft':<12}{'pos RMS m':>11}{'[>1 d]':>9}{'vel RMS mm/s':>14}{'[>1 d]':>9}"
@@ -71,7 +74,7 @@ def _format_summary(summary: pd.DataFrame, spacecraft) -> str:
     return "\n".join(lines)
 
 
-def _status_line(summary: pd.DataFrame) -> str:
+def _status_line(summary: "pd.DataFrame") -> str:
     runs = summary.drop_duplicates("run")
     bad = runs[runs.status != "ok"]
     text = f"{len(runs) - len(bad)}/{len(runs)} runs ok"
@@ -181,7 +184,7 @@ def _plain_name(name: str) -> bool:
 PAPER_FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
 
 
-def _format_curve(curve: pd.DataFrame, grid_keys) -> str:
+def _format_curve(curve: "pd.DataFrame", grid_keys) -> str:
     header = f"{'scenario':<12}{'spacecraft':<11}" + "".join(f"{k.split('.')[-1]:>12}" for k in grid_keys)
     lines = [header + f"{'runs ok':>9}{'pos RMS m (p10-p90)':>26}{'vel RMS mm/s':>14}"]
     for row in curve.to_dict("records"):
