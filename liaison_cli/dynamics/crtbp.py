@@ -57,7 +57,10 @@ def jacobian(state, mu):
     a[0, 3] = 1.0
     a[1, 4] = 1.0
     a[2, 5] = 1.0
-    a[3:6, 0:3] = gravity_gradient(state[0:3], mu)
+    g = gravity_gradient(state[0:3], mu)
+    for i in range(3):  # element loops compile faster than slice assignment (no shape-error path)
+        for j in range(3):
+            a[3 + i, j] = g[i, j]
     a[3, 4] = 2.0
     a[4, 3] = -2.0
     return a
@@ -124,7 +127,8 @@ def rk4_state_stm(state, dt_tu, substeps, mu):
     """
     h = dt_tu / substeps
     y = np.empty(42)
-    y[0:6] = state
+    for i in range(6):
+        y[i] = state[i]
     y[6:] = 0.0
     for i in range(6):
         y[6 + 7 * i] = 1.0
@@ -167,29 +171,27 @@ def rk4_states(state0, times_tu, max_step_tu, mu):
     m = times_tu.shape[0]
     out = np.empty((m, 6))
     y = state0.copy()
-    out[0] = y
-    k1 = np.empty(6)
-    k2 = np.empty(6)
-    k3 = np.empty(6)
-    k4 = np.empty(6)
+    for i in range(6):
+        out[0, i] = y[i]
     tmp = np.empty(6)
     for j in range(1, m):
         span = times_tu[j] - times_tu[j - 1]
         substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
         h = span / substeps
         for _ in range(substeps):
-            k1[:] = derivative(y, mu)
+            k1 = derivative(y, mu)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            k2[:] = derivative(tmp, mu)
+            k2 = derivative(tmp, mu)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            k3[:] = derivative(tmp, mu)
+            k3 = derivative(tmp, mu)
             for i in range(6):
                 tmp[i] = y[i] + h * k3[i]
-            k4[:] = derivative(tmp, mu)
+            k4 = derivative(tmp, mu)
             for i in range(6):
                 y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        out[j] = y
+        for i in range(6):  # element loops compile faster than slice assignment (no shape-error path)
+            out[j, i] = y[i]
     return out
 

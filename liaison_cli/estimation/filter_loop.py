@@ -47,8 +47,12 @@ def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, 
         a, size = block_start[b], block_size[b]
         if block_kind[b] == BLOCK_SPACECRAFT:
             xs, phis = propagate_state_stm(model, model_params, x_hat[a : a + 6], t_tu, dt_tu, substeps)
-            x_bar[a : a + 6] = xs
-            Phi[a : a + 6, a : a + 6] = phis
+            # Element loops, not slice assignment: numba compiles a shape-mismatch error path (string
+            # formatting, seconds of compile time) for every array-to-slice assignment.
+            for i in range(6):
+                x_bar[a + i] = xs[i]
+                for j in range(6):
+                    Phi[a + i, a + j] = phis[i, j]
         elif block_kind[b] == BLOCK_CLOCK:
             for i in range(size):  # Phi_ij = dt^(j-i) / (j-i)!
                 Phi[a + i, a + i] = 1.0
@@ -98,7 +102,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
 
     x_hat = x0_hat.copy()
     P = P0.copy()
-    err[0] = x_hat - truth[0]
+    for i in range(n):  # element loop: see _time_update
+        err[0, i] = x_hat[i] - truth[0, i]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
     work = np.empty((n_nees, n_nees))
@@ -128,10 +133,11 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             x_t = _end_state(x_bar, known_states, k, ta, ends[END_TRANSMITTER_KNOWN])
             predicted = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_receiver, g_transmitter)
             H[:] = 0.0
-            if ra >= 0:
-                H[ra : ra + 6] = g_receiver
-            if ta >= 0:
-                H[ta : ta + 6] = g_transmitter
+            for i in range(6):  # element loops: see _time_update
+                if ra >= 0:
+                    H[ra + i] = g_receiver[i]
+                if ta >= 0:
+                    H[ta + i] = g_transmitter[i]
             for j in range(n_mods):  # bias and clock modifiers: linear in their states
                 index = channel_mod_index[c, j]
                 if index >= 0:
@@ -156,7 +162,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             if P[i, i] <= 0.0:
                 return err, sig, nees, innovations, innov_std, STATUS_COVARIANCE_NOT_POSITIVE, k
         e = x_hat - truth[k]
-        err[k] = e
+        for i in range(n):
+            err[k, i] = e[i]
         for i in range(n):
             sig[k, i] = np.sqrt(P[i, i])
         nees[k] = normalized_error_squared(e[:n_nees], P[:n_nees, :n_nees], work)

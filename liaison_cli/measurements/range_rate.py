@@ -29,8 +29,9 @@ def range_rate_gradient(x_receiver, x_transponder):
     u = r / rho
     rho_dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
     out = np.empty(6)
-    out[0:3] = (v - rho_dot * u) / rho
-    out[3:6] = u
+    for i in range(3):  # element loops compile faster than slice assignment (no shape-error path)
+        out[i] = (v[i] - rho_dot * u[i]) / rho
+        out[3 + i] = u[i]
     return out
 
 
