@@ -293,6 +293,22 @@ def plot_fig15(
         typer.echo(f"wrote {path}")
 
 
+def _print_dual_one_way(spec) -> None:
+    receiver = spec.receiver()
+    sig = receiver.sigmas()
+    typer.echo(f"dual one-way receiver (002 Eq. 8-12): carrier {spec.carrier_frequency_hz / 1e9:g} GHz, "
+               f"C/N0 {spec.c_n0_db_hz:g} dB-Hz, code {spec.chip_rate_hz / 1e6:g} Mcps in {spec.front_end_bandwidth_hz / 1e6:g} MHz, "
+               f"early-late spacing {receiver.spacing_chips:.3f} chips")
+    typer.echo(f"  {'TOA Cramér-Rao bound (Eq. 8), range':<44}{sig['toa_crb_range_m']:10.3f} m"
+               f"   (Gabor bandwidth {sig['gabor_bandwidth_hz'] / 1e3:.0f} kHz, T {spec.code_integration_s:g} s)")
+    typer.echo(f"  {'DLL code tracking (Eq. 11), range':<44}{sig['dll_range_m']:10.3f} m"
+               f"   ({sig['dll_regime']}, B_n {spec.code_loop_bandwidth_hz:g} Hz)")
+    typer.echo(f"  {'FOA Cramér-Rao bound (Eq. 10), range-rate':<44}{1e3 * sig['foa_crb_range_rate_m_s']:10.4f} mm/s"
+               f" (T {spec.carrier_integration_s:g} s)")
+    typer.echo(f"  {'PLL Doppler (Eq. 12), range-rate':<44}{1e3 * sig['pll_range_rate_m_s']:10.4f} mm/s"
+               f" (B_d {spec.doppler_bandwidth_hz:g} Hz)")
+
+
 @app.command()
 @user_errors
 def budget(
@@ -304,6 +320,10 @@ def budget(
     from liaison_cli.report.budget import METHOD_LABELS, expected_errors
 
     link = load_link_file(link_file)
+    if link.dual_one_way is not None:
+        _print_dual_one_way(link.dual_one_way)
+    if link.link_budget is None:
+        return
     for leg_name in ("uplink", "downlink"):
         leg = getattr(link.link_budget, leg_name).leg()
         typer.echo(f"{leg_name:<9} {leg.distance_km:,.0f} km, {leg.data_rate_bps:,.0f} bps: free-space loss "

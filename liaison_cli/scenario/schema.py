@@ -302,21 +302,58 @@ class NoiseSpec(StrictModel):
         return self.los_path_sigma_m
 
 
+class DualOneWayReceiverSpec(StrictModel):
+    """A dual one-way ranging receiver (002 §2, Eq. 8-12): code (DLL) and carrier (PLL) tracking."""
+
+    carrier_frequency_hz: float = Field(gt=0)
+    c_n0_db_hz: float = Field(gt=0, le=100)
+    code_loop_bandwidth_hz: float = Field(gt=0, description="B_n of the DLL")
+    code_integration_s: float = Field(gt=0, description="predetection integration of the DLL")
+    front_end_bandwidth_hz: float = Field(gt=0, description="two-sided front-end bandwidth B_fe")
+    chip_rate_hz: float = Field(gt=0, description="spreading-code rate R_c")
+    correlator_spacing_s: float = Field(gt=0, description="early-to-late spacing D (s)")
+    doppler_bandwidth_hz: float = Field(gt=0, description="B_d of the PLL")
+    carrier_integration_s: float = Field(gt=0, description="coherent integration of the PLL")
+
+    @model_validator(mode="after")
+    def _spacing_below_two_chips(self):
+        if self.correlator_spacing_s * self.chip_rate_hz >= 2.0:
+            raise ValueError(f"correlator_spacing_s = {self.correlator_spacing_s} is "
+                             f"{self.correlator_spacing_s * self.chip_rate_hz:.3g} chips; the DLL model needs < 2 chips")
+        return self
+
+    def receiver(self):
+        from liaison_cli.radio.dual_one_way import DualOneWayReceiver
+
+        return DualOneWayReceiver(**self.model_dump())
+
+
 class RangingLinkFile(StrictModel):
     """A crosslink for `liaison budget`: both legs' link budgets plus the ranging parameters, and optionally
-    the carrier (Doppler / LOS). Methods whose parameters are missing (telemetry / PN / tone need the
-    ranging clock or tone) are reported as not computable."""
+    the carrier (Doppler / LOS); or a dual one-way receiver (002), or both. Methods whose parameters are
+    missing (telemetry / PN / tone need the ranging clock or tone) are reported as not computable."""
 
     description: str = ""
-    link_budget: LinkBudgetSpec
+    link_budget: LinkBudgetSpec | None = None
+    dual_one_way: DualOneWayReceiverSpec | None = None
     correlator_integration_s: float = Field(0.3, gt=0)
     ranging_clock_hz: float | None = Field(None, gt=0)
     loop_bandwidth_hz: float | None = Field(None, gt=0)
     ranging_power_fraction_db: float | None = Field(None, le=0)
     carrier: CarrierSpec | None = None
 
+    @model_validator(mode="after")
+    def _something_to_compute(self):
+        if self.link_budget is None and self.dual_one_way is None:
+            raise ValueError("give 'link_budget' (transponder ranging) or 'dual_one_way' (002 receiver), or both")
+        if self.carrier is not None and self.link_budget is None:
+            raise ValueError("'carrier' derives its sigmas from the link budget: give 'link_budget'")
+        return self
+
     def sigma_by_method(self) -> dict:
-        """{method: sigma_m or None when its parameters are missing}."""
+        """{method: sigma_m or None when its parameters are missing}; empty without a link budget."""
+        if self.link_budget is None:
+            return {}
         clock = tuple(getattr(self, k) for k in CLOCK_KEYS)
         out = {}
         for method in RANGING_METHODS:
