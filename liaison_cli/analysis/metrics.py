@@ -33,9 +33,11 @@ def fraction(mask):
     return float(np.mean(mask)) if mask.size else float("nan")
 
 
-def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_PER_DAY):
+def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_PER_DAY, data_end_step=-1):
     """One dict per spacecraft: RMS of the 3-D errors (all epochs after t0, and after `after_s`) and the
-    fraction of (epoch, axis) samples whose error lies within 2 and 3 sigma of that axis."""
+    fraction of (epoch, axis) samples whose error lies within 2 and 3 sigma of that axis. When the
+    estimator's data end before the last epoch (a batch span), also the RMS over the epochs after it:
+    002's DRMS of the prediction, sqrt(mean |e|^2)."""
     norms = error_norms(err, sigma, to_m, to_m_s)
     after_t0 = times_s > 0.0
     late = times_s >= after_s
@@ -57,6 +59,10 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
                 "frac_in_3sigma_after_day1": fraction(r[late] <= 3.0),
             }
         )
+        if 0 <= data_end_step < len(times_s) - 1:
+            ahead = np.arange(len(times_s)) > data_end_step
+            rows[-1]["rms_position_prediction_m"] = rms(norms["position_error_m"][ahead, i])
+            rows[-1]["rms_velocity_prediction_m_s"] = rms(norms["velocity_error_m_s"][ahead, i])
     return rows, norms
 
 

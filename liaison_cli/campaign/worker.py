@@ -8,8 +8,9 @@ from liaison_cli.analysis.metrics import nees_divergence_limit, summary_rows, su
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
+from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
-from liaison_cli.scenario.setup import Problem
+from liaison_cli.scenario.setup import SPEED_OF_LIGHT_M_S, Problem
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,7 @@ class RunInputs:
     y_obs: np.ndarray
     truth: np.ndarray
     bias_lu: np.ndarray
+    clock_phase_s: dict = field(default_factory=dict)  # {owner: (m,) true clock phase in s}
 
 
 def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
@@ -78,17 +80,21 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     truth = np.zeros((m, n_state))
     truth[:, :n] = problem.truth
     dt_s = problem.scenario.measurement.interval_s
+    phases = {}
     for clock in problem.clocks:
         x0 = np.array(clock.initial_sigma) * rng.standard_normal(2)
-        history = simulate_clock(rng, m, dt_s, x0, clock.sigma1, clock.sigma2) * np.array(clock.scale)
-        truth[:, clock.state_start : clock.state_start + 2] = history
+        history_s = simulate_clock(rng, m, dt_s, x0, clock.sigma1, clock.sigma2, mu1=clock.mu1, mu2=clock.mu2)
+        phases[clock.owner] = history_s[:, 0]
+        history = history_s * np.array(clock.scale)
+        if clock.state_start >= 0:
+            truth[:, clock.state_start : clock.state_start + 2] = history
         for channel, coeff in clock.channels:
             y_obs[1:, channel] += coeff * history[1:, 0]
     if problem.n_bias:
         truth[:, problem.bias_state_start : problem.bias_state_start + problem.n_bias] = bias[None, :]
     # The filter starts its clock and bias states at their a-priori mean, zero.
     x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
-    return RunInputs(x0_hat, y_obs, truth, bias)
+    return RunInputs(x0_hat, y_obs, truth, bias, phases)
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
@@ -100,7 +106,9 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         n_dyn = 6 * problem.n_spacecraft
         err, sigma = history.err, history.sigma
         summary, norms = summary_rows(problem.times_s, err[:, :n_dyn], sigma[:, :n_dyn], problem.spacecraft,
-                                      M_PER_LU, M_S_PER_VU)
+                                      M_PER_LU, M_S_PER_VU, data_end_step=history.data_end_step)
+        _add_estimator_extras(summary, history.extras)
+        _add_clock_sync(problem, inputs, history.data_end_step, summary)
         last = history.fail_step - 1 if not history.ok else -1
         bias = inputs.bias_lu
         if problem.n_bias:
@@ -150,11 +158,46 @@ def _check_consistency(problem: Problem, history):
     return replace(history, ok=False, reason=reason, fail_step=step)
 
 
+def _add_estimator_extras(summary, extras) -> None:
+    """A batch solve's iteration count and condition number, in every spacecraft's row."""
+    if not extras:
+        return
+    for row in summary:
+        row["batch_iterations"] = float(extras["iterations"])
+        row["batch_condition"] = float(extras["condition"])
+
+
+def _add_clock_sync(problem: Problem, inputs: RunInputs, data_end_step: int, summary) -> None:
+    """clock_sync (002 §4): fit each clock-offset channel over the window that ends where the estimator's data
+    end, and put the RMS against the true offset (ns) over the window and over the prediction after it into
+    the row of the link's far end (its clock relative to the link's receiver, the main spacecraft)."""
+    spec = problem.scenario.clock_sync
+    if spec is None:
+        return
+    times_s = problem.times_s
+    end_s = float(times_s[data_end_step])
+    rows = {row["spacecraft"]: row for row in summary}
+    to_s = M_PER_LU / SPEED_OF_LIGHT_M_S
+    for c, ch in enumerate(problem.channels):
+        if not ch.measures_clock_offset:
+            continue
+        link = problem.scenario.links[ch.link]
+        true_s = inputs.clock_phase_s[link.receiver] - inputs.clock_phase_s[link.transponder]
+        result = sync_errors(times_s, inputs.y_obs[:, c] * to_s, true_s, problem.sigma_lu[c] * to_s, end_s,
+                             spec.window_hours * 3600.0, spec.prediction_hours * 3600.0, spec.degree)
+        row = rows.get(link.transponder)
+        if row is not None and "clock_rms_window_ns" not in row:
+            row["clock_rms_window_ns"] = 1e9 * result["rms_window_s"]
+            row["clock_rms_prediction_ns"] = 1e9 * result["rms_prediction_s"]
+
+
 def _clock_histories(problem: Problem, err, sigma):
     """Each estimated clock's phase / frequency error and 1-sigma in seconds and s/s: (m, n_clocks, 2) x2."""
     if not problem.clocks:
         return None, None
-    columns = [(c.state_start, np.array(c.scale)) for c in problem.clocks]
+    columns = [(c.state_start, np.array(c.scale)) for c in problem.clocks if c.state_start >= 0]
+    if not columns:
+        return None, None
     error = np.stack([err[:, a : a + 2] / scale for a, scale in columns], axis=1)
     spread = np.stack([sigma[:, a : a + 2] / scale for a, scale in columns], axis=1)
     return error, spread

@@ -14,6 +14,7 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_states
+from liaison_cli.dynamics.rk8 import rk8_state, rk8_state_stm, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
 MODEL_CRTBP = 0
@@ -32,6 +33,22 @@ def propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
     return np.full(6, np.nan), np.full((6, 6), np.nan)
 
 
+@njit(cache=True, inline="always")
+def propagate_state_stm_rk8(model, params, state, t_tu, dt_tu, n_steps):
+    """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, by n_steps fixed RK8 steps."""
+    if model == MODEL_CRTBP:
+        return rk8_state_stm(state, dt_tu, n_steps, params[0])
+    return np.full(6, np.nan), np.full((6, 6), np.nan)
+
+
+@njit(cache=True, inline="always")
+def propagate_state_rk8(model, params, state, t_tu, dt_tu, n_steps):
+    """(6,) state at t_tu -> (6,) state at t_tu + dt_tu, by n_steps fixed RK8 steps (no STM)."""
+    if model == MODEL_CRTBP:
+        return rk8_state(state, dt_tu, n_steps, params[0])
+    return np.full(6, np.nan)
+
+
 @dataclass(frozen=True, eq=False)
 class DynamicsModel:
     name: str
@@ -45,6 +62,10 @@ class DynamicsModel:
 
     def trajectory(self, states):
         return CrtbpTrajectory(states, self.params[0])
+
+    def rk8_step_counts(self, positions_lu, dt_tu: float) -> np.ndarray:
+        """Steps per interval (m - 1,) for the RK8 propagator along sampled positions (m, k, 3)."""
+        return step_counts(positions_lu, dt_tu, self.params[0])
 
 
 def crtbp_model(mu: float) -> DynamicsModel:

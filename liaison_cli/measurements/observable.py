@@ -30,8 +30,11 @@ class Observable:
     two ends' trajectories (objects with `.states` (m, 6) and `.inertial_position_before(dt_back_tu)`).
     takes_range_bias: a link's range bias adds to it (truth and, if modelled, filter).
     clock_coefficients: (receiver, transmitter) factors of the ends' clock phase (range units) in the
-    value; (0, 0) for two-way observables, whose clock terms cancel.
-    needs_receiver_clock / needs_receiver_baseline: what the receiving end must carry.
+    value; (0, 0) for two-way observables, whose clock terms cancel. One pair for every channel, or a
+    tuple of pairs, one per channel (dual one-way: the second pseudorange is timed by the other end).
+    needs_receiver_clock / needs_both_clocks / needs_receiver_baseline: what the ends must carry.
+    clock_offset_channel: index of the channel that measures the ends' clock offset (for synchronisation
+    by a clock fit), or -1.
     """
 
     name: str
@@ -39,9 +42,17 @@ class Observable:
     sigma: Callable
     simulate: Callable
     takes_range_bias: bool = False
-    clock_coefficients: tuple[float, float] = (0.0, 0.0)
+    clock_coefficients: tuple = (0.0, 0.0)
     needs_receiver_clock: bool = False
+    needs_both_clocks: bool = False
+    clock_offset_channel: int = -1
     needs_receiver_baseline: bool = False
     filter_flags: Callable = lambda filter_spec: 0  # model options of the filter's prediction, as bit flags
     missing_noise: Callable = lambda noise: None  # what the noise section lacks for this observable, or None
     description: str = ""
+
+    def channel_clock_coefficients(self, index: int) -> tuple[float, float]:
+        """(receiver, transmitter) clock factors of channel `index`."""
+        if isinstance(self.clock_coefficients[0], tuple):
+            return self.clock_coefficients[index]
+        return self.clock_coefficients

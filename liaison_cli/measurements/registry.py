@@ -8,7 +8,8 @@ To add an observable: a new file in `measurements/` with its kind code, a compil
 import numpy as np
 from numba import njit
 
-from liaison_cli.measurements import los, pseudorange, range as range_, range_rate
+from liaison_cli.measurements import dual_one_way, los, pseudorange, range as range_, range_rate
+from liaison_cli.measurements.dual_one_way import KIND_CLOCK_OFFSET, KIND_PSEUDORANGE_IJ, predict_dual_one_way
 from liaison_cli.measurements.los import KIND_AZIMUTH, KIND_ELEVATION, predict_angle, wrap_angle
 from liaison_cli.measurements.observable import ChannelKind, Observable
 from liaison_cli.measurements.pseudorange import KIND_PSEUDORANGE, predict_pseudorange
@@ -16,7 +17,8 @@ from liaison_cli.measurements.range import KIND_RANGE, predict_range
 from liaison_cli.measurements.range_rate import KIND_RANGE_RATE, predict_range_rate
 
 OBSERVABLES: dict[str, Observable] = {
-    module.OBSERVABLE.name: module.OBSERVABLE for module in (range_, range_rate, los, pseudorange)
+    obs.name: obs for obs in (range_.OBSERVABLE, range_rate.OBSERVABLE, los.OBSERVABLE, pseudorange.OBSERVABLE,
+                              dual_one_way.RAW, dual_one_way.DERIVED)
 }
 CHANNEL_KINDS: dict[int, ChannelKind] = {ch.code: ch for obs in OBSERVABLES.values() for ch in obs.channels}
 assert len(CHANNEL_KINDS) == sum(len(obs.channels) for obs in OBSERVABLES.values()), "kind codes must be unique"
@@ -46,6 +48,8 @@ def predict(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
         return predict_angle(kind, x_receiver, x_transmitter, g_receiver, g_transmitter)
     if kind == KIND_PSEUDORANGE:
         return predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+    if KIND_PSEUDORANGE_IJ <= kind <= KIND_CLOCK_OFFSET:
+        return predict_dual_one_way(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
     return np.nan
 
 

@@ -10,6 +10,7 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from liaison_cli.dynamics.clock_presets import CLOCK_PRESETS, clock_preset_names
 from liaison_cli.dynamics.constants import MOON_RADIUS_KM, SECONDS_PER_DAY
 from liaison_cli.errors import ScenarioError
 from liaison_cli.estimation.estimators import estimator_names
@@ -64,14 +65,49 @@ class KeplerianElements(StrictModel):
 
 
 class ClockSpec(StrictModel):
-    """A participant's clock: the two-state phase / frequency model (dynamics.clock) with its diffusion
-    coefficients, and the a-priori spread of its initial offset and frequency (the truth draws from it,
-    the filter starts at zero with that covariance)."""
+    """A participant's clock: the two-state phase / frequency model (dynamics.clock, 002 Eq. 13-16) with its
+    diffusion coefficients (given, or from a named `preset` of dynamics.clock_presets; a given value
+    overrides the preset's), deterministic drifts mu1 (s/s) and mu2 (aging, 1/s), and the a-priori spread
+    of its initial offset and frequency (the truth draws from it, the filter starts at zero with that
+    covariance)."""
 
-    sigma1_s_per_sqrt_s: float = Field(gt=0, description="white-frequency diffusion (phase random walk)")
-    sigma2_per_sqrt_s: float = Field(ge=0, description="random-walk-frequency diffusion")
+    preset: str | None = Field(None, description="a named oscillator: " + ", ".join(clock_preset_names()))
+    sigma1_s_per_sqrt_s: float | None = Field(None, gt=0, description="white-frequency diffusion (phase random walk)")
+    sigma2_per_sqrt_s: float | None = Field(None, ge=0, description="random-walk-frequency diffusion")
+    mu1: float = Field(0.0, description="deterministic frequency offset (s/s) added to the truth")
+    mu2_per_s: float | None = Field(None, description="deterministic aging (1/s); default the preset's, else 0")
     initial_offset_sigma_s: float = Field(gt=0)
     initial_frequency_sigma: float = Field(gt=0, description="initial fractional frequency offset 1-sigma")
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, value):
+        if value is not None and value not in CLOCK_PRESETS:
+            raise ValueError(f"unknown clock preset {value!r}; allowed: {', '.join(clock_preset_names())}")
+        return value
+
+    @model_validator(mode="after")
+    def _diffusions_given(self):
+        if self.preset is None and (self.sigma1_s_per_sqrt_s is None or self.sigma2_per_sqrt_s is None):
+            raise ValueError("give a 'preset' (" + ", ".join(clock_preset_names()) + ") or both "
+                             "'sigma1_s_per_sqrt_s' and 'sigma2_per_sqrt_s'")
+        return self
+
+    @property
+    def sigma1(self) -> float:
+        return self.sigma1_s_per_sqrt_s if self.sigma1_s_per_sqrt_s is not None else \
+            CLOCK_PRESETS[self.preset].sigma1_s_per_sqrt_s
+
+    @property
+    def sigma2(self) -> float:
+        return self.sigma2_per_sqrt_s if self.sigma2_per_sqrt_s is not None else \
+            CLOCK_PRESETS[self.preset].sigma2_per_sqrt_s
+
+    @property
+    def mu2(self) -> float:
+        if self.mu2_per_s is not None:
+            return self.mu2_per_s
+        return CLOCK_PRESETS[self.preset].mu2_per_s if self.preset is not None else 0.0
 
 
 class SpacecraftSpec(StrictModel):
@@ -86,7 +122,8 @@ class SpacecraftSpec(StrictModel):
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
     )
-    clock: ClockSpec | None = Field(None, description="an onboard clock whose phase and frequency are estimated")
+    clock: ClockSpec | None = Field(None, description="an onboard clock (estimated by the EKF; simulated, and "
+                                    "synchronised by a clock fit, with the batch estimator)")
 
     @field_validator("orbit")
     @classmethod
@@ -397,6 +434,29 @@ class FilterSpec(StrictModel):
         return self
 
 
+class BatchSpec(StrictModel):
+    """The batch least-squares estimator (estimator: batch, 002 §3): one solve for the epoch state from the
+    measurements of the first `span_days`, predicted `prediction_hours` past the span (002's DRMS window).
+    The scenario's epochs end at span + prediction (duration_days must cover them)."""
+
+    span_days: float = Field(gt=0, description="data span of the solve, from t0")
+    prediction_hours: float = Field(3.0, ge=0, description="prediction after the span for the DRMS metrics")
+    max_iterations: int = Field(10, ge=1, le=100)
+    tolerance_m: float = Field(1e-3, gt=0, description="converged when no position correction exceeds this")
+    apriori: bool = Field(False, description="add the filter's initial covariance as a-priori information")
+    jacobian: Literal["first_iteration", "every_iteration"] = Field(
+        "first_iteration", description="STM from the first iteration's reference (frozen) or recomputed each time")
+
+
+class ClockSyncSpec(StrictModel):
+    """Synchronisation by a polynomial fit to the clock offsets of dual one-way links (002 §4), over a window
+    ending at the end of the data span (the batch span, else the scenario's end), then predicted."""
+
+    window_hours: float = Field(3.0, gt=0)
+    prediction_hours: float = Field(3.0, ge=0)
+    degree: int = Field(2, ge=0, le=3, description="2: a0 + a1 (t - t0) + a2 (t - t0)^2")
+
+
 class InitialErrorSpec(StrictModel):
     """`fixed_sigma`: independent normal errors with the sigmas below (the paper's Monte Carlo);
     `from_covariance`: drawn from the filter's own P0 (for NEES consistency checks)."""
@@ -419,6 +479,8 @@ class Scenario(StrictModel):
     ground_stations: list[GroundStationSpec] = Field(default_factory=list)
     links: list[LinkSpec] = Field(min_length=1)
     estimator: Literal[tuple(estimator_names())] = "ekf"
+    batch: BatchSpec | None = None
+    clock_sync: ClockSyncSpec | None = None
     topology: TopologySpec | None = None
     measurement: MeasurementSpec
     noise: NoiseSpec
@@ -455,12 +517,57 @@ class Scenario(StrictModel):
             receiver = self.participant(link.receiver)
             for observable in link.observables:
                 self._check_observable(i, link, observable, receiver)
+        self._check_batch()
+        self._check_clock_sync()
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
                 f"{self.duration_days} d scenario"
             )
         return self
+
+    def _check_batch(self):
+        if (self.estimator == "batch") != (self.batch is not None):
+            raise ValueError("estimator: batch and a 'batch' section go together (give both or neither)")
+        if self.batch is None:
+            return
+        end_days = self.batch.span_days + self.batch.prediction_hours / 24.0
+        if end_days > self.duration_days + 1e-9:
+            raise ValueError(f"batch.span_days = {self.batch.span_days:g} plus prediction_hours = "
+                             f"{self.batch.prediction_hours:g} is {end_days:g} d, longer than the scenario's "
+                             f"duration_days = {self.duration_days:g}")
+        if self.batch.span_days * SECONDS_PER_DAY < 2.0 * self.measurement.interval_s:
+            raise ValueError(f"batch.span_days = {self.batch.span_days:g} is shorter than two measurement "
+                             f"intervals ({self.measurement.interval_s:g} s)")
+        for i, link in enumerate(self.links):
+            for observable in link.observables:
+                spec = OBSERVABLES[observable]
+                if spec.needs_receiver_clock or any(
+                        spec.channel_clock_coefficients(c) != (0.0, 0.0) and c != spec.clock_offset_channel
+                        for c in range(len(spec.channels))):
+                    raise ValueError(f"links[{i}] measures {observable!r}, whose value carries clock states: the "
+                                     "batch estimator solves for orbits only; use dual_one_way_derived (range + "
+                                     "clock offset, synchronised by clock_sync) or the ekf")
+
+    def _check_clock_sync(self):
+        if self.clock_sync is None:
+            return
+        window_s = self.clock_sync.window_hours * 3600.0
+        if window_s < 2.0 * self.measurement.interval_s:
+            raise ValueError(f"clock_sync.window_hours = {self.clock_sync.window_hours:g} is shorter than two "
+                             f"measurement intervals ({self.measurement.interval_s:g} s)")
+        if not any(OBSERVABLES[o].clock_offset_channel >= 0 for link in self.links for o in link.observables):
+            raise ValueError("clock_sync needs a link that measures clock offsets (observable dual_one_way_derived)")
+
+    def data_end_days(self) -> float:
+        """Where the estimator's data end: the batch span, else the whole scenario."""
+        return self.batch.span_days if self.batch is not None else self.duration_days
+
+    def epochs_end_days(self) -> float:
+        """Where the scenario's epochs end: span + prediction for a batch, else duration_days."""
+        if self.batch is None:
+            return self.duration_days
+        return min(self.duration_days, self.batch.span_days + self.batch.prediction_hours / 24.0)
 
     def _check_observable(self, i, link, observable, receiver):
         spec = OBSERVABLES[observable]
@@ -472,6 +579,11 @@ class Scenario(StrictModel):
         missing = spec.missing_noise(self.noise)
         if missing:
             raise ValueError(f"links[{i}] measures {observable}: {missing}")
+        if spec.needs_both_clocks:
+            for who in (link.receiver, link.transponder):
+                if getattr(self.participant(who), "clock", None) is None:
+                    raise ValueError(f"links[{i}] measures {observable!r}, timed by both ends' clocks, but "
+                                     f"{who!r} has no clock model (give it a 'clock' section)")
         if spec.needs_receiver_clock and getattr(receiver, "clock", None) is None:
             raise ValueError(f"links[{i}] measures {observable!r}, timed by the receiver's clock, but "
                              f"{link.receiver!r} has no clock (give that spacecraft a 'clock' section)")

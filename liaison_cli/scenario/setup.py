@@ -14,7 +14,8 @@ from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECO
 from liaison_cli.dynamics.ground_station import GroundStationTrajectory
 from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
-from liaison_cli.estimation.estimators import FilterArrays
+from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
+from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
 from liaison_cli.orbits.catalog import CATALOG
@@ -59,11 +60,13 @@ class Channel:
     scale_si: float
     takes_range_bias: bool
     clock_coefficients: tuple[float, float]
+    measures_clock_offset: bool = False
 
 
 @dataclass(frozen=True)
 class ClockTruth:
-    """A clock to simulate per run: its participant, its state offset in the filter, its model in SI, and the
+    """A clock to simulate per run: its participant, its state offset in the filter (-1 when the estimator
+    does not carry it), its model in SI (diffusions, deterministic drifts mu1 s/s and mu2 1/s), and the
     channels it enters (index, coefficient). Scale: seconds -> filter units (range and range-rate)."""
 
     owner: str
@@ -73,6 +76,8 @@ class ClockTruth:
     initial_sigma: tuple[float, float]
     scale: tuple[float, float]
     channels: tuple[tuple[int, float], ...]
+    mu1: float = 0.0
+    mu2: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,7 +152,7 @@ def truth_key(scenario: Scenario) -> str:
                        for sc in scenario.spacecraft],
         "ground_stations": [st.model_dump(mode="json") for st in scenario.ground_stations],
         "links": [link.model_dump(mode="json") for link in scenario.links],
-        "duration_days": scenario.duration_days,
+        "duration_days": scenario.epochs_end_days(),
         "interval_s": scenario.measurement.interval_s,
         "light_time": scenario.measurement.light_time,
     }
@@ -155,9 +160,9 @@ def truth_key(scenario: Scenario) -> str:
 
 
 def measurement_times_s(scenario: Scenario) -> np.ndarray:
-    """Epochs t0 = 0, interval, 2 interval, ... up to the scenario duration (m,)."""
+    """Epochs t0 = 0, interval, 2 interval, ... up to the scenario duration (a batch: span + prediction) (m,)."""
     interval_s = scenario.measurement.interval_s
-    n_intervals = int(np.floor(scenario.duration_days * SECONDS_PER_DAY / interval_s + 1e-9))
+    n_intervals = int(np.floor(scenario.epochs_end_days() * SECONDS_PER_DAY / interval_s + 1e-9))
     return np.arange(n_intervals + 1) * interval_s
 
 
@@ -212,18 +217,20 @@ def _channels(scenario: Scenario) -> list[Channel]:
     out = []
     for index, link in enumerate(scenario.links):
         for observable in link_observables(link):
-            for kind in observable.channels:
+            for position, kind in enumerate(observable.channels):
                 out.append(Channel(index, f"{link.receiver}->{link.transponder}", observable.name, kind.code,
                                    kind.label, kind.unit, kind.scale_si, observable.takes_range_bias,
-                                   observable.clock_coefficients))
+                                   observable.channel_clock_coefficients(position),
+                                   position == observable.clock_offset_channel))
     return out
 
 
 def _layout(scenario: Scenario) -> StateLayout:
     """Spacecraft blocks, then clocks, then link biases (estimated, or considered last)."""
     blocks = [StateBlock(BLOCK_SPACECRAFT, 6, name) for name in scenario.spacecraft_names()]
-    blocks += [StateBlock(BLOCK_CLOCK, 2, sc.name) for sc in scenario.spacecraft
-               if sc.role == "estimated" and sc.clock is not None]
+    if scenario.estimator != "batch":  # the batch solves for orbits; clocks are synchronised by clock_sync
+        blocks += [StateBlock(BLOCK_CLOCK, 2, sc.name) for sc in scenario.spacecraft
+                   if sc.role == "estimated" and sc.clock is not None]
     if scenario.filter.bias != "ignore":
         consider = scenario.filter.bias == "consider"
         blocks += [StateBlock(BLOCK_CONSTANT, 1, f"bias {i}", consider) for i in range(len(scenario.links))]
@@ -255,7 +262,7 @@ def _matrices(scenario: Scenario, layout: StateLayout):
             clock = by_name[block.owner].clock
             scale = _clock_scale()
             P0[s, s] = np.diag((np.array([clock.initial_offset_sigma_s, clock.initial_frequency_sigma]) * scale) ** 2)
-            Q[s, s] = clock_process_noise(interval_s, clock.sigma1_s_per_sqrt_s, clock.sigma2_per_sqrt_s) * np.outer(
+            Q[s, s] = clock_process_noise(interval_s, clock.sigma1, clock.sigma2) * np.outer(
                 scale, scale)
         else:
             P0[s, s] = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
@@ -301,22 +308,38 @@ def _channel_sigmas(scenario: Scenario, channels) -> np.ndarray:
 
 
 def _clock_truths(scenario: Scenario, channels, layout: StateLayout) -> tuple[ClockTruth, ...]:
+    """Every clock that enters a channel (or the filter): simulated per run."""
     out = []
     for sc in scenario.spacecraft:
-        start = layout.start_of(BLOCK_CLOCK, sc.name)
-        if start < 0:
+        if sc.clock is None:
             continue
+        start = layout.start_of(BLOCK_CLOCK, sc.name)
         entries = []
         for c, ch in enumerate(channels):
             link = scenario.links[ch.link]
             for who, coeff in zip((link.receiver, link.transponder), ch.clock_coefficients):
                 if who == sc.name and coeff != 0.0:
                     entries.append((c, coeff))
+        if start < 0 and not entries:
+            continue
         clock = sc.clock
-        out.append(ClockTruth(sc.name, start, clock.sigma1_s_per_sqrt_s, clock.sigma2_per_sqrt_s,
+        out.append(ClockTruth(sc.name, start, clock.sigma1, clock.sigma2,
                               (clock.initial_offset_sigma_s, clock.initial_frequency_sigma),
-                              tuple(_clock_scale()), tuple(entries)))
+                              tuple(_clock_scale()), tuple(entries), clock.mu1, clock.mu2))
     return tuple(out)
+
+
+def _batch_arrays(scenario: Scenario, model: DynamicsModel, times_s, trajectories) -> BatchArrays | None:
+    """RK8 steps per interval along the estimated spacecraft's nominal paths, and the span's epoch count."""
+    spec = scenario.batch
+    if spec is None:
+        return None
+    positions = np.stack([trajectories[name].states[:, 0:3] for name in scenario.spacecraft_names()], axis=1)
+    counts = model.rk8_step_counts(positions, scenario.measurement.interval_s / TU_S)
+    n_use = int(np.searchsorted(times_s, spec.span_days * SECONDS_PER_DAY + 1e-6, side="right"))
+    return BatchArrays(counts=counts, n_use=n_use, use_apriori=spec.apriori, max_iterations=spec.max_iterations,
+                       tolerance_lu=spec.tolerance_m / M_PER_LU,
+                       jacobian=JACOBIAN_EVERY if spec.jacobian == "every_iteration" else JACOBIAN_FIRST)
 
 
 def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
@@ -349,6 +372,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.params,
         dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
         divergence_position_lu=flt.divergence_position_km / LU_KM,
+        batch=_batch_arrays(scenario, model, times_s, trajectories),
     )
     ie = scenario.initial_error
     sc_index = {name: i for i, name in enumerate(names)}

@@ -1,0 +1,254 @@
+"""Batch weighted least squares (002 §3, after Tapley, Schutz & Born ch. 4): the epoch state of every
+spacecraft (plus any constant blocks) from all measurements of a span, iterated to convergence.
+
+Per iteration (Gauss-Newton on the nonlinear residuals):
+  X*(t_k) = propagate(x*)                        reference trajectory from the current epoch estimate
+  y_k = Y_k - G(X*(t_k))                          observation residuals               (002 Eq. 25-26)
+  H_k = G_X(X*(t_k)) Phi(t_k, t_0)                measurements mapped to the epoch    (002 Eq. 31-35)
+  Lambda = sum H_k^T W_k H_k (+ P0^-1),  N = sum H_k^T W_k y_k (+ P0^-1 (x_bar - x*))
+  Lambda dx = N                                   normal equations                    (002 Eq. 36)
+  x* += dx, until the largest position correction is below the tolerance.
+Phi comes from the dynamics interface (state + STM over an interval). `jacobian = JACOBIAN_FIRST` keeps the
+first iteration's Phi (computed on the a-priori reference) for later iterations and propagates only the
+state (modified Gauss-Newton: the same fixed point, since the residuals stay nonlinear; about 3x cheaper).
+
+The normal equations are solved by Cholesky after symmetric equilibration (D^-1/2 Lambda D^-1/2 with
+D = diag(Lambda)): positions (LU) and velocities (LU/TU) differ by orders of magnitude in information,
+and scaling removes that part of the conditioning. The equilibrated condition number is returned with
+every solve; Cholesky loses about log10(cond) of 16 digits, so a solve with cond above
+CONDITION_LIMIT is recorded as ill-conditioned (QR / SRIF on the weighted design would then be the
+remedy; no scenario shipped comes near it).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from liaison_cli.dynamics.model import propagate_state_rk8, propagate_state_stm_rk8
+from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
+from liaison_cli.measurements.registry import predict, residual
+
+JACOBIAN_EVERY = 0
+JACOBIAN_FIRST = 1
+CONDITION_LIMIT = 1e12
+
+BATCH_OK = "ok"
+BATCH_NOT_CONVERGED = "not converged"
+BATCH_ILL_CONDITIONED = "ill-conditioned normal equations"
+BATCH_NONFINITE = "non-finite residuals"
+
+
+@njit(cache=True)
+def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, n_epochs, with_stm, traj, phi):
+    """Reference trajectory from the epoch estimate x (n,): traj (n_epochs, n) holds every block's value at
+    every epoch (spacecraft propagated, constants carried); with_stm also fills phi (n_epochs, B, 6, 6) with
+    Phi(t_k, t_0) of every spacecraft block b (identity elsewhere)."""
+    n = x.shape[0]
+    for i in range(n):
+        traj[0, i] = x[i]
+    for b in range(block_kind.shape[0]):
+        if block_kind[b] != BLOCK_SPACECRAFT:
+            continue
+        a = block_start[b]
+        state = np.empty(6)
+        for i in range(6):
+            state[i] = x[a + i]
+        if with_stm:
+            for i in range(6):
+                for j in range(6):
+                    phi[0, b, i, j] = 1.0 if i == j else 0.0
+        for k in range(1, n_epochs):
+            t_tu = (k - 1) * dt_tu
+            if with_stm:
+                state, step_phi = propagate_state_stm_rk8(model, params, state, t_tu, dt_tu, counts[k - 1])
+                for i in range(6):
+                    for j in range(6):
+                        acc = 0.0
+                        for l in range(6):
+                            acc += step_phi[i, l] * phi[k - 1, b, l, j]
+                        phi[k, b, i, j] = acc
+            else:
+                state = propagate_state_rk8(model, params, state, t_tu, dt_tu, counts[k - 1])
+            for i in range(6):
+                traj[k, a + i] = state[i]
+    for b in range(block_kind.shape[0]):
+        if block_kind[b] == BLOCK_SPACECRAFT:
+            continue
+        for k in range(1, n_epochs):
+            for i in range(block_start[b], block_start[b] + 1):
+                traj[k, i] = x[i]
+
+
+@njit(cache=True)
+def _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
+         channel_mod_index, channel_mod_coeff, h):
+    """Predicted value of channel c at epoch k and its row h (n,) of partials w.r.t. the epoch state."""
+    for i in range(h.shape[0]):
+        h[i] = 0.0
+    ends = channel_ends[c]
+    x_r = traj[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
+    x_t = traj[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
+    g_r = np.empty(6)
+    g_t = np.empty(6)
+    value = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
+    for end, g in ((ends[0], g_r), (ends[2], g_t)):
+        if end < 0:
+            continue
+        b = block_of_start[end]
+        for j in range(6):
+            acc = 0.0
+            for i in range(6):
+                acc += g[i] * phi[k, b, i, j]
+            h[end + j] += acc
+    for j in range(channel_mod_index.shape[1]):
+        index = channel_mod_index[c, j]
+        if index >= 0:
+            value += channel_mod_coeff[c, j] * traj[k, index]
+            h[index] += channel_mod_coeff[c, j]
+    return value
+
+
+@njit(cache=True)
+def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channel_kind, channel_ends,
+                                channel_flags, channel_mod_index, channel_mod_coeff, sigma, n_use):
+    """Lambda (n, n), N (n,), and per channel the residual sum of squares and count over epochs 1..n_use-1."""
+    n = traj.shape[1]
+    n_channels = y_obs.shape[1]
+    lam = np.zeros((n, n))
+    rhs = np.zeros(n)
+    ss = np.zeros(n_channels)
+    count = np.zeros(n_channels, dtype=np.int64)
+    h = np.empty(n)
+    nz = np.empty(n, dtype=np.int64)
+    for k in range(1, n_use):
+        for c in range(n_channels):
+            y = y_obs[k, c]
+            if not np.isfinite(y):
+                continue
+            value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
+                         channel_mod_index, channel_mod_coeff, h)
+            r = residual(channel_kind[c], y, value)
+            w = 1.0 / (sigma[c] * sigma[c])
+            ss[c] += r * r
+            count[c] += 1
+            m = 0
+            for i in range(n):
+                if h[i] != 0.0:
+                    nz[m] = i
+                    m += 1
+            for p in range(m):
+                i = nz[p]
+                rhs[i] += h[i] * w * r
+                for q in range(m):
+                    lam[i, nz[q]] += h[i] * w * h[nz[q]]
+    return lam, rhs, ss, count
+
+
+@njit(cache=True)
+def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channel_kind, channel_ends, channel_flags,
+                      channel_mod_index, channel_mod_coeff, sigma, P, n_use):
+    """Residuals (m, C) of the final reference at every epoch with data (NaN elsewhere) and their predicted
+    spread sqrt(sigma^2 - h P h^T) inside the span (sqrt(sigma^2 + h P h^T) after it, a prediction)."""
+    m, n_channels = y_obs.shape
+    n = traj.shape[1]
+    out = np.full((m, n_channels), np.nan)
+    spread = np.full((m, n_channels), np.nan)
+    h = np.empty(n)
+    for k in range(1, m):
+        for c in range(n_channels):
+            y = y_obs[k, c]
+            if not np.isfinite(y):
+                continue
+            value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
+                         channel_mod_index, channel_mod_coeff, h)
+            out[k, c] = residual(channel_kind[c], y, value)
+            hph = h @ P @ h
+            var = sigma[c] * sigma[c] + (-hph if k < n_use else hph)
+            spread[k, c] = np.sqrt(max(var, 0.0))
+    return out, spread
+
+
+@dataclass(frozen=True, eq=False)
+class BatchSolution:
+    """x0 (n,) epoch estimate; P (n, n) its formal covariance; iterations; status (BATCH_*); condition:
+    the equilibrated condition number of Lambda; residual_rms (C,) post-fit per channel (filter units);
+    corrections: the largest position correction (LU) of each iteration."""
+
+    x0: np.ndarray
+    P: np.ndarray
+    iterations: int
+    status: str
+    condition: float
+    residual_rms: np.ndarray
+    corrections: tuple
+
+
+def _solve_equilibrated(lam, rhs):
+    """Cholesky solve of Lambda dx = N after scaling by D = diag(Lambda); returns dx, Lambda^-1, cond."""
+    d = np.sqrt(np.diag(lam))
+    if not np.all(np.isfinite(d)) or np.any(d <= 0.0):
+        return None, None, np.inf
+    scaled = lam / np.outer(d, d)
+    eig = np.linalg.eigvalsh(scaled)
+    cond = float(eig[-1] / eig[0]) if eig[0] > 0 else np.inf
+    if not np.isfinite(cond) or cond > CONDITION_LIMIT:
+        return None, None, cond
+    L = np.linalg.cholesky(scaled)
+    z = np.linalg.solve(L, rhs / d)
+    dx = np.linalg.solve(L.T, z) / d
+    L_inv = np.linalg.solve(L, np.eye(lam.shape[0]))
+    cov = (L_inv.T @ L_inv) / np.outer(d, d)
+    return dx, cov, cond
+
+
+def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel_ends, channel_flags,
+                channel_mod_index, channel_mod_coeff, sigma, block_kind, block_start, model, params, dt_tu, counts,
+                n_use, use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST):
+    """One batch solve over epochs 0..n_use-1 (epoch 0 is the solve epoch). Shapes: x_apriori (n,),
+    P_apriori (n, n), y_obs (m, C), known_states (m, K, 6); counts (m - 1,) RK8 steps per interval.
+    Returns (BatchSolution, traj (m, n), phi (m, B, 6, 6), block_of_start (n,)): the converged trajectory
+    over all m epochs and Phi(t_k, t_0) of the last STM pass."""
+    n = x_apriori.shape[0]
+    m = y_obs.shape[0]
+    n_blocks = block_kind.shape[0]
+    block_of_start = np.full(n, -1, dtype=np.int64)
+    for b in range(n_blocks):
+        block_of_start[block_start[b]] = b
+    traj = np.empty((m, n))
+    phi = np.zeros((m, n_blocks, 6, 6))
+    info_apriori = np.linalg.inv(P_apriori) if use_apriori else None
+    x = x_apriori.copy()
+    position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind)
+                               if kind == BLOCK_SPACECRAFT])
+    corrections, status, cov, cond, iterations = [], BATCH_NOT_CONVERGED, None, np.nan, 0
+    args = (known_states, channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff)
+    for iterations in range(1, max_iterations + 1):
+        # The STM covers every epoch (the span and the prediction after it), so the frozen Phi also maps the
+        # covariance forward; later iterations of the frozen-Jacobian method propagate the state only.
+        with_stm = jacobian == JACOBIAN_EVERY or iterations == 1
+        propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m if with_stm else n_use,
+                            with_stm, traj, phi)
+        lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, *args, sigma, n_use)
+        if info_apriori is not None:
+            lam = lam + info_apriori
+            rhs = rhs + info_apriori @ (x_apriori - x)
+        if not (np.all(np.isfinite(lam)) and np.all(np.isfinite(rhs))):
+            status = BATCH_NONFINITE
+            break
+        dx, cov, cond = _solve_equilibrated(lam, rhs)
+        if dx is None:
+            status = BATCH_ILL_CONDITIONED
+            break
+        x = x + dx
+        corrections.append(float(np.max(np.abs(dx[position]))))
+        if corrections[-1] < tolerance_lu:
+            status = BATCH_OK
+            break
+    # The converged trajectory over every epoch, for errors and post-fit residuals (Phi as last computed).
+    propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m, False, traj, phi)
+    P = cov if cov is not None else np.full((n, n), np.nan)
+    _, _, ss, count = accumulate_normal_equations(traj, phi, block_of_start, y_obs, *args, sigma, n_use)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.sqrt(ss / count)
+    return BatchSolution(x, P, iterations, status, cond, rms, tuple(corrections)), traj, phi, block_of_start
