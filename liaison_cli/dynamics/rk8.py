@@ -13,13 +13,31 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
-from liaison_cli.dynamics.crtbp import _state_stm_rhs, derivative
+from liaison_cli.dynamics.crtbp import _state_stm_rhs
 
 _STAGES = _dop853.N_STAGES
 RK8_A = np.ascontiguousarray(_dop853.A[:_STAGES, :_STAGES], dtype=np.float64)
 RK8_B = np.ascontiguousarray(_dop853.B, dtype=np.float64)
 RK8_C = np.ascontiguousarray(_dop853.C[:_STAGES], dtype=np.float64)
 STEP_FRACTION = 0.08
+
+
+@njit(cache=True, inline="always")
+def _derivative_into(state, mu, out):
+    """The CRTBP derivative (Eq. 6-8) written into out (6,): no allocation in the RK8 stages."""
+    x, y, z = state[0], state[1], state[2]
+    dx1 = x + mu
+    dx2 = x - 1.0 + mu
+    r1_2 = dx1 * dx1 + y * y + z * z
+    r2_2 = dx2 * dx2 + y * y + z * z
+    k1 = (1.0 - mu) / (r1_2 * np.sqrt(r1_2))
+    k2 = mu / (r2_2 * np.sqrt(r2_2))
+    out[0] = state[3]
+    out[1] = state[4]
+    out[2] = state[5]
+    out[3] = 2.0 * state[4] + x - k1 * dx1 - k2 * dx2
+    out[4] = -2.0 * state[3] + y - (k1 + k2) * y
+    out[5] = -(k1 + k2) * z
 
 
 @njit(cache=True)
@@ -31,9 +49,7 @@ def _rk8_step_state(y, h, mu, a, b, k, tmp):
             for j in range(s):
                 acc += h * a[s, j] * k[j, i]
             tmp[i] = acc
-        d = derivative(tmp, mu)
-        for i in range(6):
-            k[s, i] = d[i]
+        _derivative_into(tmp, mu, k[s])
     for i in range(6):
         acc = 0.0
         for s in range(12):
@@ -56,6 +72,19 @@ def _rk8_step_state_stm(y, h, mu, a, b, k, tmp):
         for s in range(12):
             acc += b[s] * k[s, i]
         y[i] += h * acc
+
+
+@njit(cache=True)
+def rk8_advance(y, dt_tu, n_steps, mu, k, tmp):
+    """Advance y in place over dt_tu in n_steps RK8 steps: y (6,) a state, or y (42,) [state, Phi row-major]
+    carried on from earlier intervals, so Phi stays Phi(t, t0). k (12, len(y)), tmp (len(y),) scratch."""
+    h = dt_tu / n_steps
+    if y.shape[0] == 6:
+        for _ in range(n_steps):
+            _rk8_step_state(y, h, mu, RK8_A, RK8_B, k, tmp)
+    else:
+        for _ in range(n_steps):
+            _rk8_step_state_stm(y, h, mu, RK8_A, RK8_B, k, tmp)
 
 
 @njit(cache=True)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.model import propagate_state_rk8, propagate_state_stm_rk8
+from liaison_cli.dynamics.model import advance_rk8
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.measurements.registry import predict, residual
 
@@ -43,54 +43,46 @@ BATCH_NONFINITE = "non-finite residuals"
 def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, n_epochs, with_stm, traj, phi):
     """Reference trajectory from the epoch estimate x (n,): traj (n_epochs, n) holds every block's value at
     every epoch (spacecraft propagated, constants carried); with_stm also fills phi (n_epochs, B, 6, 6) with
-    Phi(t_k, t_0) of every spacecraft block b (identity elsewhere)."""
+    Phi(t_k, t_0) of every spacecraft block b, integrated on through the intervals."""
     n = x.shape[0]
-    for i in range(n):
-        traj[0, i] = x[i]
+    size = 42 if with_stm else 6
+    y = np.zeros(size)
+    k_scratch = np.empty((12, size))
+    tmp = np.empty(size)
+    for k in range(n_epochs):
+        for i in range(n):
+            traj[k, i] = x[i]  # constants are carried; spacecraft entries are overwritten below
     for b in range(block_kind.shape[0]):
         if block_kind[b] != BLOCK_SPACECRAFT:
             continue
         a = block_start[b]
-        state = np.empty(6)
+        for i in range(size):
+            y[i] = 0.0
         for i in range(6):
-            state[i] = x[a + i]
-        if with_stm:
-            for i in range(6):
-                for j in range(6):
-                    phi[0, b, i, j] = 1.0 if i == j else 0.0
-        for k in range(1, n_epochs):
-            t_tu = (k - 1) * dt_tu
+            y[i] = x[a + i]
             if with_stm:
-                state, step_phi = propagate_state_stm_rk8(model, params, state, t_tu, dt_tu, counts[k - 1])
+                y[6 + 7 * i] = 1.0
+        for k in range(n_epochs):
+            if k > 0:
+                advance_rk8(model, params, y, (k - 1) * dt_tu, dt_tu, counts[k - 1], k_scratch, tmp)
+            for i in range(6):
+                traj[k, a + i] = y[i]
+            if with_stm:
                 for i in range(6):
                     for j in range(6):
-                        acc = 0.0
-                        for l in range(6):
-                            acc += step_phi[i, l] * phi[k - 1, b, l, j]
-                        phi[k, b, i, j] = acc
-            else:
-                state = propagate_state_rk8(model, params, state, t_tu, dt_tu, counts[k - 1])
-            for i in range(6):
-                traj[k, a + i] = state[i]
-    for b in range(block_kind.shape[0]):
-        if block_kind[b] == BLOCK_SPACECRAFT:
-            continue
-        for k in range(1, n_epochs):
-            for i in range(block_start[b], block_start[b] + 1):
-                traj[k, i] = x[i]
+                        phi[k, b, i, j] = y[6 + 6 * i + j]
 
 
 @njit(cache=True)
 def _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-         channel_mod_index, channel_mod_coeff, h):
-    """Predicted value of channel c at epoch k and its row h (n,) of partials w.r.t. the epoch state."""
+         channel_mod_index, channel_mod_coeff, h, g_r, g_t):
+    """Predicted value of channel c at epoch k and its row h (n,) of partials w.r.t. the epoch state;
+    g_r, g_t (6,) are scratch for the partials w.r.t. the two ends' current states."""
     for i in range(h.shape[0]):
         h[i] = 0.0
     ends = channel_ends[c]
     x_r = traj[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
     x_t = traj[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
-    g_r = np.empty(6)
-    g_t = np.empty(6)
     value = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
     for end, g in ((ends[0], g_r), (ends[2], g_t)):
         if end < 0:
@@ -120,6 +112,8 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
     ss = np.zeros(n_channels)
     count = np.zeros(n_channels, dtype=np.int64)
     h = np.empty(n)
+    g_r = np.empty(6)
+    g_t = np.empty(6)
     nz = np.empty(n, dtype=np.int64)
     for k in range(1, n_use):
         for c in range(n_channels):
@@ -127,7 +121,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
             if not np.isfinite(y):
                 continue
             value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-                         channel_mod_index, channel_mod_coeff, h)
+                         channel_mod_index, channel_mod_coeff, h, g_r, g_t)
             r = residual(channel_kind[c], y, value)
             w = 1.0 / (sigma[c] * sigma[c])
             ss[c] += r * r
@@ -155,13 +149,15 @@ def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channel_ki
     out = np.full((m, n_channels), np.nan)
     spread = np.full((m, n_channels), np.nan)
     h = np.empty(n)
+    g_r = np.empty(6)
+    g_t = np.empty(6)
     for k in range(1, m):
         for c in range(n_channels):
             y = y_obs[k, c]
             if not np.isfinite(y):
                 continue
             value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-                         channel_mod_index, channel_mod_coeff, h)
+                         channel_mod_index, channel_mod_coeff, h, g_r, g_t)
             out[k, c] = residual(channel_kind[c], y, value)
             hph = h @ P @ h
             var = sigma[c] * sigma[c] + (-hph if k < n_use else hph)
@@ -207,8 +203,9 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel
                 n_use, use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST):
     """One batch solve over epochs 0..n_use-1 (epoch 0 is the solve epoch). Shapes: x_apriori (n,),
     P_apriori (n, n), y_obs (m, C), known_states (m, K, 6); counts (m - 1,) RK8 steps per interval.
-    Returns (BatchSolution, traj (m, n), phi (m, B, 6, 6), block_of_start (n,)): the converged trajectory
-    over all m epochs and Phi(t_k, t_0) of the last STM pass."""
+    Returns (BatchSolution, traj (m, n), phi (m, B, 6, 6), residuals (m, C), spread (m, C)): the converged
+    trajectory over all m epochs, Phi(t_k, t_0) of the last STM pass, and the post-fit residuals with their
+    predicted spread (estimation.batch.postfit_residuals)."""
     n = x_apriori.shape[0]
     m = y_obs.shape[0]
     n_blocks = block_kind.shape[0]
@@ -248,7 +245,8 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel
     # The converged trajectory over every epoch, for errors and post-fit residuals (Phi as last computed).
     propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m, False, traj, phi)
     P = cov if cov is not None else np.full((n, n), np.nan)
-    _, _, ss, count = accumulate_normal_equations(traj, phi, block_of_start, y_obs, *args, sigma, n_use)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rms = np.sqrt(ss / count)
-    return BatchSolution(x, P, iterations, status, cond, rms, tuple(corrections)), traj, phi, block_of_start
+    post, spread = postfit_residuals(traj, phi, block_of_start, y_obs, *args, sigma, P, n_use)
+    with np.errstate(invalid="ignore"):
+        rms = np.sqrt(np.nanmean(post[:n_use] ** 2, axis=0)) if n_use > 1 else np.full(y_obs.shape[1], np.nan)
+    solution = BatchSolution(x, P, iterations, status, cond, rms, tuple(corrections))
+    return solution, traj, phi, post, spread

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liaison_cli.estimation.batch import BATCH_OK, postfit_residuals, solve_batch
+from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
 
@@ -100,7 +100,7 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     P_k = Phi P Phi^T), so it is reported at all of them."""
     settings = arrays.batch
     kind, start, _ = arrays.layout.arrays()
-    solution, traj, phi, _ = solve_batch(
+    solution, traj, phi, innovation, spread = solve_batch(
         x0_hat, arrays.P0, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
         arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start,
         arrays.model, arrays.model_params, arrays.dt_tu, settings.counts, settings.n_use, settings.use_apriori,
@@ -108,16 +108,12 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     m, n = truth.shape
     err = traj - truth
     P = solution.P
-    sigma = np.empty((m, n))
-    for k in range(m):
-        Pk = P.copy()
-        for b, (kb, a) in enumerate(zip(kind, start)):
-            if kb == BLOCK_SPACECRAFT:  # Phi_k acts on each spacecraft block: rows and columns of P
-                Pk[a : a + 6, :] = phi[k, b] @ Pk[a : a + 6, :]
-        for b, (kb, a) in enumerate(zip(kind, start)):
-            if kb == BLOCK_SPACECRAFT:
-                Pk[:, a : a + 6] = Pk[:, a : a + 6] @ phi[k, b].T
-        sigma[k] = np.sqrt(np.abs(np.diag(Pk)))
+    # diag(Phi_k P Phi_k^T) block by block: a spacecraft block's diagonal needs only its own P_bb.
+    sigma = np.tile(np.sqrt(np.abs(np.diag(P))), (m, 1))
+    for b, (kb, a) in enumerate(zip(kind, start)):
+        if kb == BLOCK_SPACECRAFT:
+            P_bb = P[a : a + 6, a : a + 6]
+            sigma[:, a : a + 6] = np.sqrt(np.abs(np.einsum("kij,jl,kil->ki", phi[:, b], P_bb, phi[:, b])))
     n_est = arrays.n_nees
     ok = solution.status == BATCH_OK
     if ok:
@@ -125,23 +121,12 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
         nees_value = float(e0 @ np.linalg.solve(P[:n_est, :n_est], e0))
     else:
         nees_value = np.nan
-    innovation, spread = postfit_residuals(traj, phi, _block_of_start(kind, start, n), y_obs, arrays.known_states,
-                                           arrays.channel_kind, arrays.channel_ends, arrays.channel_flags,
-                                           arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, P,
-                                           settings.n_use)
     extras = {"iterations": solution.iterations, "condition": solution.condition,
               "residual_rms": solution.residual_rms, "corrections_lu": solution.corrections,
               "status": solution.status}
     return EstimateHistory(err, sigma, np.full(m, nees_value), innovation, spread, ok,
                            "" if ok else f"batch: {solution.status} after {solution.iterations} iterations",
                            -1 if ok else 0, settings.n_use - 1, extras)
-
-
-def _block_of_start(kind, start, n):
-    out = np.full(n, -1, dtype=np.int64)
-    for b, a in enumerate(start):
-        out[a] = b
-    return out
 
 
 ESTIMATORS = {"ekf": _ekf, "batch": _batch}
