@@ -29,6 +29,10 @@ from liaison_cli.errors import LiaisonError
 
 MANIFEST_FORMAT = 1
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
+# Present only for some estimators / scenarios (a batch's prediction, clock synchronisation): summarised
+# in the curve when a grid point has them.
+OPTIONAL_METRICS = ("rms_position_prediction_m", "rms_velocity_prediction_m_s", "clock_rms_window_ns",
+                    "clock_rms_prediction_ns")
 SIGMA_KEY = "noise.sigma_m"
 
 
@@ -420,7 +424,7 @@ def build_curve_table(plan: SweepPlan, runs_table: pd.DataFrame) -> pd.DataFrame
                 "runs_ok": len(ok),
                 "runs_excluded": len(sc) - len(ok),
             }
-            for metric in METRICS:
+            for metric in METRICS + tuple(m for m in OPTIONAL_METRICS if m in ok):
                 values = ok[metric].to_numpy(dtype=float)
                 empty = values.size == 0
                 row[f"{metric}_mean"] = np.nan if empty else float(values.mean())

@@ -1,0 +1,195 @@
+"""002's result tables from a sweep: DRMS p90 (Table 3 layout) and clock RMS p90 (Table 4 layout), histograms.
+
+The sweep is any `liaison sweep` over scenarios whose estimator is batch, with the grid keys
+`batch.span_days` and `measurement.interval_s`. Each grid point's scenario is classed from its own
+content (kept in sweep.json): Earth-based when it has ground stations, RR when a link measures range-rate.
+Metrics, per run: DRMS = the mean over the constellation of each spacecraft's prediction RMS (002 Eq. 37-39,
+the 3 h after the span); clock RMS = each anchor's synchronisation error RMS over the sync window and over
+the prediction after it. Tables give the 90th percentile over the runs that finished ('ok').
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from liaison_cli.errors import LiaisonError, UnreadableFileError
+from liaison_cli.scenario.schema import validate_scenario
+
+NRHO_PERIOD_DAYS = 6.59  # 002 Table 1: T, the unit of the paper's time spans
+SPAN_KEY = "batch.span_days"
+INTERVAL_KEY = "measurement.interval_s"
+
+
+class ReportError(LiaisonError):
+    """A sweep folder that cannot give 002's tables."""
+
+
+def _read(sweep_dir: Path):
+    runs_path, meta_path = sweep_dir / "runs.parquet", sweep_dir / "sweep.json"
+    for path in (runs_path, meta_path):
+        if not path.exists():
+            raise ReportError(f"{sweep_dir}: no {path.name} here; give a folder written by 'liaison sweep'")
+    try:
+        runs = pd.read_parquet(runs_path)
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UnreadableFileError(f"{sweep_dir}: cannot read the sweep ({type(exc).__name__}: "
+                                  f"{str(exc).splitlines()[0] if str(exc) else 'no detail'})") from None
+    for key in (SPAN_KEY, INTERVAL_KEY):
+        if key not in runs:
+            raise ReportError(f"{sweep_dir}: the sweep's grid has no {key}; 002's tables need "
+                              f"--grid {SPAN_KEY}=... --grid {INTERVAL_KEY}=...")
+    if "rms_position_prediction_m" not in runs:
+        raise ReportError(f"{sweep_dir}: no prediction DRMS in the runs; the scenarios need estimator: batch")
+    return runs, meta
+
+
+def _classes(meta) -> dict:
+    """{scenario name: (case 'autonomous' | 'earth', measurements 'RR' | 'NORR')} from the scenario texts."""
+    import yaml
+
+    out = {}
+    for name, text in meta["scenarios_yaml"].items():
+        scenario = validate_scenario(yaml.safe_load(text), name)
+        case = "earth" if scenario.ground_stations else "autonomous"
+        rr = any("range_rate" in link.observables for link in scenario.links)
+        out[name] = (case, "RR" if rr else "NORR")
+    return out
+
+
+def per_run_metrics(sweep_dir) -> pd.DataFrame:
+    """One row per (grid point, run): case, measurements, span, interval, status, DRMS mean, per-spacecraft
+    DRMS, and the clock RMS of each anchor (window / prediction, ns)."""
+    sweep_dir = Path(sweep_dir)
+    runs, meta = _read(sweep_dir)
+    classes = _classes(meta)
+    rows = []
+    for (point, run), group in runs.groupby(["point", "run"], sort=True):
+        first = group.iloc[0]
+        case, measurements = classes[first.scenario]
+        ok = bool((group.status == "ok").all())
+        row = {"point": int(point), "run": int(run), "scenario": first.scenario, "case": case,
+               "measurements": measurements, "span_days": float(first[SPAN_KEY]),
+               "span_periods": float(first[SPAN_KEY]) / NRHO_PERIOD_DAYS, "interval_s": float(first[INTERVAL_KEY]),
+               "status": "ok" if ok else "failed",
+               "drms_mean_m": float(group.rms_position_prediction_m.mean()) if ok else np.nan}
+        for item in group.itertuples():
+            row[f"drms_{item.spacecraft}_m"] = float(item.rms_position_prediction_m) if ok else np.nan
+            for which in ("window", "prediction"):
+                value = getattr(item, f"clock_rms_{which}_ns", np.nan)
+                if ok and value == value:  # not NaN: this spacecraft's clock is synchronised to the main one
+                    row[f"clock_{which}_{item.spacecraft}_ns"] = float(value)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _p90(values) -> float:
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    return float(np.quantile(values, 0.9)) if values.size else np.nan
+
+
+def drms_table(metrics: pd.DataFrame) -> pd.DataFrame:
+    """Table 3 layout: one row per (span, interval), DRMS-mean p90 per (case, measurements) column."""
+    rows = []
+    for (span, interval), cell in metrics.groupby(["span_days", "interval_s"], sort=True):
+        row = {"span_days": span, "span_periods": span / NRHO_PERIOD_DAYS, "interval_min": interval / 60.0}
+        for (case, measurements), runs in cell.groupby(["case", "measurements"]):
+            ok = runs[runs.status == "ok"]
+            row[f"{case}_{measurements}_drms_p90_m"] = _p90(ok.drms_mean_m)
+            row[f"{case}_{measurements}_runs_ok"] = len(ok)
+            row[f"{case}_{measurements}_runs"] = len(runs)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def clock_table(metrics: pd.DataFrame) -> pd.DataFrame:
+    """Table 4 layout: per (span, interval) and RR / NORR, the p90 over runs and anchors of the clock RMS over
+    the 3 h sync window and over the 3 h prediction after it (autonomous cases only)."""
+    own = metrics[(metrics.case == "autonomous") & (metrics.status == "ok")]
+    rows = []
+    for (span, interval, measurements), cell in own.groupby(["span_days", "interval_s", "measurements"], sort=True):
+        row = {"span_days": span, "span_periods": span / NRHO_PERIOD_DAYS, "interval_min": interval / 60.0,
+               "measurements": measurements, "runs_ok": len(cell)}
+        for which in ("window", "prediction"):
+            columns = [c for c in cell.columns if c.startswith(f"clock_{which}_")]
+            row[f"clock_{which}_p90_ns"] = _p90(cell[columns].to_numpy().ravel()) if columns else np.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def format_tables(drms: pd.DataFrame, clocks: pd.DataFrame) -> str:
+    """Both tables as Markdown."""
+    columns = [("autonomous", "NORR"), ("autonomous", "RR"), ("earth", "NORR"), ("earth", "RR")]
+    lines = ["DRMS p90 (m), mean over the constellation, 3 h prediction after the span (cf. 002 Table 3)", "",
+             "| span | interval | autonomous NORR | autonomous RR | Earth NORR | Earth RR |",
+             "|---|---|---|---|---|---|"]
+    for row in drms.itertuples():
+        cells = []
+        for case, measurements in columns:
+            value = getattr(row, f"{case}_{measurements}_drms_p90_m", np.nan)
+            cells.append("" if value != value else f"{value:.3f}")
+        lines.append(f"| {row.span_periods:.2g} T ({row.span_days:g} d) | {row.interval_min:g} min | "
+                     + " | ".join(cells) + " |")
+    lines += ["", "Clock RMS p90 (ns) of the anchors against the Gateway's clock, quadratic fit over the 3 h "
+              "sync window (cf. 002 Table 4)", "",
+              "| span | interval | measurements | over the window | over the 3 h prediction |", "|---|---|---|---|---|"]
+    for row in clocks.itertuples():
+        lines.append(f"| {row.span_periods:.2g} T | {row.interval_min:g} min | {row.measurements} | "
+                     f"{row.clock_window_p90_ns:.2f} | {row.clock_prediction_p90_ns:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def draw_histograms(metrics: pd.DataFrame, span_days: float, interval_s: float, out_dir: Path) -> list[Path]:
+    """DRMS histograms (cf. 002 Figs. 7-8) and clock RMS histograms (cf. Figs. 9-10) for one grid cell."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cell = metrics[np.isclose(metrics.span_days, span_days) & np.isclose(metrics.interval_s, interval_s)
+                   & (metrics.status == "ok")]
+    paths = []
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex="col")
+    for j, measurements in enumerate(("RR", "NORR")):
+        for i, case in enumerate(("earth", "autonomous")):
+            ax = axes[i, j]
+            values = cell[(cell.case == case) & (cell.measurements == measurements)].drms_mean_m
+            if len(values):
+                ax.hist(values, bins=40, color="tab:blue" if case == "autonomous" else "tab:grey")
+                ax.axvline(_p90(values), color="black", ls="--", lw=1, label=f"p90 {_p90(values):.2f} m")
+                ax.legend(fontsize=8)
+            ax.set_title(f"{'Earth-based' if case == 'earth' else 'autonomous'} OD, {measurements} "
+                         f"({len(values)} runs)", fontsize=10)
+            ax.set_xlabel("DRMS of the 3 h prediction (m)")
+    fig.suptitle(f"DRMS, span {span_days / NRHO_PERIOD_DAYS:.2g} T, {interval_s / 60:g} min (cf. 002 Figs. 7-8)")
+    fig.tight_layout()
+    paths.append(_save(fig, out_dir / "drms_histograms.png"))
+    plt.close(fig)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    own = cell[cell.case == "autonomous"]
+    for ax, measurements in zip(axes, ("RR", "NORR")):
+        mine = own[own.measurements == measurements]
+        columns = [c for c in mine.columns if c.startswith("clock_window_")]
+        values = mine[columns].to_numpy().ravel() if columns else np.array([])
+        values = values[np.isfinite(values)]
+        if values.size:
+            ax.hist(values, bins=40, color="tab:green")
+            ax.axvline(_p90(values), color="black", ls="--", lw=1, label=f"p90 {_p90(values):.2f} ns")
+            ax.legend(fontsize=8)
+        ax.set_title(f"autonomous timing, {measurements} ({values.size} anchor-runs)", fontsize=10)
+        ax.set_xlabel("clock RMS over the 3 h sync window (ns)")
+    fig.suptitle("Clock synchronisation error (cf. 002 Figs. 9-10)")
+    fig.tight_layout()
+    paths.append(_save(fig, out_dir / "clock_histograms.png"))
+    plt.close(fig)
+    return paths
+
+
+def _save(fig, path: Path) -> Path:
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    tmp.replace(path)
+    return path
