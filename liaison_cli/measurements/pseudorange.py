@@ -29,15 +29,31 @@ KIND_PSEUDORANGE = 4
 
 @njit(cache=True, inline="always")
 def predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
-    """Geometric part of the pseudorange (LU) and its partials with respect to both ends' states."""
+    """Geometric part of the pseudorange (LU) and its partials with respect to both ends' states.
+
+    The light-time term u . v_T,in * rho / c equals d . v_T,in / c with d = r_R - r_T, so its partials are
+    exact and short: v_T,in / c for r_R, (-v_T,in + d x z-hat terms) / c for r_T, d / c for v_T."""
     g = geometric_range_gradient(x_receiver[0:3], x_transmitter[0:3])
     write_position_partials(g, g_receiver, g_transmitter)
     rho = geometric_range(x_receiver[0:3], x_transmitter[0:3])
     if flags & FLAG_LIGHT_TIME:
+        c = SPEED_OF_LIGHT_LU_TU
         vx = x_transmitter[3] - x_transmitter[1]  # v_T + z x r_T
         vy = x_transmitter[4] + x_transmitter[0]
         vz = x_transmitter[5]
-        rho += (g[0] * vx + g[1] * vy + g[2] * vz) * rho / SPEED_OF_LIGHT_LU_TU
+        dx = x_receiver[0] - x_transmitter[0]
+        dy = x_receiver[1] - x_transmitter[1]
+        dz = x_receiver[2] - x_transmitter[2]
+        rho += (dx * vx + dy * vy + dz * vz) / c
+        g_receiver[0] += vx / c
+        g_receiver[1] += vy / c
+        g_receiver[2] += vz / c
+        g_transmitter[0] += (-vx + dy) / c  # d(vy)/d(x_T) = +1
+        g_transmitter[1] += (-vy - dx) / c  # d(vx)/d(y_T) = -1
+        g_transmitter[2] += -vz / c
+        g_transmitter[3] += dx / c
+        g_transmitter[4] += dy / c
+        g_transmitter[5] += dz / c
     return rho
 
 
