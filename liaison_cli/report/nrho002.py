@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.errors import LiaisonError, UnreadableFileError
+from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.schema import validate_scenario
 
 NRHO_PERIOD_DAYS = 6.59  # 002 Table 1: T, the unit of the paper's time spans
@@ -54,7 +55,9 @@ def _classes(meta) -> dict:
     for name, text in meta["scenarios_yaml"].items():
         scenario = validate_scenario(yaml.safe_load(text), name)
         case = "earth" if scenario.ground_stations else "autonomous"
-        rr = any("range_rate" in link.observables for link in scenario.links)
+        # RR: some link measures a rate (a channel in m/s), whatever the observable is called.
+        rr = any(channel.unit == "m/s" for link in scenario.links for name in link.observables
+                 for channel in OBSERVABLES[name].channels)
         out[name] = (case, "RR" if rr else "NORR")
     return out
 
