@@ -162,9 +162,13 @@ def _add_estimator_extras(summary, extras) -> None:
     """A batch solve's iteration count and condition number, in every spacecraft's row."""
     if not extras:
         return
-    for row in summary:
+    windows = extras.get("windows", [])
+    for i, row in enumerate(summary):
         row["batch_iterations"] = float(extras["iterations"])
         row["batch_condition"] = float(extras["condition"])
+        if len(windows) > 1:  # every window's prediction, pooled (the row's own prediction is the last window's)
+            values = np.array([w["prediction_rms_lu"][i] for w in windows])
+            row["rms_position_prediction_all_windows_m"] = float(np.sqrt(np.mean(values**2))) * M_PER_LU
 
 
 def _add_clock_sync(problem: Problem, inputs: RunInputs, data_end_step: int, summary) -> None:

@@ -40,7 +40,8 @@ BATCH_NONFINITE = "non-finite residuals"
 
 
 @njit(cache=True)
-def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, n_epochs, with_stm, traj, phi):
+def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, n_epochs, with_stm, traj, phi,
+                        t0_tu=0.0):
     """Reference trajectory from the epoch estimate x (n,): traj (n_epochs, n) holds every block's value at
     every epoch (spacecraft propagated, constants carried); with_stm also fills phi (n_epochs, B, 6, 6) with
     Phi(t_k, t_0) of every spacecraft block b, integrated on through the intervals."""
@@ -64,7 +65,7 @@ def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts
                 y[6 + 7 * i] = 1.0
         for k in range(n_epochs):
             if k > 0:
-                advance_rk8(model, params, y, (k - 1) * dt_tu, dt_tu, counts[k - 1], k_scratch, tmp)
+                advance_rk8(model, params, y, t0_tu + (k - 1) * dt_tu, dt_tu, counts[k - 1], k_scratch, tmp)
             for i in range(6):
                 traj[k, a + i] = y[i]
             if with_stm:
@@ -200,7 +201,7 @@ def _solve_equilibrated(lam, rhs):
 
 def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel_ends, channel_flags,
                 channel_mod_index, channel_mod_coeff, sigma, block_kind, block_start, model, params, dt_tu, counts,
-                n_use, use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST):
+                n_use, use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST, t0_tu=0.0):
     """One batch solve over epochs 0..n_use-1 (epoch 0 is the solve epoch). Shapes: x_apriori (n,),
     P_apriori (n, n), y_obs (m, C), known_states (m, K, 6); counts (m - 1,) RK8 steps per interval.
     Returns (BatchSolution, traj (m, n), phi (m, B, 6, 6), residuals (m, C), spread (m, C)): the converged
@@ -225,7 +226,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel
         # covariance forward; later iterations of the frozen-Jacobian method propagate the state only.
         with_stm = jacobian == JACOBIAN_EVERY or iterations == 1
         propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m if with_stm else n_use,
-                            with_stm, traj, phi)
+                            with_stm, traj, phi, t0_tu)
         lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, *args, sigma, n_use)
         if info_apriori is not None:
             lam = lam + info_apriori
@@ -243,7 +244,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel
             status = BATCH_OK
             break
     # The converged trajectory over every epoch, for errors and post-fit residuals (Phi as last computed).
-    propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m, False, traj, phi)
+    propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m, False, traj, phi, t0_tu)
     P = cov if cov is not None else np.full((n, n), np.nan)
     post, spread = postfit_residuals(traj, phi, block_of_start, y_obs, *args, sigma, P, n_use)
     with np.errstate(invalid="ignore"):

@@ -17,8 +17,9 @@ from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
 
 @dataclass(frozen=True, eq=False)
 class BatchArrays:
-    """The batch solve's settings: counts (m - 1,) RK8 steps per interval; epochs 0..n_use-1 carry its data;
-    a-priori information on or off; iteration limit, tolerance (LU) and Jacobian mode (estimation.batch)."""
+    """The batch solve's settings: counts (m - 1,) RK8 steps per interval; a window's epochs 0..n_use-1 carry
+    its data, the next n_predict its prediction; a-priori information on or off; iteration limit, tolerance
+    (LU) and Jacobian mode (estimation.batch); sliding windows: how many, renewal_steps epochs apart."""
 
     counts: np.ndarray
     n_use: int
@@ -26,6 +27,9 @@ class BatchArrays:
     max_iterations: int
     tolerance_lu: float
     jacobian: int
+    n_predict: int = 0  # prediction epochs after each window's span
+    windows: int = 1
+    renewal_steps: int = 0  # epochs between window starts
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,38 +99,91 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
-    """Batch least squares over the span, then the converged trajectory and its mapped covariance at every
-    epoch. NEES is the epoch state's, e0^T P^-1 e0: to first order the same at every epoch (e_k = Phi e0,
-    P_k = Phi P Phi^T), so it is reported at all of them."""
+    """Batch least squares in sliding windows (one window by default): window w starts at epoch w * renewal,
+    solves for the state there from the span's data, and predicts past the span. Window w > 0 starts from
+    the previous solution propagated to its epoch (and, with a-priori information on, its propagated
+    covariance). The history at an epoch is the latest window that starts at or before it (its smoothed
+    estimate inside its span, its prediction after); NEES is each window's epoch-state NEES, to first order
+    the same at every epoch of its piece (e_k = Phi e0, P_k = Phi P Phi^T)."""
     settings = arrays.batch
     kind, start, _ = arrays.layout.arrays()
-    solution, traj, phi, innovation, spread = solve_batch(
-        x0_hat, arrays.P0, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
-        arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start,
-        arrays.model, arrays.model_params, arrays.dt_tu, settings.counts, settings.n_use, settings.use_apriori,
-        settings.max_iterations, settings.tolerance_lu, settings.jacobian)
     m, n = truth.shape
-    err = traj - truth
-    P = solution.P
-    # diag(Phi_k P Phi_k^T) block by block: a spacecraft block's diagonal needs only its own P_bb.
+    err, sigma = np.full((m, n), np.nan), np.full((m, n), np.nan)
+    nees = np.full(m, np.nan)
+    innovation, spread = np.full(y_obs.shape, np.nan), np.full(y_obs.shape, np.nan)
+    x_apriori, P_apriori = x0_hat, arrays.P0
+    starts = [w * settings.renewal_steps for w in range(settings.windows)]
+    windows, failure = [], ""
+    for w, k0 in enumerate(starts):
+        k1 = min(m, k0 + settings.n_use + settings.n_predict)  # this window's epochs: [k0, k1)
+        piece_end = starts[w + 1] if w + 1 < len(starts) else m
+        solution, traj, phi, post, post_spread = solve_batch(
+            x_apriori, P_apriori, y_obs[k0:k1], arrays.known_states[k0:k1], arrays.channel_kind,
+            arrays.channel_ends, arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff,
+            arrays.sigma, kind, start, arrays.model, arrays.model_params, arrays.dt_tu, settings.counts[k0 : k1 - 1],
+            settings.n_use, settings.use_apriori, settings.max_iterations, settings.tolerance_lu, settings.jacobian,
+            k0 * arrays.dt_tu)
+        e = traj - truth[k0:k1]
+        s_w = _mapped_sigma(solution.P, phi, kind, start)
+        ok = solution.status == BATCH_OK
+        nees_value = _epoch_nees(e[0], solution.P, arrays.n_nees) if ok else np.nan
+        piece = slice(0, piece_end - k0)
+        err[k0:piece_end], sigma[k0:piece_end], nees[k0:piece_end] = e[piece], s_w[piece], nees_value
+        data = slice(k0 + 1, k0 + settings.n_use)
+        innovation[data], spread[data] = post[1 : settings.n_use], post_spread[1 : settings.n_use]
+        ahead = e[settings.n_use : k1 - k0].reshape(-1, n)
+        windows.append({"iterations": solution.iterations, "condition": solution.condition, "nees": nees_value,
+                        "status": solution.status, "residual_rms": solution.residual_rms,
+                        "prediction_rms_lu": _prediction_rms(ahead, kind, start)})
+        if not ok:
+            failure = f"batch window {w}: {solution.status} after {solution.iterations} iterations"
+            break
+        if w + 1 < len(starts):  # the next window starts from this solution, propagated
+            step = starts[w + 1] - k0
+            x_apriori = traj[step].copy()
+            P_apriori = _mapped_covariance(solution.P, phi[step], kind, start) if settings.use_apriori else arrays.P0
+    ok = not failure
+    last = windows[-1]
+    extras = {"iterations": last["iterations"], "condition": last["condition"], "residual_rms": last["residual_rms"],
+              "status": last["status"], "windows": windows}
+    data_end = starts[len(windows) - 1] + settings.n_use - 1
+    return EstimateHistory(err, sigma, nees, innovation, spread, ok, failure, -1 if ok else starts[len(windows) - 1],
+                           data_end, extras)
+
+
+def _mapped_sigma(P, phi, kind, start):
+    """sqrt(diag(Phi_k P Phi_k^T)) (m, n): a spacecraft block's diagonal needs only its own P_bb."""
+    m = phi.shape[0]
     sigma = np.tile(np.sqrt(np.abs(np.diag(P))), (m, 1))
     for b, (kb, a) in enumerate(zip(kind, start)):
         if kb == BLOCK_SPACECRAFT:
             P_bb = P[a : a + 6, a : a + 6]
             sigma[:, a : a + 6] = np.sqrt(np.abs(np.einsum("kij,jl,kil->ki", phi[:, b], P_bb, phi[:, b])))
-    n_est = arrays.n_nees
-    ok = solution.status == BATCH_OK
-    if ok:
-        e0 = err[0, :n_est]
-        nees_value = float(e0 @ np.linalg.solve(P[:n_est, :n_est], e0))
-    else:
-        nees_value = np.nan
-    extras = {"iterations": solution.iterations, "condition": solution.condition,
-              "residual_rms": solution.residual_rms, "corrections_lu": solution.corrections,
-              "status": solution.status}
-    return EstimateHistory(err, sigma, np.full(m, nees_value), innovation, spread, ok,
-                           "" if ok else f"batch: {solution.status} after {solution.iterations} iterations",
-                           -1 if ok else 0, settings.n_use - 1, extras)
+    return sigma
+
+
+def _mapped_covariance(P, phi_k, kind, start):
+    """Phi_k P Phi_k^T with Phi_k (B, 6, 6) acting on the spacecraft blocks (identity elsewhere)."""
+    full = np.eye(P.shape[0])
+    for b, (kb, a) in enumerate(zip(kind, start)):
+        if kb == BLOCK_SPACECRAFT:
+            full[a : a + 6, a : a + 6] = phi_k[b]
+    return full @ P @ full.T
+
+
+def _epoch_nees(e0, P, n_est):
+    e0 = e0[:n_est]
+    return float(e0 @ np.linalg.solve(P[:n_est, :n_est], e0))
+
+
+def _prediction_rms(errors_ahead, kind, start):
+    """Per spacecraft block, the RMS of the 3-D position error over the prediction epochs (LU); NaN if none."""
+    out = []
+    for kb, a in zip(kind, start):
+        if kb == BLOCK_SPACECRAFT:
+            norms = np.linalg.norm(errors_ahead[:, a : a + 3], axis=1)
+            out.append(float(np.sqrt(np.mean(norms**2))) if norms.size else np.nan)
+    return np.array(out)
 
 
 ESTIMATORS = {"ekf": _ekf, "batch": _batch}

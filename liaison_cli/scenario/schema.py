@@ -446,6 +446,22 @@ class BatchSpec(StrictModel):
     apriori: bool = Field(False, description="add the filter's initial covariance as a-priori information")
     jacobian: Literal["first_iteration", "every_iteration"] = Field(
         "first_iteration", description="STM from the first iteration's reference (frozen) or recomputed each time")
+    windows: int = Field(1, ge=1, le=1000, description="sliding windows, each span_days long")
+    renewal_hours: float | None = Field(None, gt=0, description="window start spacing (needed with windows > 1)")
+
+    @model_validator(mode="after")
+    def _renewal(self):
+        if self.windows > 1 and self.renewal_hours is None:
+            raise ValueError(f"windows = {self.windows} needs 'renewal_hours' (the spacing of window starts)")
+        if self.renewal_hours is not None and self.renewal_hours / 24.0 > self.span_days:
+            raise ValueError(f"renewal_hours = {self.renewal_hours:g} is longer than the span ({self.span_days:g} d): "
+                             "windows would leave data unused")
+        return self
+
+    def end_days(self) -> float:
+        """The last window's span end plus its prediction."""
+        renewal_days = (self.renewal_hours or 0.0) / 24.0
+        return (self.windows - 1) * renewal_days + self.span_days + self.prediction_hours / 24.0
 
 
 class ClockSyncSpec(StrictModel):
@@ -531,11 +547,17 @@ class Scenario(StrictModel):
             raise ValueError("estimator: batch and a 'batch' section go together (give both or neither)")
         if self.batch is None:
             return
-        end_days = self.batch.span_days + self.batch.prediction_hours / 24.0
+        end_days = self.batch.end_days()
         if end_days > self.duration_days + 1e-9:
+            windows = f" over {self.batch.windows} windows" if self.batch.windows > 1 else ""
             raise ValueError(f"batch.span_days = {self.batch.span_days:g} plus prediction_hours = "
-                             f"{self.batch.prediction_hours:g} is {end_days:g} d, longer than the scenario's "
-                             f"duration_days = {self.duration_days:g}")
+                             f"{self.batch.prediction_hours:g}{windows} is {end_days:g} d, longer than the "
+                             f"scenario's duration_days = {self.duration_days:g}")
+        if self.batch.renewal_hours is not None and (
+                abs(self.batch.renewal_hours * 3600.0 / self.measurement.interval_s
+                    - round(self.batch.renewal_hours * 3600.0 / self.measurement.interval_s)) > 1e-9):
+            raise ValueError(f"batch.renewal_hours = {self.batch.renewal_hours:g} is not a whole number of "
+                             f"measurement intervals ({self.measurement.interval_s:g} s)")
         if self.batch.span_days * SECONDS_PER_DAY < 2.0 * self.measurement.interval_s:
             raise ValueError(f"batch.span_days = {self.batch.span_days:g} is shorter than two measurement "
                              f"intervals ({self.measurement.interval_s:g} s)")
@@ -567,7 +589,7 @@ class Scenario(StrictModel):
         """Where the scenario's epochs end: span + prediction for a batch, else duration_days."""
         if self.batch is None:
             return self.duration_days
-        return min(self.duration_days, self.batch.span_days + self.batch.prediction_hours / 24.0)
+        return min(self.duration_days, self.batch.end_days())
 
     def _check_observable(self, i, link, observable, receiver):
         spec = OBSERVABLES[observable]

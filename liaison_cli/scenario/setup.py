@@ -336,10 +336,14 @@ def _batch_arrays(scenario: Scenario, model: DynamicsModel, times_s, trajectorie
         return None
     positions = np.stack([trajectories[name].states[:, 0:3] for name in scenario.spacecraft_names()], axis=1)
     counts = model.rk8_step_counts(positions, scenario.measurement.interval_s / TU_S)
-    n_use = int(np.searchsorted(times_s, spec.span_days * SECONDS_PER_DAY + 1e-6, side="right"))
+    interval_s = scenario.measurement.interval_s
+    n_use = int(np.floor(spec.span_days * SECONDS_PER_DAY / interval_s + 1e-9)) + 1
+    n_predict = int(np.floor(spec.prediction_hours * 3600.0 / interval_s + 1e-9))
+    renewal = int(round((spec.renewal_hours or 0.0) * 3600.0 / interval_s))
     return BatchArrays(counts=counts, n_use=n_use, use_apriori=spec.apriori, max_iterations=spec.max_iterations,
                        tolerance_lu=spec.tolerance_m / M_PER_LU,
-                       jacobian=JACOBIAN_EVERY if spec.jacobian == "every_iteration" else JACOBIAN_FIRST)
+                       jacobian=JACOBIAN_EVERY if spec.jacobian == "every_iteration" else JACOBIAN_FIRST,
+                       n_predict=n_predict, windows=spec.windows, renewal_steps=renewal)
 
 
 def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
