@@ -1,0 +1,215 @@
+"""The error budget of a scenario: LinCov parts by source (estimation.lincov) and Monte Carlo checks.
+
+Sources (names a user may select):
+- initial: the initial estimate error (initial_error; clock a-priori spread);
+- noise: measurement noise;
+- process: truth process noise (the clocks' random walks; the CRTBP truth has none);
+- bias: unmodelled or considered range biases, one part per link (random part; the constant part is
+  deterministic and goes with the mismatches);
+- measurement_model: the filter's measurement-model error (light time in the truth, geometric filter);
+- dynamics_model: the filter's dynamics error (its RK4 substeps against the truth propagator; clock drifts).
+Random parts add in variance; deterministic parts add as mean errors, whose square (cross terms included)
+enters the second moment once. Units out: m^2 and (m/s)^2 per spacecraft, summed over the three axes.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.dynamics.clock import clock_process_noise
+from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
+from liaison_cli.errors import LiaisonError
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT
+from liaison_cli.estimation.estimators import estimate
+from liaison_cli.estimation.lincov import (
+    PART_INITIAL,
+    PART_NOISE,
+    PART_PROCESS,
+    filter_model_along_truth,
+    lincov_along_truth,
+)
+from liaison_cli.scenario.setup import Problem
+
+SOURCES = ("initial", "noise", "process", "bias", "measurement_model", "dynamics_model")
+DETERMINISTIC = ("measurement_model", "dynamics_model", "bias_mean")
+
+
+class BudgetError(LiaisonError):
+    """A scenario or option the error budget cannot take."""
+
+
+@dataclass(frozen=True, eq=False)
+class Budget:
+    """times_s (m,); spacecraft names; parts {name: (m, n_sc, 2)} second-moment contributions (position m^2,
+    velocity (m/s)^2); 'deterministic_cross' holds the cross terms of the deterministic means; total (m, n_sc,
+    2); filter_variance (m, n_sc, 2): the filter's own trace of P."""
+
+    times_s: np.ndarray
+    spacecraft: tuple
+    parts: dict
+    total: np.ndarray
+    filter_variance: np.ndarray
+
+
+def _filter_truth(problem: Problem) -> np.ndarray:
+    n = problem.filter.layout.n
+    truth = np.zeros((problem.n_steps, n))
+    truth[:, : problem.truth.shape[1]] = problem.truth
+    return truth
+
+
+def _inputs(problem: Problem):
+    """D_initial, Q_true, S0, d_dyn_extra (filter units) and each channel's unmodelled-bias link."""
+    layout = problem.filter.layout
+    n, n_sc6 = layout.n, 6 * problem.n_spacecraft
+    spec = problem.scenario
+    D_initial = np.zeros((n, n))
+    if spec.initial_error.draw == "from_covariance":
+        D_initial[:n_sc6, :n_sc6] = problem.P0[:n_sc6, :n_sc6]
+    else:
+        D_initial[:n_sc6, :n_sc6] = np.diag(problem.initial_error_sigma[:n_sc6] ** 2)
+    Q_true = np.zeros((n, n))
+    d_dyn_extra = np.zeros(n)
+    dt_s = spec.measurement.interval_s
+    for clock in problem.clocks:
+        if clock.state_start < 0:
+            continue
+        s = slice(clock.state_start, clock.state_start + 2)
+        scale = np.array(clock.scale)
+        D_initial[s, s] = np.diag((np.array(clock.initial_sigma) * scale) ** 2)
+        Q_true[s, s] = clock_process_noise(dt_s, clock.sigma1, clock.sigma2) * np.outer(scale, scale)
+        d_dyn_extra[s] = np.array([clock.mu1 * dt_s + clock.mu2 * dt_s**2 / 2, clock.mu2 * dt_s]) * scale
+    n_links = len(problem.link_labels)
+    S0 = np.zeros((n, n_links))
+    bias_link = np.full(len(problem.channels), -1, dtype=np.int64)
+    if problem.n_bias:  # biases are filter states (estimated or considered): the filter starts at 0
+        for link in range(n_links):
+            S0[problem.bias_state_start + link, link] = -1.0
+    else:
+        for c, ch in enumerate(problem.channels):
+            if ch.takes_range_bias:
+                bias_link[c] = ch.link
+    return D_initial, Q_true, S0, d_dyn_extra, bias_link
+
+
+def _per_spacecraft(diag_lu, n_sc):
+    """(m, n) filter-state diagonal in LU units -> (m, n_sc, 2): position m^2, velocity (m/s)^2."""
+    m = diag_lu.shape[0]
+    blocks = diag_lu[:, : 6 * n_sc].reshape(m, n_sc, 6)
+    return np.stack([blocks[:, :, 0:3].sum(axis=2) * M_PER_LU**2, blocks[:, :, 3:6].sum(axis=2) * M_S_PER_VU**2],
+                    axis=2)
+
+
+def error_budget(problem: Problem) -> Budget:
+    if problem.scenario.estimator != "ekf":
+        raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
+                          f"estimator is {problem.scenario.estimator!r}")
+    f = problem.filter
+    kind, start, size = f.layout.arrays()
+    D_initial, Q_true, S0, d_dyn_extra, bias_link = _inputs(problem)
+    P_diag, D_diag, S, mu_meas, mu_dyn = lincov_along_truth(
+        _filter_truth(problem), problem.measurements_true, f.known_states, f.channel_kind, f.channel_ends,
+        f.channel_flags, f.channel_mod_index, f.channel_mod_coeff, bias_link, f.sigma, f.P0, f.Q, D_initial, Q_true,
+        S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain)
+    n_sc = problem.n_spacecraft
+    parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),
+             "noise": _per_spacecraft(D_diag[:, PART_NOISE], n_sc),
+             "process": _per_spacecraft(D_diag[:, PART_PROCESS], n_sc)}
+    bias_sigma = problem.bias_sigma_lu
+    for link, label in enumerate(problem.link_labels):
+        parts[f"bias {label}"] = _per_spacecraft(S[:, :, link] ** 2 * bias_sigma**2, n_sc)
+    bias_mean = S @ np.full(len(problem.link_labels), problem.bias_lu)
+    means = {"measurement_model": mu_meas, "dynamics_model": mu_dyn, "bias_mean": bias_mean}
+    for name, mean in means.items():
+        parts[name] = _per_spacecraft(mean**2, n_sc)
+    total_mean = mu_meas + mu_dyn + bias_mean
+    parts["deterministic_cross"] = _per_spacecraft(total_mean**2, n_sc) - sum(parts[k] for k in DETERMINISTIC)
+    total = sum(parts.values())
+    return Budget(problem.times_s, problem.spacecraft, parts, total, _per_spacecraft(P_diag, n_sc))
+
+
+def select_sources(text: str | None) -> tuple[str, ...]:
+    """'initial,noise' -> ('initial', 'noise'); None -> every source. Unknown names: BudgetError."""
+    if text is None:
+        return SOURCES
+    names = tuple(part.strip() for part in text.split(",") if part.strip())
+    unknown = [name for name in names if name not in SOURCES]
+    if unknown or not names:
+        raise BudgetError(f"--sources {text!r}: unknown source {unknown[0] if unknown else '(none)'!r}; "
+                          f"allowed: {', '.join(SOURCES)}")
+    return names
+
+
+def part_of(name: str) -> str:
+    """The source a budget part belongs to ('bias EML2->Lunar' -> 'bias', 'bias_mean' -> 'bias')."""
+    if name.startswith("bias"):
+        return "bias"
+    if name == "deterministic_cross":
+        return "measurement_model"  # cross terms among deterministic means: shown with the model mismatch
+    return name
+
+
+def shares(budget: Budget, after_s: float = 0.0) -> list[dict]:
+    """Per spacecraft and part: the share of the mean-square error over epochs after `after_s` (> t0)."""
+    use = (budget.times_s > 0.0) & (budget.times_s >= after_s)
+    rows = []
+    for i, name in enumerate(budget.spacecraft):
+        total = budget.total[use, i].mean(axis=0)
+        for part, values in budget.parts.items():
+            mean = values[use, i].mean(axis=0)
+            rows.append({"spacecraft": name, "part": part, "source": part_of(part),
+                         "position_share": float(mean[0] / total[0]), "velocity_share": float(mean[1] / total[1]),
+                         "position_rms_m": float(np.sqrt(max(mean[0], 0.0))),
+                         "velocity_rms_m_s": float(np.sqrt(max(mean[1], 0.0)))})
+        rows.append({"spacecraft": name, "part": "total", "source": "total", "position_share": 1.0,
+                     "velocity_share": 1.0, "position_rms_m": float(np.sqrt(total[0])),
+                     "velocity_rms_m_s": float(np.sqrt(total[1]))})
+    return rows
+
+
+# --- Monte Carlo checks ---------------------------------------------------------------------------------
+
+
+def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> tuple:
+    """x0_hat, y_obs, truth for one run with only `sources` switched on (the same random draws as a full run:
+    draw_run_inputs, split into its pieces)."""
+    full = draw_run_inputs(problem, run)
+    truth = full.truth
+    bias_channel = np.zeros(problem.measurements_true.shape)
+    for c, ch in enumerate(problem.channels):
+        if ch.takes_range_bias:
+            bias_channel[1:, c] = full.bias_lu[ch.link]
+    noise = full.y_obs - problem.measurements_true - bias_channel  # no clocks in a checked scenario
+    x0 = truth[0].copy()
+    if "initial" in sources:
+        x0[: problem.truth.shape[1]] = full.x0_hat[: problem.truth.shape[1]]
+    y = (problem.measurements_true if "measurement_model" in sources else model_y).copy()
+    if "noise" in sources:
+        y += noise
+    if "bias" in sources:
+        y += bias_channel
+    if problem.n_bias:  # bias states start at 0 in the filter, whatever the truth
+        x0[problem.bias_state_start : problem.bias_state_start + problem.n_bias] = 0.0
+    return x0, y, truth
+
+
+def monte_carlo_second_moment(problem: Problem, runs: int, sources=SOURCES) -> np.ndarray:
+    """Mean over runs of the squared error, (m, n_sc, 2) in m^2 and (m/s)^2, with only `sources` on."""
+    if problem.clocks:
+        raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
+    f = problem.filter
+    model_y = filter_model_along_truth(_filter_truth(problem), problem.measurements_true, f.known_states,
+                                       f.channel_kind, f.channel_ends, f.channel_flags)
+    total = np.zeros((problem.n_steps, problem.n_spacecraft, 2))
+    for run in range(runs):
+        x0, y, truth = _source_inputs(problem, run, model_y, sources)
+        history = estimate("ekf", f, x0, y, truth)
+        if not history.ok:
+            raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {run} diverged ({history.reason})")
+        total += _per_spacecraft(history.err**2, problem.n_spacecraft)
+    return total / runs
+
+
+def day_index(times_s, day: float) -> np.ndarray:
+    return (times_s > 0.0) & (times_s >= day * SECONDS_PER_DAY)

@@ -1,0 +1,171 @@
+"""Linear covariance analysis of the EKF along the truth: the estimation error split by error source.
+
+To first order the EKF's error e = x_hat - x obeys, with the filter's own gains K and partials H
+evaluated along the true trajectory (the linearisation LinCov tools such as ODTBX make):
+  predict   e- = Phi e+ - d_dyn - w            Phi: the filter's STM over the step; w: truth process noise;
+                                                d_dyn = x_k - f_filter(x_{k-1}), the filter's dynamics error
+  update    e+ = (I - K H) e- + K (v + d_meas + b)   one scalar channel at a time, as the EKF does;
+                                                v: measurement noise; d_meas = y_true - h_filter(x): the
+                                                filter's measurement-model error (light time);
+                                                b: an unmodelled (ignored) range bias
+The error is linear in the sources, so its second moment is the sum of one part per source:
+  random sources as covariances D (initial error, measurement noise, truth process noise),
+  biases as sensitivities S = de/db (one column per link; covariance S Sigma_b S^T, mean S b_mean),
+  deterministic mismatches as mean errors mu (measurement model, dynamics).
+Pure numerics on plain arrays (compiled); campaign.error_budget builds the inputs from a scenario.
+"""
+
+import numpy as np
+from numba import njit
+
+from liaison_cli.estimation.ekf import predict_covariance_blocks, update_scalar
+from liaison_cli.estimation.filter_loop import _time_update
+from liaison_cli.measurements.registry import predict
+
+PART_INITIAL, PART_NOISE, PART_PROCESS = 0, 1, 2
+N_RANDOM_PARTS = 3
+
+
+@njit(cache=True)
+def _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size, scratch):
+    """Predict step of every part: D <- Phi D Phi^T (+ Q_true for the process part), S <- Phi S,
+    mu <- Phi mu (minus the dynamics mismatch for mu_dyn)."""
+    n = Phi.shape[0]
+    zero = np.zeros((n, n))
+    for p in range(D.shape[0]):
+        q = Q_true if p == PART_PROCESS else zero
+        D[p] = predict_covariance_blocks(D[p], Phi, q, scratch, block_kind, block_start, block_size).copy()
+    S[:, :] = Phi @ S
+    mu_meas[:] = Phi @ mu_meas
+    mu_dyn[:] = Phi @ mu_dyn - d_dyn
+
+
+@njit(cache=True)
+def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
+    """Update step for one scalar channel with gain K (n,) and partials H (n,): e <- (I - K H) e + K input."""
+    n = K.shape[0]
+    for p in range(D.shape[0]):
+        g = D[p] @ H
+        hg = H @ g
+        r = R_true if p == PART_NOISE else 0.0
+        for i in range(n):
+            for j in range(n):
+                D[p, i, j] += -K[i] * g[j] - g[i] * K[j] + (hg + r) * K[i] * K[j]
+    hs = H @ S
+    for i in range(n):
+        for l in range(S.shape[1]):
+            S[i, l] -= K[i] * hs[l]
+        if bias_column >= 0:
+            S[i, bias_column] += K[i]
+    hm = H @ mu_meas
+    for i in range(n):
+        mu_meas[i] += K[i] * (d_meas - hm)
+
+
+@njit(cache=True)
+def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
+                       channel_mod_coeff, channel_bias_link, sigma, P0, Q, D_initial, Q_true, S0, d_dyn_extra,
+                       block_kind, block_start, block_size, model, params, dt_tu, substeps, n_gain):
+    """The filter's covariance and the error parts at every epoch, after the update.
+
+    truth (m, n): the true filter states (clock / bias columns may be zero: they enter linearly);
+    y_true (m, C): noise-free, bias-free, clock-free true measurements (NaN: none); channel tables as in
+    the EKF; channel_bias_link (C,): the link whose unmodelled bias enters the channel (-1: none);
+    sigma (C,) the filter's (and the truth's) 1-sigma; P0, Q (n, n) the filter's; D_initial (n, n) the true
+    initial error covariance; Q_true (n, n) the truth's process noise per step; S0 (n, L) the initial bias
+    sensitivity (for biases that are filter states); d_dyn_extra (n,) a per-step deterministic truth
+    increment the filter does not model (clock drifts).
+
+    Returns P_diag (m, n), D_diag (m, 3, n) for the initial / noise / process parts, S (m, n, L), mu_meas
+    (m, n), mu_dyn (m, n).
+    """
+    m, n = truth.shape
+    n_links = S0.shape[1]
+    n_channels = channel_kind.shape[0]
+    n_mods = channel_mod_index.shape[1]
+    P = P0.copy()
+    D = np.zeros((N_RANDOM_PARTS, n, n))
+    D[PART_INITIAL] = D_initial
+    S = S0.copy()
+    mu_meas = np.zeros(n)
+    mu_dyn = np.zeros(n)
+    P_diag = np.empty((m, n))
+    D_diag = np.empty((m, N_RANDOM_PARTS, n))
+    S_out = np.empty((m, n, n_links))
+    mu_meas_out = np.empty((m, n))
+    mu_dyn_out = np.empty((m, n))
+    x_bar = np.empty(n)
+    Phi = np.zeros((n, n))
+    H = np.zeros(n)
+    g_r = np.empty(6)
+    g_t = np.empty(6)
+    scratch = np.empty((n, n))
+    for k in range(m):
+        if k > 0:
+            _time_update(truth[k - 1], x_bar, Phi, block_kind, block_start, block_size, model, params,
+                         (k - 1) * dt_tu, dt_tu, substeps)
+            d_dyn = truth[k] - x_bar + d_dyn_extra
+            for b in range(block_kind.shape[0]):
+                if block_kind[b] != 0:  # clocks and constants: only the stated drifts (truth columns are 0)
+                    for i in range(block_start[b], block_start[b] + block_size[b]):
+                        d_dyn[i] = d_dyn_extra[i]
+            P = predict_covariance_blocks(P, Phi, Q, np.empty((n, n)), block_kind, block_start, block_size)
+            _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size,
+                             scratch)
+            dx = np.zeros(n)
+            for c in range(n_channels):
+                if not np.isfinite(y_true[k, c]):
+                    continue
+                ends = channel_ends[c]
+                x_r = truth[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
+                x_t = truth[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
+                predicted = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
+                H[:] = 0.0
+                for i in range(6):
+                    if ends[0] >= 0:
+                        H[ends[0] + i] = g_r[i]
+                    if ends[2] >= 0:
+                        H[ends[2] + i] = g_t[i]
+                for j in range(n_mods):
+                    if channel_mod_index[c, j] >= 0:
+                        H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
+                R = sigma[c] ** 2
+                h = P @ H
+                K = h / (H @ h + R)  # the filter's gain, K = P H^T (H P H^T + R)^-1
+                if n_gain >= 0:
+                    K[n_gain:] = 0.0
+                _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
+                hm = H @ mu_dyn
+                for i in range(n):
+                    mu_dyn[i] -= K[i] * hm
+                dx, P, _, _ = update_scalar(dx, P, 0.0, H, R, n_gain)
+        for i in range(n):
+            P_diag[k, i] = P[i, i]
+            mu_meas_out[k, i] = mu_meas[i]
+            mu_dyn_out[k, i] = mu_dyn[i]
+            for p in range(N_RANDOM_PARTS):
+                D_diag[k, p, i] = D[p, i, i]
+            for l in range(n_links):
+                S_out[k, i, l] = S[i, l]
+    return P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out
+
+
+@njit(cache=True)
+def filter_model_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags):
+    """The filter's measurement model evaluated on the truth, (m, C): what noise-free data would be if the
+    truth obeyed the filter's model exactly (NaN where y_true has no measurement). Modifiers are left out,
+    as they are in y_true."""
+    m = truth.shape[0]
+    n_channels = channel_kind.shape[0]
+    out = np.full((m, n_channels), np.nan)
+    g_r = np.empty(6)
+    g_t = np.empty(6)
+    for k in range(m):
+        for c in range(n_channels):
+            if not np.isfinite(y_true[k, c]):
+                continue
+            ends = channel_ends[c]
+            x_r = truth[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
+            x_t = truth[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
+            out[k, c] = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
+    return out
