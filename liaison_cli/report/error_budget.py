@@ -1,0 +1,97 @@
+"""The error budget as tables and the ODTBX-style stacked-area picture."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+
+COLOURS = {"initial": "tab:blue", "noise": "tab:orange", "process": "tab:green", "bias": "tab:red",
+           "measurement_model": "tab:purple", "dynamics_model": "tab:brown"}
+
+
+def budget_table(budget, part_of) -> pd.DataFrame:
+    """One row per (epoch, spacecraft, part): position m^2, velocity (m/s)^2 contributions, and the total."""
+    frames = []
+    m, n_sc, _ = budget.total.shape
+    for name, values in {**budget.parts, "total": budget.total, "filter_covariance": budget.filter_variance}.items():
+        frames.append(pd.DataFrame({
+            "t_s": np.repeat(budget.times_s, n_sc),
+            "spacecraft": np.tile(np.array(budget.spacecraft, dtype=object), m),
+            "part": name,
+            "source": name if name in ("total", "filter_covariance") else part_of(name),
+            "position_m2": values[:, :, 0].reshape(-1),
+            "velocity_m2_s2": values[:, :, 1].reshape(-1),
+        }))
+    return pd.concat(frames, ignore_index=True)
+
+
+def format_shares(share_rows_all: list[dict], share_rows_late: list[dict]) -> str:
+    """Markdown: each source's share of the mean-square position / velocity error, all epochs and after day 1."""
+    late = {(r["spacecraft"], r["part"]): r for r in share_rows_late}
+    lines = ["| spacecraft | part | position share | after day 1 | velocity share | after day 1 | position RMS m |",
+             "|---|---|---|---|---|---|---|"]
+    for row in share_rows_all:
+        other = late[(row["spacecraft"], row["part"])]
+        if row["part"] != "total" and abs(row["position_share"]) < 5e-4 and abs(other["position_share"]) < 5e-4:
+            continue
+        lines.append(f"| {row['spacecraft']} | {row['part']} | {100 * row['position_share']:.1f} % | "
+                     f"{100 * other['position_share']:.1f} % | {100 * row['velocity_share']:.1f} % | "
+                     f"{100 * other['velocity_share']:.1f} % | {row['position_rms_m']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def draw_budget(budget, part_of, path: Path, title: str) -> Path:
+    """Stacked areas of each source's RMS-squared contribution, per spacecraft, position and velocity; the
+    filter's own trace(P) as a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n_sc = len(budget.spacecraft)
+    days = budget.times_s / SECONDS_PER_DAY
+    fig, axes = plt.subplots(2, n_sc, figsize=(5.5 * n_sc, 7), squeeze=False, sharex=True)
+    grouped = {}
+    for name, values in budget.parts.items():
+        grouped.setdefault(part_of(name), np.zeros_like(values))
+        grouped[part_of(name)] = grouped[part_of(name)] + values
+    for i, name in enumerate(budget.spacecraft):
+        for row, (unit, scale) in enumerate((("m", 1.0), ("mm/s", 1e3))):
+            ax = axes[row, i]
+            layers = [(src, np.clip(values[:, i, row], 0.0, None) * scale**2) for src, values in grouped.items()
+                      if np.any(np.abs(values[:, i, row]) > 1e-4 * np.max(budget.total[:, i, row]))]
+            ax.stackplot(days, *[v for _, v in layers], labels=[s for s, _ in layers],
+                         colors=[COLOURS.get(s, "grey") for s, _ in layers], alpha=0.85)
+            ax.plot(days, budget.filter_variance[:, i, row] * scale**2, color="black", lw=1, ls="--",
+                    label="filter trace(P)")
+            # Linear axes keep the stacked areas proportional; the first day's transient is cut off at
+            # 1.5 x the largest total after it.
+            late = budget.times_s >= SECONDS_PER_DAY
+            top = float(np.max(budget.total[late, i, row])) * scale**2 if late.any() else None
+            if top:
+                ax.set_ylim(0.0, 1.5 * top)
+            ax.set_ylabel(f"{'position' if row == 0 else 'velocity'} error² ({unit}²)")
+            ax.set_title(f"{name}: {'position' if row == 0 else 'velocity'}", fontsize=10)
+            ax.grid(True, alpha=0.3)
+        axes[1, i].set_xlabel("days")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=9, frameon=False)
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    tmp.replace(path)
+    plt.close(fig)
+    return path
+
+
+def shares_frame(rows, late=None) -> pd.DataFrame:
+    """Rows as a table; with `late` (the after-day-1 rows), their shares as extra columns."""
+    frame = pd.DataFrame(rows)
+    if late is not None:
+        other = pd.DataFrame(late).set_index(["spacecraft", "part"])
+        for column in ("position_share", "velocity_share"):
+            frame[f"{column}_after_day1"] = [other.loc[(r.spacecraft, r.part), column] for r in frame.itertuples()]
+    return frame
