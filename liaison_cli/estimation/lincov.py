@@ -109,6 +109,8 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                 if block_kind[b] != 0:  # clocks and constants: only the stated drifts (truth columns are 0)
                     for i in range(block_start[b], block_start[b] + block_size[b]):
                         d_dyn[i] = d_dyn_extra[i]
+                        if block_kind[b] == 2:  # constants: identity transition (_time_update leaves it out)
+                            Phi[i, i] = 1.0
             P = predict_covariance_blocks(P, Phi, Q, np.empty((n, n)), block_kind, block_start, block_size)
             _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size,
                              scratch)
