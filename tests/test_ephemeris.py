@@ -1,0 +1,156 @@
+"""003 item 1-2: DE421 read offline by our compiled Chebyshev code, time scales, and the dated dynamics
+(point masses + SRP with conical shadows) with their STM; skyfield on the same file is the reference."""
+
+import math
+from datetime import datetime
+
+import numpy as np
+import pytest
+
+from liaison_cli.dynamics.ephemeris import GM_KM3_S2, J2000_JD, de421_path, geocentric_state, load_window
+from liaison_cli.dynamics.ephemeris_dynamics import (
+    AU_KM,
+    P_1AU_N_M2,
+    R_EARTH_KM,
+    propagate_truth,
+    rk8_ephemeris,
+    srp_acceleration,
+    visible_fraction,
+)
+from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
+from liaison_cli.dynamics.timescales import utc_to_tdb_seconds, utc_to_tt_seconds
+
+skyfield = pytest.importorskip("skyfield.api")
+
+# 003 Table 1's departure dates (UTC): Cassini, MER-A, MSL.
+MISSION_DATES = (datetime(1997, 10, 15, 8, 43), datetime(2003, 6, 10, 17, 58, 47), datetime(2011, 11, 26, 15, 2))
+THIRD_BODIES = np.array([301, 10, 1, 2, 4, 5, 6, 7, 8, 9])
+
+
+@pytest.fixture(scope="module")
+def sky():
+    return skyfield.load.timescale(builtin=True), skyfield.load_file(de421_path())
+
+
+@pytest.mark.parametrize("date", MISSION_DATES)
+def test_moon_and_sun_agree_with_skyfield_on_the_same_file(sky, date):
+    """Geocentric Moon and Sun over 9 days from each mission date: within 1 m (measured: mm)."""
+    ts, eph = sky
+    t0 = utc_to_tdb_seconds(date)
+    window = load_window(t0, t0 + 9 * 86400)
+    worst = 0.0
+    for t_s in np.linspace(t0, t0 + 9 * 86400, 40):
+        t = ts.tdb_jd(J2000_JD, t_s / 86400.0)
+        for body, name in ((301, "moon"), (10, "sun")):
+            ours = geocentric_state(window.coeffs, window.start_s, window.interval_s, window.n_records, body, t_s)
+            theirs = (eph[name] - eph["earth"]).at(t)
+            worst = max(worst, np.linalg.norm(ours[:3] - theirs.position.km) * 1e3)
+            assert np.linalg.norm(ours[3:] - theirs.velocity.km_per_s) < 1e-9
+    assert worst < 1.0
+
+
+@pytest.mark.parametrize("date", [*MISSION_DATES, datetime(2025, 3, 1)])
+def test_time_scales_agree_with_skyfield(sky, date):
+    ts, _ = sky
+    t = ts.utc(date.year, date.month, date.day, date.hour, date.minute, date.second)
+    assert utc_to_tt_seconds(date) == pytest.approx((t.whole - J2000_JD + t.tt_fraction) * 86400.0, abs=1e-6)
+    assert utc_to_tdb_seconds(date) == pytest.approx((t.whole - J2000_JD + t.tdb_fraction) * 86400.0, abs=5e-5)
+
+
+def test_dates_outside_de421_and_before_the_leap_table_are_refused():
+    with pytest.raises(ValueError, match="DE421 covers"):
+        load_window(utc_to_tdb_seconds(datetime(2060, 1, 1)), utc_to_tdb_seconds(datetime(2060, 1, 10)))
+    with pytest.raises(ValueError, match="before 1972"):
+        utc_to_tdb_seconds(datetime(1969, 7, 20))
+
+
+def test_srp_matches_the_textbook_pressure_at_one_au():
+    """P = 4.56e-6 N/m^2 at 1 AU; with C_R = 1.5 and A/m = 0.01 m^2/kg (003) the acceleration is
+    1.5 x 0.01 x 4.56e-6 = 6.84e-8 m/s^2, pointing away from the Sun, and it falls as 1/d^2."""
+    assert P_1AU_N_M2 == pytest.approx(4.56e-6, rel=1e-3)
+    r_sun = np.array([AU_KM, 0.0, 0.0])
+    out = np.empty(3)
+    nu = srp_acceleration(np.array([0.0, 1.0e6, 0.0]), r_sun, np.array([0.0, -4e5, 0.0]), 0.015, out)
+    assert nu == 1.0
+    direction = (np.array([0.0, 1.0e6, 0.0]) - r_sun) / np.linalg.norm(np.array([0.0, 1.0e6, 0.0]) - r_sun)
+    expected = 0.015 * P_1AU_N_M2 * 1e-3 * (AU_KM / np.linalg.norm(np.array([0.0, 1.0e6, 0.0]) - r_sun)) ** 2
+    assert np.allclose(out, expected * direction, rtol=1e-12)
+    assert np.linalg.norm(out) * 1e3 == pytest.approx(6.84e-8, rel=0.01)
+
+
+def test_shadow_is_zero_in_umbra_one_in_sunlight_and_continuous_across_the_penumbra():
+    r_sun = np.array([AU_KM, 0.0, 0.0])
+    earth = np.zeros(3)
+    assert visible_fraction(np.array([-10000.0, 0.0, 0.0]), r_sun, earth, R_EARTH_KM) == 0.0
+    assert visible_fraction(np.array([10000.0, 0.0, 0.0]), r_sun, earth, R_EARTH_KM) == 1.0
+    assert visible_fraction(np.array([-10000.0, 20000.0, 0.0]), r_sun, earth, R_EARTH_KM) == 1.0
+    # Across the shadow's edge 40,000 km behind the Earth: monotone from 0 to 1, no jump.
+    heights = np.linspace(5000.0, 8500.0, 20001)
+    nu = np.array([visible_fraction(np.array([-40000.0, h, 0.0]), r_sun, earth, R_EARTH_KM) for h in heights])
+    assert nu[0] == 0.0 and nu[-1] == 1.0
+    assert np.all(np.diff(nu) >= -1e-12) and np.max(np.diff(nu)) < 1e-3
+    assert 100 < np.count_nonzero((nu > 0) & (nu < 1)) < 20000  # a real penumbra, resolved
+
+
+def _propagate(window, t0, x0, dt, n, gm_bodies=True, cr_am=0.015, stm=False):
+    bodies = THIRD_BODIES if gm_bodies else np.zeros(0, dtype=np.int64)
+    gms = np.array([GM_KM3_S2[int(b)] for b in bodies])
+    y = np.zeros(42) if stm else x0.copy()
+    if stm:
+        y[:6] = x0
+        y[6::7] = 1.0
+    rk8_ephemeris(y, t0, dt, n, window.coeffs, window.start_s, window.interval_s, window.n_records, bodies, gms,
+                  GM_KM3_S2[399], cr_am, RK8_A, RK8_B, RK8_C)
+    return y
+
+
+@pytest.fixture(scope="module")
+def msl_window():
+    t0 = utc_to_tdb_seconds(MISSION_DATES[2])
+    window = load_window(t0, t0 + 10 * 86400)
+    moon = geocentric_state(window.coeffs, window.start_s, window.interval_s, window.n_records, 301, t0)
+    return t0, window, np.concatenate([0.85 * moon[:3], 0.85 * moon[3:]])  # near EML1
+
+
+def test_ephemeris_stm_matches_central_differences(msl_window):
+    t0, window, x0 = msl_window
+    phi = _propagate(window, t0, x0, 86400.0, 100, stm=True)[6:].reshape(6, 6)
+    numeric = np.empty((6, 6))
+    for j in range(6):
+        h = 1e-3 if j < 3 else 1e-6
+        e = np.zeros(6)
+        e[j] = h
+        numeric[:, j] = (_propagate(window, t0, x0 + e, 86400.0, 100) - _propagate(window, t0, x0 - e, 86400.0, 100)) / (2 * h)
+    assert np.max(np.abs(numeric - phi)) < 1e-6 * np.max(np.abs(phi))
+
+
+def test_two_body_energy_is_conserved_and_the_steps_converge(msl_window):
+    t0, window, x0 = msl_window
+    end = _propagate(window, t0, x0, 9 * 86400.0, 900, gm_bodies=False, cr_am=0.0)
+
+    def energy(x):
+        return 0.5 * x[3:] @ x[3:] - GM_KM3_S2[399] / np.linalg.norm(x[:3])
+
+    assert energy(end) == pytest.approx(energy(x0), rel=1e-12)
+    # Without SRP the fixed-step RK8 has converged at 864 s steps (the field is smooth) ...
+    coarse = _propagate(window, t0, x0, 9 * 86400.0, 900, cr_am=0.0)
+    fine = _propagate(window, t0, x0, 9 * 86400.0, 1800, cr_am=0.0)
+    assert np.linalg.norm(coarse[:3] - fine[:3]) < 1e-5  # km: 1 cm after 9 days
+    assert math.isfinite(coarse[0])
+
+
+def test_truth_resolves_the_eclipse_that_fixed_steps_smear(msl_window):
+    """This path crosses a shadow: the fixed-step RK8 loses its order there (metres after 9 days); the
+    adaptive truth restarted at each shadow edge agrees with itself at rtol 1e-13 to 2.3 cm (without the
+    restarts: 62 cm; tolerance 5 cm); without SRP the truth and a fine RK8 agree to 1 cm."""
+    t0, window, x0 = msl_window
+    bodies = THIRD_BODIES
+    gms = np.array([GM_KM3_S2[int(b)] for b in bodies])
+    end = t0 + 9 * 86400.0
+    truth = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.015)[-1]
+    tighter = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.015, rtol=1e-13)[-1]
+    assert np.linalg.norm(truth[:3] - tighter[:3]) < 5e-5
+    fixed = _propagate(window, t0, x0, 9 * 86400.0, 900)
+    assert np.linalg.norm(fixed[:3] - truth[:3]) > 1e-4  # the eclipse costs the fixed steps > 10 cm
+    no_srp = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.0)[-1]
+    assert np.linalg.norm(no_srp[:3] - _propagate(window, t0, x0, 9 * 86400.0, 1800, cr_am=0.0)[:3]) < 1e-5
