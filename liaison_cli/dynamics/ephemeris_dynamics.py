@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.ephemeris import BODY_MOON, BODY_SUN, geocentric_state
+from liaison_cli.dynamics.rk8 import rk8_combine, rk8_stage_input
 
 AU_KM = 149597870.7
 SOLAR_FLUX_1AU_W_M2 = 1367.0  # gives P_1AU = 4.56e-6 N/m^2, the textbook value (Montenbruck & Gill 2000)
@@ -149,18 +150,10 @@ def rk8_ephemeris(y, t_s, dt_s, n_steps, coeffs, start_s, interval_s, n_records,
     t = t_s
     for _ in range(n_steps):
         for s in range(12):
-            for i in range(size):
-                acc = y[i]
-                for j in range(s):
-                    acc += h * a[s, j] * k[j, i]
-                tmp[i] = acc
+            rk8_stage_input(y, h, a, k, s, tmp)
             ephemeris_derivative(t + c[s] * h, tmp, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth,
                                  cr_am, with_stm, k[s])
-        for i in range(size):
-            acc = 0.0
-            for s in range(12):
-                acc += b[s] * k[s, i]
-            y[i] += h * acc
+        rk8_combine(y, h, b, k)
         t += h
 
 

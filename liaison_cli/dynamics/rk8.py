@@ -40,17 +40,20 @@ def _derivative_into(state, mu, out):
     out[5] = -(k1 + k2) * z
 
 
-@njit(cache=True)
-def _rk8_step_state(y, h, mu, a, b, k, tmp):
-    """One RK8 step of the 6-state in place; k (12, 6), tmp (6,) scratch."""
-    for s in range(12):
-        for i in range(6):
-            acc = y[i]
-            for j in range(s):
-                acc += h * a[s, j] * k[j, i]
-            tmp[i] = acc
-        _derivative_into(tmp, mu, k[s])
-    for i in range(6):
+@njit(cache=True, inline="always")
+def rk8_stage_input(y, h, a, k, s, tmp):
+    """tmp = y + h sum_j a[s, j] k[j]: the input of stage s (every RK8 integrator here shares it)."""
+    for i in range(y.shape[0]):
+        acc = y[i]
+        for j in range(s):
+            acc += h * a[s, j] * k[j, i]
+        tmp[i] = acc
+
+
+@njit(cache=True, inline="always")
+def rk8_combine(y, h, b, k):
+    """y += h sum_s b[s] k[s]: the step's update."""
+    for i in range(y.shape[0]):
         acc = 0.0
         for s in range(12):
             acc += b[s] * k[s, i]
@@ -58,20 +61,15 @@ def _rk8_step_state(y, h, mu, a, b, k, tmp):
 
 
 @njit(cache=True)
-def _rk8_step_state_stm(y, h, mu, a, b, k, tmp):
-    """One RK8 step of the 42-vector [state, Phi] in place; k (12, 42), tmp (42,) scratch."""
+def _rk8_step(y, h, mu, a, b, k, tmp):
+    """One RK8 step in place of a 6-state, or of the 42-vector [state, Phi]; k (12, len(y)), tmp scratch."""
     for s in range(12):
-        for i in range(42):
-            acc = y[i]
-            for j in range(s):
-                acc += h * a[s, j] * k[j, i]
-            tmp[i] = acc
-        _state_stm_rhs(tmp, mu, k[s])
-    for i in range(42):
-        acc = 0.0
-        for s in range(12):
-            acc += b[s] * k[s, i]
-        y[i] += h * acc
+        rk8_stage_input(y, h, a, k, s, tmp)
+        if y.shape[0] == 6:
+            _derivative_into(tmp, mu, k[s])
+        else:
+            _state_stm_rhs(tmp, mu, k[s])
+    rk8_combine(y, h, b, k)
 
 
 @njit(cache=True)
@@ -79,12 +77,8 @@ def rk8_advance(y, dt_tu, n_steps, mu, k, tmp):
     """Advance y in place over dt_tu in n_steps RK8 steps: y (6,) a state, or y (42,) [state, Phi row-major]
     carried on from earlier intervals, so Phi stays Phi(t, t0). k (12, len(y)), tmp (len(y),) scratch."""
     h = dt_tu / n_steps
-    if y.shape[0] == 6:
-        for _ in range(n_steps):
-            _rk8_step_state(y, h, mu, RK8_A, RK8_B, k, tmp)
-    else:
-        for _ in range(n_steps):
-            _rk8_step_state_stm(y, h, mu, RK8_A, RK8_B, k, tmp)
+    for _ in range(n_steps):
+        _rk8_step(y, h, mu, RK8_A, RK8_B, k, tmp)
 
 
 @njit(cache=True)
@@ -95,7 +89,7 @@ def rk8_state(state, dt_tu, n_steps, mu):
     tmp = np.empty(6)
     h = dt_tu / n_steps
     for _ in range(n_steps):
-        _rk8_step_state(y, h, mu, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, mu, RK8_A, RK8_B, k, tmp)
     return y
 
 
@@ -110,7 +104,7 @@ def rk8_state_stm(state, dt_tu, n_steps, mu):
     tmp = np.empty(42)
     h = dt_tu / n_steps
     for _ in range(n_steps):
-        _rk8_step_state_stm(y, h, mu, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, mu, RK8_A, RK8_B, k, tmp)
     phi = np.empty((6, 6))
     for i in range(6):
         for j in range(6):

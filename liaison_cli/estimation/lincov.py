@@ -62,6 +62,14 @@ def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
         mu_meas[i] += K[i] * (d_meas - hm)
 
 
+@njit(cache=True, inline="always")
+def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t):
+    """The filter's model of one channel on the true states of its ends at one epoch (partials into g_r, g_t)."""
+    x_r = truth_k[ends[0] : ends[0] + 6] if ends[0] >= 0 else known_k[ends[1]]
+    x_t = truth_k[ends[2] : ends[2] + 6] if ends[2] >= 0 else known_k[ends[3]]
+    return predict(kind, x_r, x_t, flags, g_r, g_t)
+
+
 @njit(cache=True)
 def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
                        channel_mod_coeff, channel_bias_link, sigma, P0, Q, D_initial, Q_true, S0, d_dyn_extra,
@@ -119,9 +127,7 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                 if not np.isfinite(y_true[k, c]):
                     continue
                 ends = channel_ends[c]
-                x_r = truth[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
-                x_t = truth[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
-                predicted = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
+                predicted = _model_on_truth(truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r, g_t)
                 H[:] = 0.0
                 for i in range(6):
                     if ends[0] >= 0:
@@ -166,8 +172,6 @@ def filter_model_along_truth(truth, y_true, known_states, channel_kind, channel_
         for c in range(n_channels):
             if not np.isfinite(y_true[k, c]):
                 continue
-            ends = channel_ends[c]
-            x_r = truth[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
-            x_t = truth[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
-            out[k, c] = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
+            out[k, c] = _model_on_truth(truth[k], known_states[k], channel_ends[c], channel_kind[c], channel_flags[c],
+                                        g_r, g_t)
     return out
