@@ -282,3 +282,16 @@ def test_windows_without_renewal_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "  prediction_hours: 3\n",
                            "  prediction_hours: 3\n  windows: 3\n")
     assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["batch", "windows = 3 needs 'renewal_hours'"])
+
+
+def test_batch_section_without_the_batch_estimator_is_one_line(tmp_path):
+    path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "estimator: batch", "estimator: ekf")
+    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["key 'estimator' = 'ekf' with a 'batch' section"])
+
+
+def test_tables002_and_errors_refuse_what_they_cannot_read(tmp_path):
+    proc = run_cli("tables002", tmp_path)
+    assert proc.returncode == 2 and "no runs.parquet here" in proc.stderr and "Traceback" not in proc.stderr
+    proc = run_cli("errors", NRHO)
+    assert proc.returncode == 2 and "this scenario's estimator is 'batch'" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1

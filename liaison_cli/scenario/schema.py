@@ -544,7 +544,9 @@ class Scenario(StrictModel):
 
     def _check_batch(self):
         if (self.estimator == "batch") != (self.batch is not None):
-            raise ValueError("estimator: batch and a 'batch' section go together (give both or neither)")
+            raise ValueError(f"key 'estimator' = {self.estimator!r} "
+                             f"{'without' if self.batch is None else 'with'} a 'batch' section: estimator: batch "
+                             "and a 'batch' section go together (give both or neither)")
         if self.batch is None:
             return
         end_days = self.batch.end_days()
