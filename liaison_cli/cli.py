@@ -74,6 +74,29 @@ def _format_summary(summary: "pd.DataFrame", spacecraft) -> str:
     return "\n".join(lines)
 
 
+def _format_prediction(summary: "pd.DataFrame", spacecraft) -> str:
+    """For a batch scenario: the DRMS of the prediction after the span and the clock synchronisation RMS,
+    mean [90th percentile] over the runs that finished; empty for an EKF scenario."""
+    if "rms_position_prediction_m" not in summary:
+        return ""
+    ok = summary[summary.status == "ok"]
+    clocks = "clock_rms_window_ns" in summary
+    lines = [f"{'spacecraft':<12}{'prediction RMS m':>22}" + (f"{'clock RMS ns, window':>26}"
+                                                               f"{'3 h prediction':>22}" if clocks else "")]
+    for name in spacecraft:
+        s = ok[ok.spacecraft == name]
+
+        def stat(column, scale=1.0):
+            values = s[column].dropna() * scale if column in s else s.iloc[0:0, 0]
+            return f"{values.mean():.2f} [{values.quantile(0.9):.2f}]" if len(values) else "-"
+
+        line = _left(name, 12) + _right(stat("rms_position_prediction_m"), 22)
+        if clocks:
+            line += _right(stat("clock_rms_window_ns"), 26) + _right(stat("clock_rms_prediction_ns"), 22)
+        lines.append(line)
+    return "after the data span, mean [90th percentile] over runs:\n" + "\n".join(lines)
+
+
 def _status_line(summary: "pd.DataFrame") -> str:
     runs = summary.drop_duplicates("run")
     bad = runs[runs.status != "ok"]
@@ -95,7 +118,7 @@ def run(
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
-    """Run a scenario's Monte Carlo EKF campaign and write Parquet results."""
+    """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results."""
     from liaison_cli.campaign.results import stream_campaign
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
@@ -107,11 +130,16 @@ def run(
         problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
                                            progress=not quiet and sys.stderr.isatty(),
                                            float_dtype="float64" if float64 else "float32")
+    span = (f"batch span {config.batch.span_days:g} d + {config.batch.prediction_hours:g} h"
+            if config.batch is not None else f"{config.duration_days:g} d")
     typer.echo(
         f"{config.name}: {len(problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
-        f"sigma {problem.sigma_m:.1f} m, {config.duration_days:g} d, seed {config.monte_carlo.seed}"
+        f"sigma {problem.sigma_m:.1f} m, {span}, seed {config.monte_carlo.seed}"
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
+    prediction = _format_prediction(summary, problem.spacecraft)
+    if prediction:
+        typer.echo(prediction)
     typer.echo(_status_line(summary))
     typer.echo(f"results: {out_dir}")
     if not (summary.status == "ok").any():

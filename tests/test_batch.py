@@ -220,6 +220,7 @@ def test_nrho_run_reports_prediction_drms_and_clock_sync(tmp_path):
     out = tmp_path / "nrho"
     proc = run_cli("run", NRHO, "--runs", "2", "--jobs", "1", "--output", out)
     assert proc.returncode == 0, proc.stderr
+    assert "batch span 9.885 d + 3 h" in proc.stdout and "clock RMS ns, window" in proc.stdout
     import pandas as pd
 
     summary = pd.read_parquet(out / "summary.parquet")
