@@ -154,3 +154,35 @@ def test_truth_resolves_the_eclipse_that_fixed_steps_smear(msl_window):
     assert np.linalg.norm(fixed[:3] - truth[:3]) > 1e-4  # the eclipse costs the fixed steps > 10 cm
     no_srp = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.0)[-1]
     assert np.linalg.norm(no_srp[:3] - _propagate(window, t0, x0, 9 * 86400.0, 1800, cr_am=0.0)[:3]) < 1e-5
+
+
+def test_ephemeris_model_behind_the_dynamics_interface(msl_window):
+    """MODEL_EPHEMERIS through dynamics.model.propagate_state_stm (compiled with the model code as a constant):
+    the same state as the RK8 in km, in the estimators' scaled units, and an STM that matches central
+    differences in those units."""
+    import numba
+
+    from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
+    from liaison_cli.dynamics.ephemeris_model import pack_params
+    from liaison_cli.dynamics.model import MODEL_EPHEMERIS, propagate_state_stm
+
+    @numba.njit
+    def step(model, params, state, t_tu, dt_tu, n):
+        numba.literally(model)
+        return propagate_state_stm(model, params, state, t_tu, dt_tu, n)
+
+    t0, window, x0 = msl_window
+    gms = np.array([GM_KM3_S2[int(b)] for b in THIRD_BODIES])
+    params = pack_params(window, THIRD_BODIES, gms, GM_KM3_S2[399], 0.015, t0)
+    scale = np.array([LU_KM] * 3 + [VU_KM_S] * 3)
+    x0_lu = x0 / scale
+    dt_tu = 86400.0 / TU_S
+    end_lu, phi = step(MODEL_EPHEMERIS, params, x0_lu, 0.0, dt_tu, 100)
+    assert np.allclose(end_lu * scale, _propagate(window, t0, x0, 86400.0, 100), rtol=0, atol=1e-9)
+    numeric = np.empty((6, 6))
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = 1e-8
+        numeric[:, j] = (step(MODEL_EPHEMERIS, params, x0_lu + e, 0.0, dt_tu, 100)[0]
+                         - step(MODEL_EPHEMERIS, params, x0_lu - e, 0.0, dt_tu, 100)[0]) / 2e-8
+    assert np.max(np.abs(numeric - phi)) < 1e-6 * np.max(np.abs(phi))

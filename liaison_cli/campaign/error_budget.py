@@ -19,6 +19,7 @@ import numpy as np
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
+from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.errors import LiaisonError
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT
 from liaison_cli.estimation.estimators import estimate
@@ -108,10 +109,10 @@ def error_budget(problem: Problem) -> Budget:
     f = problem.filter
     kind, start, size = f.layout.arrays()
     D_initial, Q_true, S0, d_dyn_extra, bias_link = _inputs(problem)
-    P_diag, D_diag, S, mu_meas, mu_dyn = lincov_along_truth(
-        _filter_truth(problem), problem.measurements_true, f.known_states, f.channel_kind, f.channel_ends,
-        f.channel_flags, f.channel_mod_index, f.channel_mod_coeff, bias_link, f.sigma, f.P0, f.Q, D_initial, Q_true,
-        S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain)
+    args = (_filter_truth(problem), problem.measurements_true, f.known_states, f.channel_kind, f.channel_ends,
+            f.channel_flags, f.channel_mod_index, f.channel_mod_coeff, bias_link, f.sigma, f.P0, f.Q, D_initial, Q_true,
+            S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain)
+    P_diag, D_diag, S, mu_meas, mu_dyn = literal_entry(lincov_along_truth, args, 19)(*args)
     n_sc = problem.n_spacecraft
     parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),
              "noise": _per_spacecraft(D_diag[:, PART_NOISE], n_sc),

@@ -10,14 +10,18 @@ frame's trajectories.
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof, types
+from numba.core.errors import TypingError
+from numba.extending import overload
 
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_states
+from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_scaled
 from liaison_cli.dynamics.rk8 import rk8_advance, rk8_state, rk8_state_stm, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
 MODEL_CRTBP = 0
+MODEL_EPHEMERIS = 1
 
 # Truth: compiled fixed-step RK4 of at most 10 s. Over 10 days it agrees with DOP853 at rtol 1e-13 to
 # 2.0 mm for the 9,000 km lunar orbiter (DOP853 at the former rtol 1e-12 is itself 2 cm off); see
@@ -25,12 +29,35 @@ MODEL_CRTBP = 0
 TRUTH_MAX_STEP_S = 10.0
 
 
-@njit(cache=True, inline="always")
 def propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
-    """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, by `substeps` fixed RK4 steps."""
-    if model == MODEL_CRTBP:
-        return rk4_state_stm(state, dt_tu, substeps, params[0])
-    return np.full(6, np.nan), np.full((6, 6), np.nan)
+    """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu: the CRTBP by `substeps` fixed RK4
+    steps, the ephemeris model by `substeps` fixed RK8 steps.
+
+    Compiled code only. The model code must be a compile-time constant: the compiled caller says
+    numba.literally(model), and Python calls it through `literal_entry` (no typing pass per process). So
+    each scenario compiles its own dynamics and nothing else: the ephemeris field behind a runtime branch
+    added 6 s to every cold first run."""
+    raise NotImplementedError("propagate_state_stm is compiled code; call it from a numba function")
+
+
+@overload(propagate_state_stm, inline="always")
+def _propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
+    if not isinstance(model, types.IntegerLiteral):
+        raise TypingError("propagate_state_stm: the model code must be a compile-time constant (numba.literally)")
+    if model.literal_value == MODEL_CRTBP:
+        return lambda model, params, state, t_tu, dt_tu, substeps: rk4_state_stm(state, dt_tu, substeps, params[0])
+    if model.literal_value == MODEL_EPHEMERIS:
+        return lambda model, params, state, t_tu, dt_tu, substeps: ephemeris_state_stm_scaled(
+            params, state, t_tu, dt_tu, substeps)
+    raise TypingError(f"unknown dynamics model code {model.literal_value}")
+
+
+def literal_entry(dispatcher, args, literal_index: int):
+    """The compiled entry point of `dispatcher` for these arguments with args[literal_index] (a model code)
+    as a compile-time constant: loaded from the on-disk cache, or compiled once. Calling the dispatcher
+    with a plain int would cost a full typing pass in every process before numba.literally redirects it."""
+    sig = tuple(types.literal(a) if i == literal_index else typeof(a) for i, a in enumerate(args))
+    return dispatcher.compile(sig)
 
 
 @njit(cache=True, inline="always")

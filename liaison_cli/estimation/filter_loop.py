@@ -7,6 +7,7 @@ through `measurements.registry.predict` / `residual` plus each channel's table o
 EKF algebra lives in `estimation.ekf`.
 """
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -91,6 +92,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
     Rows after a failure stay NaN.
     """
+    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     m, n = truth.shape
     n_channels = channel_kind.shape[0]
     n_mods = channel_mod_index.shape[1]

@@ -15,6 +15,7 @@ The error is linear in the sources, so its second moment is the sum of one part 
 Pure numerics on plain arrays (compiled); campaign.error_budget builds the inputs from a scenario.
 """
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -87,6 +88,7 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
     Returns P_diag (m, n), D_diag (m, 3, n) for the initial / noise / process parts, S (m, n, L), mu_meas
     (m, n), mu_dyn (m, n).
     """
+    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     m, n = truth.shape
     n_links = S0.shape[1]
     n_channels = channel_kind.shape[0]

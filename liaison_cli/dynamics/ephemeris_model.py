@@ -1,0 +1,63 @@
+"""The dated ephemeris dynamics behind the dynamics interface (model code MODEL_EPHEMERIS).
+
+The estimators see states in the same scaled units as for the CRTBP (positions in LU = 384,400 km,
+velocities in LU/TU, time in TU since the scenario's epoch), here geocentric ICRF. Everything the compiled
+propagator needs (the DE421 window, third bodies, GMs, C_R A/m, the epoch) is packed into the model's
+parameter vector, so compiled estimators take it as a plain array.
+"""
+
+import numpy as np
+from numba import njit
+
+from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
+from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
+from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
+
+HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
+
+
+def pack_params(window, bodies, gms, gm_earth: float, cr_am: float, epoch_tdb_s: float) -> np.ndarray:
+    """One flat float64 vector: the header, the window's record tables, the bodies, then the coefficients."""
+    S, _, R, N = window.coeffs.shape
+    header = np.array([S, R, N, len(bodies), gm_earth, cr_am, epoch_tdb_s, 0.0], dtype=float)
+    return np.concatenate([header, window.start_s, window.interval_s, window.n_records.astype(float),
+                           np.asarray(bodies, dtype=float), np.asarray(gms, dtype=float), window.coeffs.ravel()])
+
+
+@njit(cache=True)
+def _unpack(params):
+    S, R, N, B = int(params[0]), int(params[1]), int(params[2]), int(params[3])
+    off = HEADER
+    start_s = params[off : off + S]
+    off += S
+    interval_s = params[off : off + S]
+    off += S
+    n_records = params[off : off + S].astype(np.int64)
+    off += S
+    bodies = params[off : off + B].astype(np.int64)
+    off += B
+    gms = params[off : off + B]
+    off += B
+    coeffs = np.ascontiguousarray(params[off : off + S * 3 * R * N]).reshape((S, 3, R, N))
+    return coeffs, start_s, interval_s, n_records, bodies, gms, params[4], params[5], params[6]
+
+
+@njit(cache=True)
+def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
+    """(6,) scaled state at t_tu (TU since the epoch) -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, scaled
+    units, by n_steps fixed RK8 steps of the DE421 + SRP field."""
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    scale = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])
+    y = np.zeros(42)
+    for i in range(6):
+        y[i] = state[i] * scale[i]
+        y[6 + 7 * i] = 1.0
+    rk8_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records, bodies,
+                  gms, gm_earth, cr_am, RK8_A, RK8_B, RK8_C)
+    out = np.empty(6)
+    phi = np.empty((6, 6))
+    for i in range(6):
+        out[i] = y[i] / scale[i]
+        for j in range(6):
+            phi[i, j] = y[6 + 6 * i + j] * scale[j] / scale[i]
+    return out, phi
