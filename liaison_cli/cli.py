@@ -179,7 +179,7 @@ def _check_runs(runs) -> None:
 
 
 COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first run after installing or "
-                  "upgrading: about half a minute; cached afterwards)")
+                  "upgrading: about 15 seconds; cached afterwards)")
 
 
 def _announce_compilation() -> None:

@@ -30,7 +30,7 @@ def test_hash_covers_callees_of_the_filter_loop(tmp_path, monkeypatch):
 
 
 def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
-    """The first run on a machine compiles the core (about half a minute) and says so in one line; the next
+    """The first run on a machine compiles the core (about 15 s) and says so in one line; the next
     run loads the cache and says nothing."""
     from liaison_cli.cli import COMPILE_NOTICE
     from tests.conftest import SCENARIOS
