@@ -61,3 +61,39 @@ def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
         for j in range(6):
             phi[i, j] = y[6 + 6 * i + j] * scale[j] / scale[i]
     return out, phi
+
+
+SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
+
+
+class SampledTrajectory:
+    """Sampled states (m, 6) in the estimators' scaled units (instantaneous measurement models only)."""
+
+    def __init__(self, states):
+        self.states = np.asarray(states, dtype=float)
+
+
+class EphemerisDynamicsModel:
+    """The DynamicsModel of a dated scenario: code, packed parameters, and the adaptive truth."""
+
+    name = "ephemeris"
+
+    def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s):
+        from liaison_cli.dynamics.model import MODEL_EPHEMERIS
+
+        self.code = MODEL_EPHEMERIS
+        self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
+        self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
+        self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)
+
+    def truth_states(self, state0, times_tu) -> np.ndarray:
+        """Truth (m, 6), scaled units, from state0 (scaled) at times_tu[0] (TU since the epoch)."""
+        from liaison_cli.dynamics.ephemeris_dynamics import propagate_truth
+
+        times_s = self.epoch_tdb_s + np.asarray(times_tu, dtype=float) * TU_S
+        km = propagate_truth(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies, self.gms,
+                             self.gm_earth, self.cr_am)
+        return km / SCALE
+
+    def trajectory(self, states):
+        return SampledTrajectory(states)

@@ -23,6 +23,7 @@ from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
+ICRF_STATE_ORBIT = "icrf_state"
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
@@ -122,13 +123,15 @@ class SpacecraftSpec(StrictModel):
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
     )
+    state_km: list[float] | None = Field(None, description="orbit: icrf_state: geocentric ICRF state at the epoch "
+                                         "(km, km/s; dynamics: ephemeris)")
     clock: ClockSpec | None = Field(None, description="an onboard clock (estimated by the EKF; simulated, and "
                                     "synchronised by a clock fit, with the batch estimator)")
 
     @field_validator("orbit")
     @classmethod
     def _known_orbit(cls, value):
-        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names()]
+        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names(), ICRF_STATE_ORBIT]
         if value not in allowed:
             raise ValueError(f"unknown orbit {value!r}; allowed: {', '.join(allowed)}")
         return value
@@ -144,6 +147,10 @@ class SpacecraftSpec(StrictModel):
         if self.orbit not in FAMILIES and (self.period_days is not None or self.amplitude_km is not None):
             raise ValueError(
                 f"'period_days' / 'amplitude_km' are only allowed with an orbit family ({', '.join(family_names())})")
+        if (self.orbit == ICRF_STATE_ORBIT) != (self.state_km is not None):
+            raise ValueError(f"orbit {ICRF_STATE_ORBIT!r} and 'state_km' (6 numbers) go together")
+        if self.state_km is not None and len(self.state_km) != 6:
+            raise ValueError(f"'state_km' needs 6 numbers (x, y, z km, vx, vy, vz km/s), got {len(self.state_km)}")
         if self.role == "known" and self.clock is not None:
             raise ValueError("a known spacecraft's clock is not estimated; remove 'clock' or make it role: estimated")
         return self
@@ -434,6 +441,31 @@ class FilterSpec(StrictModel):
         return self
 
 
+class EphemerisSpec(StrictModel):
+    """Dated dynamics (003): the epoch (UTC, ISO 8601) and the SRP cannonball of every spacecraft."""
+
+    epoch_utc: str = Field(description="e.g. 2011-11-26T15:52:12.383")
+    cr: float = Field(1.5, gt=0, description="coefficient of reflectivity (003: 1.5)")
+    area_to_mass_m2_kg: float = Field(0.01, ge=0, description="area-to-mass ratio (003: 0.01 m^2/kg)")
+    node_spacing_days: float = Field(1.0, gt=0, description="patch-point spacing for catalog orbits")
+
+    @field_validator("epoch_utc")
+    @classmethod
+    def _iso_date(cls, value):
+        from datetime import datetime
+
+        try:
+            datetime.fromisoformat(value)
+        except ValueError:
+            raise ValueError(f"not an ISO 8601 date and time (e.g. 2011-11-26T15:52:12.383)") from None
+        return value
+
+    def epoch(self):
+        from datetime import datetime, timezone
+
+        return datetime.fromisoformat(self.epoch_utc).replace(tzinfo=timezone.utc)
+
+
 class BatchSpec(StrictModel):
     """The batch least-squares estimator (estimator: batch, 002 §3): one solve for the epoch state from the
     measurements of the first `span_days`, predicted `prediction_hours` past the span (002's DRMS window).
@@ -494,6 +526,8 @@ class Scenario(StrictModel):
     spacecraft: list[SpacecraftSpec] = Field(min_length=1)
     ground_stations: list[GroundStationSpec] = Field(default_factory=list)
     links: list[LinkSpec] = Field(min_length=1)
+    dynamics: Literal["crtbp", "ephemeris"] = "crtbp"
+    ephemeris: EphemerisSpec | None = None
     estimator: Literal[tuple(estimator_names())] = "ekf"
     batch: BatchSpec | None = None
     clock_sync: ClockSyncSpec | None = None
@@ -535,6 +569,7 @@ class Scenario(StrictModel):
                 self._check_observable(i, link, observable, receiver)
         self._check_batch()
         self._check_clock_sync()
+        self._check_dynamics()
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
@@ -572,6 +607,40 @@ class Scenario(StrictModel):
                     raise ValueError(f"links[{i}] measures {observable!r}, whose value carries clock states: the "
                                      "batch estimator solves for orbits only; use dual_one_way_derived (range + "
                                      "clock offset, synchronised by clock_sync) or the ekf")
+
+    def _check_dynamics(self):
+        if self.dynamics == "crtbp":
+            if self.ephemeris is not None:
+                raise ValueError("an 'ephemeris' section needs dynamics: ephemeris")
+            if any(sc.orbit == ICRF_STATE_ORBIT for sc in self.spacecraft):
+                raise ValueError(f"orbit {ICRF_STATE_ORBIT!r} needs dynamics: ephemeris")
+            return
+        if self.ephemeris is None:
+            raise ValueError("key 'dynamics' = 'ephemeris' needs an 'ephemeris' section with its epoch_utc")
+        from liaison_cli.dynamics.ephemeris import de421_span_s
+        from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
+
+        try:
+            start = utc_to_tdb_seconds(self.ephemeris.epoch())
+        except ValueError as exc:
+            raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r}: {exc}") from None
+        lo, hi = de421_span_s()
+        if start < lo or start + self.duration_days * SECONDS_PER_DAY > hi:
+            raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} plus {self.duration_days:g} d is "
+                             "outside DE421 (1899-07-29 to 2053-10-09)")
+        if self.estimator != "ekf" or self.measurement.light_time:
+            raise ValueError("dynamics: ephemeris runs the ekf with instantaneous measurements today "
+                             "(estimator: ekf, measurement.light_time: false)")
+        for i, link in enumerate(self.links):
+            unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s")
+                           or OBSERVABLES[o].needs_receiver_clock or OBSERVABLES[o].needs_both_clocks]
+            if unsupported or link.occultation:
+                raise ValueError(f"links[{i}]: dynamics: ephemeris takes range and range-rate links without "
+                                 f"occultation today; got {', '.join(unsupported) or 'occultation: true'}")
+        for i, sc in enumerate(self.spacecraft):
+            if sc.orbit == KEPLERIAN_ORBIT or sc.orbit in FAMILIES:
+                raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog orbit "
+                                 f"(corrected into the dated model) or {ICRF_STATE_ORBIT!r}")
 
     def _check_clock_sync(self):
         if self.clock_sync is None:

@@ -155,6 +155,9 @@ def truth_key(scenario: Scenario) -> str:
         "duration_days": scenario.epochs_end_days(),
         "interval_s": scenario.measurement.interval_s,
         "light_time": scenario.measurement.light_time,
+        "dynamics": scenario.dynamics,
+        "ephemeris": scenario.ephemeris and scenario.ephemeris.model_dump(),
+        "state_km": [sc.state_km for sc in scenario.spacecraft],
     }
     return json.dumps(fields, sort_keys=True)
 
@@ -175,10 +178,28 @@ def link_observables(link) -> list:
 def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
     times_tu = times_s / TU_S
+    if scenario.dynamics == "ephemeris":
+        from liaison_cli.scenario.dated import DatedStationTrajectory, dated_initial_state_lu
+
+        out = {sc.name: model.trajectory(model.truth_states(dated_initial_state_lu(sc, scenario, model), times_tu))
+               for sc in scenario.spacecraft}
+        for st in scenario.ground_stations:
+            out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
+                                                  scenario.ephemeris.epoch(), times_s)
+        return out
     out = {sc.name: model.trajectory(model.truth_states(initial_state_lu(sc), times_tu)) for sc in scenario.spacecraft}
     for st in scenario.ground_stations:
         out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
     return out
+
+
+def dynamics_model(scenario: Scenario):
+    """The scenario's dynamics: the Earth-Moon CRTBP, or the dated DE421 + SRP model."""
+    if scenario.dynamics == "ephemeris":
+        from liaison_cli.scenario.dated import dated_model
+
+        return dated_model(scenario)
+    return crtbp_model(MU)
 
 
 def _visible(scenario: Scenario, link, trajectories) -> np.ndarray:
@@ -349,7 +370,7 @@ def _batch_arrays(scenario: Scenario, model: DynamicsModel, times_s, trajectorie
 def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
     """Build the arrays of a scenario. Pass the same `truth_cache` dict to a series of scenarios that
     differ only in noise / filter / seed (a sweep over sigma) and the truth is propagated once."""
-    model = crtbp_model(MU)
+    model = dynamics_model(scenario)
     if truth_cache is None:
         times_s, trajectories, measurements = _truth_and_measurements(scenario, model)
     else:

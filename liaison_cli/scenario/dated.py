@@ -1,0 +1,65 @@
+"""The dated pieces of a `dynamics: ephemeris` scenario (003): the model, the initial states, the stations.
+
+- Model: DE421 (the window of the scenario's dates), the Earth's, Moon's, Sun's and the planets' point
+  masses, and the SRP cannonball C_R A/m of the `ephemeris` section (one for all spacecraft today).
+- Initial states: a catalog orbit (a CRTBP state) is mapped to patch points every node_spacing_days over
+  the scenario and corrected by multiple shooting into the dated model (003's continuity criterion); its
+  first node is the initial state. `orbit: icrf_state` takes `state_km` as given.
+- Stations: WGS84 geodetic coordinates (true longitude) on the IAU 1976/1980 + UT1 Earth
+  (dynamics.earth_rotation), sampled at the scenario's epochs.
+States are in the estimators' scaled units (LU, LU/TU), geocentric ICRF.
+"""
+
+from datetime import timedelta
+
+import numpy as np
+
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY, TU_S
+from liaison_cli.dynamics.earth_rotation import station_gcrf
+from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
+from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
+from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
+from liaison_cli.orbits.catalog import CATALOG
+from liaison_cli.orbits.ephemeris_correction import ForceModel, multiple_shooting, patch_points_from_crtbp
+
+THIRD_BODIES = (301, 10, 1, 2, 4, 5, 6, 7, 8, 9)  # Moon, Sun, the planets' systems
+
+
+def dated_model(scenario) -> EphemerisDynamicsModel:
+    spec = scenario.ephemeris
+    epoch_s = utc_to_tdb_seconds(spec.epoch())
+    window = load_window(epoch_s, epoch_s + scenario.duration_days * SECONDS_PER_DAY)
+    bodies = np.array(THIRD_BODIES, dtype=np.int64)
+    gms = np.array([GM_KM3_S2[b] for b in THIRD_BODIES])
+    return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[399], spec.cr * spec.area_to_mass_m2_kg, epoch_s)
+
+
+def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> np.ndarray:
+    if spacecraft.state_km is not None:
+        return np.asarray(spacecraft.state_km, dtype=float) / SCALE
+    forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
+    span_s = scenario.duration_days * SECONDS_PER_DAY
+    spacing_s = min(scenario.ephemeris.node_spacing_days * SECONDS_PER_DAY, span_s)
+    times, nodes = patch_points_from_crtbp(CATALOG[spacecraft.orbit].state(), model.epoch_tdb_s, span_s, spacing_s,
+                                           forces)
+    corrected = multiple_shooting(times, nodes, forces)
+    if not corrected.converged:
+        raise RuntimeError(f"{spacecraft.name}: multiple shooting of {spacecraft.orbit!r} did not converge "
+                           f"(defects {corrected.position_defects_km[-1]:.3g} km)")
+    return corrected.nodes[0] / SCALE
+
+
+class DatedStationTrajectory:
+    """A station's GCRF states (m, 6) in scaled units and its up vectors (m, 3) at the scenario's epochs."""
+
+    def __init__(self, latitude_deg, longitude_deg, altitude_m, epoch_utc, times_s):
+        states, ups = [], []
+        for t in np.asarray(times_s, dtype=float):
+            r, v, up = station_gcrf(latitude_deg, longitude_deg, altitude_m, epoch_utc + timedelta(seconds=float(t)))
+            states.append(np.concatenate([r, v]) / SCALE)
+            ups.append(up)
+        self.states = np.array(states)
+        self.up = np.array(ups)
+
+
+__all__ = ["dated_model", "dated_initial_state_lu", "DatedStationTrajectory", "TU_S"]
