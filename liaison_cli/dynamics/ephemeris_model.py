@@ -13,6 +13,7 @@ from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
 from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
+MODEL_EPHEMERIS = 1  # its code behind the dynamics interface (dynamics.model)
 HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
 
 
@@ -79,8 +80,6 @@ class EphemerisDynamicsModel:
     name = "ephemeris"
 
     def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s):
-        from liaison_cli.dynamics.model import MODEL_EPHEMERIS
-
         self.code = MODEL_EPHEMERIS
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s

@@ -16,12 +16,11 @@ from numba.extending import overload
 
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_states
-from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_scaled
+from liaison_cli.dynamics.ephemeris_model import MODEL_EPHEMERIS, ephemeris_state_stm_scaled
 from liaison_cli.dynamics.rk8 import rk8_advance, rk8_state, rk8_state_stm, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
 MODEL_CRTBP = 0
-MODEL_EPHEMERIS = 1
 
 # Truth: compiled fixed-step RK4 of at most 10 s. Over 10 days it agrees with DOP853 at rtol 1e-13 to
 # 2.0 mm for the 9,000 km lunar orbiter (DOP853 at the former rtol 1e-12 is itself 2 cm off); see
