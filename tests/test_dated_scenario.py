@@ -54,3 +54,13 @@ def test_dynamics_ephemeris_without_an_epoch_is_one_line(tmp_path):
     path = tmp_path / "bad.yaml"
     path.write_text(text[:start] + text[end:])
     assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["'dynamics' = 'ephemeris' needs an 'ephemeris'"])
+
+
+def test_a_link_can_carry_its_own_noise():
+    """The Goldstone link's channels take its own 10 m / 0.5 mm/s, the crosslink the noise section's."""
+    problem = prepare_problem(apply_overrides(load_scenario(DATED)[0], {"duration_days": 0.1}))
+    sigmas = dict(zip(((ch.link_label, ch.label) for ch in problem.channels), problem.sigma_lu * problem.channel_scale_si))
+    assert sigmas[("Goldstone->EML1", "range")] == pytest.approx(10.0)
+    assert sigmas[("Goldstone->EML1", "range_rate")] == pytest.approx(5e-4)
+    assert sigmas[("EML1->EML2", "range")] == pytest.approx(1.0)
+    assert sigmas[("EML1->EML2", "range_rate")] == pytest.approx(1e-3)

@@ -170,6 +170,24 @@ class GroundStationSpec(StrictModel):
 ObservableName = Literal[tuple(OBSERVABLES)]
 
 
+class LinkNoiseSpec(StrictModel):
+    """This link's own sigmas, overriding the scenario's noise section for its channels (e.g. 003: DSN range
+    10 m and range-rate 0.5 mm/s beside crosslinks at 1 m and 1 mm/s)."""
+
+    sigma_m: float | None = Field(None, gt=0, description="range-like channels (pseudoranges: per one-way)")
+    range_rate_sigma_m_s: float | None = Field(None, gt=0)
+    los_path_sigma_m: float | None = Field(None, gt=0)
+
+    def applied_to(self, noise):
+        """The scenario's noise spec with this link's values in force."""
+        update = self.model_dump(exclude_none=True)
+        if "sigma_m" in update:
+            update["ranging_method"] = None
+        if "range_rate_sigma_m_s" in update or "los_path_sigma_m" in update:
+            update["carrier"] = None
+        return noise.model_copy(update=update)
+
+
 class LinkSpec(StrictModel):
     """A link between two participants: the receiver (mothercraft, or ground station) measures through the
     transponder (for one-way observables such as pseudorange: the transmitter). `occultation: true` blanks
@@ -180,6 +198,7 @@ class LinkSpec(StrictModel):
     transponder: str
     observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1)
     occultation: bool = False
+    noise: LinkNoiseSpec | None = Field(None, description="this link's sigmas (default: the noise section's)")
 
     @field_validator("observables")
     @classmethod
@@ -669,7 +688,7 @@ class Scenario(StrictModel):
                 f"links[{i}] cannot measure {observable!r}: its receiver {link.receiver!r} has no antenna "
                 "array (set antenna_baseline_m on that spacecraft)"
             )
-        missing = spec.missing_noise(self.noise)
+        missing = spec.missing_noise(link.noise.applied_to(self.noise) if link.noise is not None else self.noise)
         if missing:
             raise ValueError(f"links[{i}] measures {observable}: {missing}")
         if spec.needs_both_clocks:

@@ -323,8 +323,10 @@ def _channel_sigmas(scenario: Scenario, channels) -> np.ndarray:
         if (ch.link, ch.observable) in done:
             continue
         done.add((ch.link, ch.observable))
-        receiver = scenario.participant(scenario.links[ch.link].receiver)
-        sigmas += OBSERVABLES[ch.observable].sigma(scenario.noise, receiver)
+        link = scenario.links[ch.link]
+        receiver = scenario.participant(link.receiver)
+        noise = link.noise.applied_to(scenario.noise) if link.noise is not None else scenario.noise
+        sigmas += OBSERVABLES[ch.observable].sigma(noise, receiver)
     return np.array(sigmas)
 
 
