@@ -64,3 +64,20 @@ def test_a_link_can_carry_its_own_noise():
     assert sigmas[("Goldstone->EML1", "range_rate")] == pytest.approx(5e-4)
     assert sigmas[("EML1->EML2", "range")] == pytest.approx(1.0)
     assert sigmas[("EML1->EML2", "range_rate")] == pytest.approx(1e-3)
+
+
+def test_filter_c_r_is_drawn_per_run_and_reproducibly():
+    """003: the filter's C_R is off by N(0, 5 %) per run: drawn last (no other draw moves), the same for the
+    same run index, different between runs, and absent when cr_error_sigma is 0."""
+    from liaison_cli.dynamics.ephemeris_model import PARAM_CR_AM
+
+    scenario = apply_overrides(load_scenario(DATED)[0], {"duration_days": 0.2})
+    problem = prepare_problem(scenario)
+    base = problem.filter.model_params[PARAM_CR_AM]
+    factors = [draw_run_inputs(problem, run).filter_params[PARAM_CR_AM] / base for run in range(200)]
+    assert draw_run_inputs(problem, 3).filter_params[PARAM_CR_AM] == pytest.approx(factors[3] * base, rel=0)
+    assert np.std(factors) == pytest.approx(0.05, rel=0.15) and abs(np.mean(factors) - 1.0) < 0.015
+    plain = prepare_problem(apply_overrides(scenario, {"ephemeris.cr_error_sigma": 0.0}))
+    a, b = draw_run_inputs(plain, 3), draw_run_inputs(problem, 3)
+    assert a.filter_params is None
+    assert np.array_equal(a.y_obs, b.y_obs, equal_nan=True) and np.array_equal(a.x0_hat, b.x0_hat)

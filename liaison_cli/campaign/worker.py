@@ -52,6 +52,7 @@ class RunInputs:
     truth: np.ndarray
     bias_lu: np.ndarray
     clock_phase_s: dict = field(default_factory=dict)  # {owner: (m,) true clock phase in s}
+    filter_params: np.ndarray | None = None  # this run's dynamics parameters for the filter (a drawn C_R error)
 
 
 def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
@@ -94,14 +95,27 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
         truth[:, problem.bias_state_start : problem.bias_state_start + problem.n_bias] = bias[None, :]
     # The filter starts its clock and bias states at their a-priori mean, zero.
     x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
-    return RunInputs(x0_hat, y_obs, truth, bias, phases)
+    return RunInputs(x0_hat, y_obs, truth, bias, phases, _filter_params(problem, rng))
+
+
+def _filter_params(problem: Problem, rng):
+    """Dated scenarios: the filter's C_R is the truth's times (1 + N(0, cr_error_sigma)), drawn last so no
+    other draw moves (003: 5 %). None when the filter uses the scenario's own parameters."""
+    spec = problem.scenario.ephemeris
+    if spec is None or spec.cr_error_sigma == 0.0:
+        return None
+    from liaison_cli.dynamics.ephemeris_model import with_cr_scaled
+
+    return with_cr_scaled(problem.filter.model_params, 1.0 + spec.cr_error_sigma * rng.standard_normal())
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
     run = task.run_index
     try:
         inputs = draw_run_inputs(problem, run)
-        history = _check_consistency(problem, estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat,
+        arrays = problem.filter if inputs.filter_params is None else replace(problem.filter,
+                                                                             model_params=inputs.filter_params)
+        history = _check_consistency(problem, estimate(problem.scenario.estimator, arrays, inputs.x0_hat,
                                                        inputs.y_obs, inputs.truth))
         n_dyn = 6 * problem.n_spacecraft
         err, sigma = history.err, history.sigma

@@ -15,6 +15,14 @@ from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
 MODEL_EPHEMERIS = 1  # its code behind the dynamics interface (dynamics.model)
 HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
+PARAM_CR_AM = 5
+
+
+def with_cr_scaled(params: np.ndarray, factor: float) -> np.ndarray:
+    """A copy of packed parameters whose C_R A/m is `factor` times the original (a mismodelled C_R)."""
+    out = params.copy()
+    out[PARAM_CR_AM] *= factor
+    return out
 
 
 def pack_params(window, bodies, gms, gm_earth: float, cr_am: float, epoch_tdb_s: float) -> np.ndarray:

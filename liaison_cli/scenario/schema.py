@@ -467,6 +467,8 @@ class EphemerisSpec(StrictModel):
     cr: float = Field(1.5, gt=0, description="coefficient of reflectivity (003: 1.5)")
     area_to_mass_m2_kg: float = Field(0.01, ge=0, description="area-to-mass ratio (003: 0.01 m^2/kg)")
     node_spacing_days: float = Field(1.0, gt=0, description="patch-point spacing for catalog orbits")
+    cr_error_sigma: float = Field(0.0, ge=0, lt=1, description="per run, the filter's C_R is the truth's times "
+                                  "(1 + N(0, cr_error_sigma)) (003: 0.05)")
 
     @field_validator("epoch_utc")
     @classmethod
