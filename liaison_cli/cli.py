@@ -307,16 +307,16 @@ def errors(
     from liaison_cli.campaign.error_budget import error_budget, monte_carlo_check, part_of, select_sources, shares
     from liaison_cli.dynamics.constants import SECONDS_PER_DAY
     from liaison_cli.report.error_budget import budget_table, draw_budget, format_shares, shares_frame
-    from liaison_cli.scenario.schema import load_scenario, read_scenario_text
+    from liaison_cli.scenario.schema import read_scenario_text, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
     chosen = select_sources(sources)
-    data, _ = read_scenario_text(scenario_path)
+    data, text = read_scenario_text(scenario_path)
     if isinstance(data, dict) and "filter" not in data:
         raise LiaisonError(f"{scenario_path}: key 'filter' is missing: the error budget splits the filter's own "
                            "error, so give its settings (a 'filter' section)")
-    scenario, text = load_scenario(scenario_path)
+    scenario = validate_scenario(data, str(scenario_path))
     problem = prepare_problem(scenario)
     budget = error_budget(problem)
     rows_all, rows_late = shares(budget), shares(budget, SECONDS_PER_DAY)

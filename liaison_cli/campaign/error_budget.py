@@ -21,7 +21,6 @@ from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.errors import LiaisonError
-from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.lincov import (
     PART_INITIAL,

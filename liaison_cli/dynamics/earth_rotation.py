@@ -8,7 +8,7 @@ r_GCRF = P(TT) N(TT) R3(-GAST) r_ITRF, with
   between its daily values.
 Polar motion (at most ~0.5", ~15 m on the ground) and the frame bias (23 mas, < 1 m) are left out, as
 skyfield leaves polar motion out by default; stations agree with skyfield's to a few metres
-(tests/test_earth_rotation.py). Station coordinates are WGS84 geodetic. Units: km, rad, s.
+(tests/test_earth_rotation.py). Station coordinates are WGS84 geodetic (dynamics.ground_station). Units: km, rad, s.
 """
 
 import math
@@ -17,12 +17,11 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from liaison_cli.dynamics.timescales import J2000_UTC, tai_minus_utc_s, utc_to_tt_seconds
+from liaison_cli.dynamics.constants import EARTH_ROTATION_RATE_RAD_S
+from liaison_cli.dynamics.ground_station import geodetic_to_body_km
+from liaison_cli.dynamics.timescales import J2000_UTC, utc_to_tt_seconds
 
-WGS84_A_KM = 6378.137
-WGS84_F = 1.0 / 298.257223563
 ARCSEC = math.pi / (180.0 * 3600.0)
-EARTH_ROTATION_RAD_S = 7.292115146706979e-5  # sidereal rate, for station velocities
 
 # IAU 1980 nutation, largest terms: multipliers of (l, l', F, D, Omega); dpsi = (A + A' T) sin arg,
 # deps = (B + B' T) cos arg, in units of 0.0001".
@@ -137,22 +136,11 @@ def itrf_to_gcrf(moment: datetime) -> np.ndarray:
     return precession.T @ nut.T @ _r3(-gast)
 
 
-def geodetic_to_itrf_km(latitude_deg: float, longitude_deg: float, height_m: float) -> np.ndarray:
-    lat, lon = math.radians(latitude_deg), math.radians(longitude_deg)
-    e2 = WGS84_F * (2.0 - WGS84_F)
-    n = WGS84_A_KM / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
-    h = height_m / 1000.0
-    return np.array([(n + h) * math.cos(lat) * math.cos(lon), (n + h) * math.cos(lat) * math.sin(lon),
-                     (n * (1.0 - e2) + h) * math.sin(lat)])
-
-
 def station_gcrf(latitude_deg: float, longitude_deg: float, height_m: float, moment: datetime):
     """A station's GCRF position (km), velocity (km/s, the Earth's spin) and local up (unit) at a UTC moment."""
     rotation = itrf_to_gcrf(moment)
-    r_itrf = geodetic_to_itrf_km(latitude_deg, longitude_deg, height_m)
-    lat, lon = math.radians(latitude_deg), math.radians(longitude_deg)
-    up_itrf = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
-    v_itrf = np.cross([0.0, 0.0, EARTH_ROTATION_RAD_S], r_itrf)
+    r_itrf, up_itrf = geodetic_to_body_km(latitude_deg, longitude_deg, height_m)
+    v_itrf = np.cross([0.0, 0.0, EARTH_ROTATION_RATE_RAD_S], r_itrf)
     return rotation @ r_itrf, rotation @ v_itrf, rotation @ up_itrf
 
 
@@ -160,6 +148,3 @@ def elevation_deg(station_km, up, target_km) -> float:
     line = np.asarray(target_km) - np.asarray(station_km)
     return math.degrees(math.asin(float(line @ up) / float(np.linalg.norm(line))))
 
-
-__all__ = ["itrf_to_gcrf", "station_gcrf", "elevation_deg", "ut1_minus_utc_s", "geodetic_to_itrf_km",
-           "tai_minus_utc_s"]

@@ -22,7 +22,6 @@ SECONDS_PER_DAY = 86400.0
 # Our body codes: NAIF barycentre ids 1-9 (planet systems), 10 the Sun, 301 the Moon.
 BODY_MOON = 301
 BODY_SUN = 10
-PLANET_SYSTEMS = (1, 2, 4, 5, 6, 7, 8, 9)  # Mercury, Venus, Mars, Jupiter, Saturn, Uranus, Neptune, Pluto
 SEGMENTS = ((0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (0, 6), (0, 7), (0, 8), (0, 9), (0, 10), (3, 301), (3, 399))
 SEG_EMB = 2  # (0, 3)
 SEG_MOON = 10  # (3, 301)
@@ -34,7 +33,6 @@ GM_KM3_S2 = {
     1: 22032.090000, 2: 324858.592000, 4: 42828.375214, 5: 126712764.800000, 6: 37940585.200000,
     7: 5794548.600000, 8: 6836535.000000, 9: 977.000000,
 }
-RADIUS_KM = {10: 696000.0, 399: 6378.1366, 301: 1737.4}  # shadow radii: Sun, Earth (equatorial), Moon (mean)
 
 
 def de421_path() -> str:
@@ -56,10 +54,6 @@ class EphemerisWindow:
     n_records: np.ndarray
     first_s: float
     last_s: float
-
-    def covers(self, t_s) -> bool:
-        t_s = np.asarray(t_s, dtype=float)
-        return bool(np.all((t_s >= self.first_s) & (t_s <= self.last_s)))
 
 
 _SPK = None

@@ -16,6 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
+from liaison_cli.dynamics.constants import MOON_RADIUS_KM
 from liaison_cli.dynamics.ephemeris import BODY_MOON, BODY_SUN, geocentric_state
 from liaison_cli.dynamics.rk8 import rk8_combine, rk8_stage_input
 
@@ -25,7 +26,7 @@ SPEED_OF_LIGHT_M_S = 299792458.0
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
 R_SUN_KM = 696000.0
 R_EARTH_KM = 6378.1366
-R_MOON_KM = 1737.4
+R_MOON_KM = MOON_RADIUS_KM
 
 
 @njit(cache=True)
@@ -179,8 +180,6 @@ def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rto
     eclipse this truth is within 2.3 cm of itself at rtol 1e-13 (tests/test_ephemeris.py)."""
     from scipy.integrate import solve_ivp
 
-    from liaison_cli.dynamics.ephemeris import BODY_MOON as _MOON, BODY_SUN as _SUN, geocentric_state as _state
-
     times_s = np.asarray(times_s, dtype=float)
     out = np.empty(6)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
@@ -191,8 +190,8 @@ def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rto
 
     def edge(which, body):
         def event(t, y):
-            r_sun = _state(*args, _SUN, t)[0:3]
-            r_body = np.zeros(3) if body == 399 else _state(*args, _MOON, t)[0:3]
+            r_sun = geocentric_state(*args, BODY_SUN, t)[0:3]
+            r_body = np.zeros(3) if body == 399 else geocentric_state(*args, BODY_MOON, t)[0:3]
             return shadow_edges(y[0:3], r_sun, r_body, R_EARTH_KM if body == 399 else R_MOON_KM)[which]
 
         event.terminal = True

@@ -17,7 +17,7 @@ from numba.extending import overload
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_states
 from liaison_cli.dynamics.ephemeris_model import MODEL_EPHEMERIS, ephemeris_state_stm_scaled
-from liaison_cli.dynamics.rk8 import rk8_advance, rk8_state, rk8_state_stm, step_counts
+from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
 MODEL_CRTBP = 0
@@ -60,14 +60,6 @@ def literal_entry(dispatcher, args, literal_index: int):
 
 
 @njit(cache=True, inline="always")
-def propagate_state_stm_rk8(model, params, state, t_tu, dt_tu, n_steps):
-    """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, by n_steps fixed RK8 steps."""
-    if model == MODEL_CRTBP:
-        return rk8_state_stm(state, dt_tu, n_steps, params[0])
-    return np.full(6, np.nan), np.full((6, 6), np.nan)
-
-
-@njit(cache=True, inline="always")
 def advance_rk8(model, params, y, t_tu, dt_tu, n_steps, k, tmp):
     """In place: y (6,) state or (42,) [state, Phi(t, t0) row-major] from t_tu to t_tu + dt_tu, n_steps RK8
     steps; k (12, len(y)) and tmp (len(y),) are the caller's scratch (no allocation per interval)."""
@@ -75,14 +67,6 @@ def advance_rk8(model, params, y, t_tu, dt_tu, n_steps, k, tmp):
         rk8_advance(y, dt_tu, n_steps, params[0], k, tmp)
     else:
         y[:] = np.nan
-
-
-@njit(cache=True, inline="always")
-def propagate_state_rk8(model, params, state, t_tu, dt_tu, n_steps):
-    """(6,) state at t_tu -> (6,) state at t_tu + dt_tu, by n_steps fixed RK8 steps (no STM)."""
-    if model == MODEL_CRTBP:
-        return rk8_state(state, dt_tu, n_steps, params[0])
-    return np.full(6, np.nan)
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,7 +8,6 @@ rtol 1e-13 is tested in tests/test_batch.py.
 """
 
 import importlib.util
-import math
 import os
 
 import numpy as np
@@ -145,5 +144,3 @@ def step_counts(positions_lu, dt_tu: float, mu: float, step_fraction: float = ST
     counts = np.ceil(dt_tu / (0.5 * step_fraction * shortest)).astype(np.int64)
     return np.maximum(counts, 1) if m > 1 else np.zeros(0, dtype=np.int64)
 
-
-__all__ = ["rk8_state", "rk8_state_stm", "step_counts", "kepler_time_tu", "STEP_FRACTION", "math"]

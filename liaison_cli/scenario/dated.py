@@ -14,7 +14,7 @@ from datetime import timedelta
 
 import numpy as np
 
-from liaison_cli.dynamics.constants import SECONDS_PER_DAY, TU_S
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.dynamics.earth_rotation import station_gcrf
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
@@ -61,5 +61,3 @@ class DatedStationTrajectory:
         self.states = np.array(states)
         self.up = np.array(ups)
 
-
-__all__ = ["dated_model", "dated_initial_state_lu", "DatedStationTrajectory", "TU_S"]

@@ -478,7 +478,7 @@ class EphemerisSpec(StrictModel):
         try:
             datetime.fromisoformat(value)
         except ValueError:
-            raise ValueError(f"not an ISO 8601 date and time (e.g. 2011-11-26T15:52:12.383)") from None
+            raise ValueError("not an ISO 8601 date and time (e.g. 2011-11-26T15:52:12.383)") from None
         return value
 
     def epoch(self):
