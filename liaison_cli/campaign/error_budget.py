@@ -7,7 +7,10 @@ Sources (names a user may select):
 - bias: unmodelled or considered range biases, one part per link (random part; the constant part is
   deterministic and goes with the mismatches);
 - measurement_model: the filter's measurement-model error (light time in the truth, geometric filter);
-- dynamics_model: the filter's dynamics error (its RK4 substeps against the truth propagator; clock drifts).
+- dynamics_model: the filter's dynamics error (its RK4 substeps against the truth propagator; clock drifts;
+  in dated dynamics the bodies its model leaves out);
+- cr (dated dynamics with ephemeris.cr_error_sigma): the per-run error of the filter's C_R, a random part,
+  the change of the dynamics-model mean when the filter's C_R is off by one sigma (linear in it).
 Random parts add in variance; deterministic parts add as mean errors, whose square (cross terms included)
 enters the second moment once. Units out: m^2 and (m/s)^2 per spacecraft, summed over the three axes.
 """
@@ -110,8 +113,9 @@ def error_budget(problem: Problem) -> Budget:
     D_initial, Q_true, S0, d_dyn_extra, bias_link = _inputs(problem)
     args = (_filter_truth(problem), problem.measurements_true, f.known_states, f.channel_kind, f.channel_ends,
             f.channel_flags, f.channel_mod_index, f.channel_mod_coeff, bias_link, f.sigma, f.P0, f.Q, D_initial, Q_true,
-            S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain)
-    P_diag, D_diag, S, mu_meas, mu_dyn = literal_entry(lincov_along_truth, args, 19)(*args)
+            S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain, f.underweight)
+    run_lincov = literal_entry(lincov_along_truth, args, 19)
+    P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft
     parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),
              "noise": _per_spacecraft(D_diag[:, PART_NOISE], n_sc),
@@ -123,6 +127,13 @@ def error_budget(problem: Problem) -> Budget:
     means = {"measurement_model": mu_meas, "dynamics_model": mu_dyn, "bias_mean": bias_mean}
     for name, mean in means.items():
         parts[name] = _per_spacecraft(mean**2, n_sc)
+    cr_sigma = problem.scenario.ephemeris.cr_error_sigma if problem.scenario.ephemeris else 0.0
+    if cr_sigma > 0.0:
+        from liaison_cli.dynamics.ephemeris_model import with_cr_scaled
+
+        off_by_sigma = list(args)
+        off_by_sigma[20] = with_cr_scaled(f.model_params, 1.0 + cr_sigma)
+        parts["cr"] = _per_spacecraft((run_lincov(*off_by_sigma)[4] - mu_dyn) ** 2, n_sc)
     total_mean = mu_meas + mu_dyn + bias_mean
     parts["deterministic_cross"] = _per_spacecraft(total_mean**2, n_sc) - sum(parts[k] for k in DETERMINISTIC)
     total = sum(parts.values())

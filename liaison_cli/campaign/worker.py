@@ -71,7 +71,11 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     # Channel by channel (column-major), so a channel's noise does not depend on which other channels a
     # scenario has: range-only and range + range-rate runs share their range noise.
     noise = rng.standard_normal((n_channels, m - 1)).T * problem.sigma_lu
-    bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(len(problem.link_labels))
+    n_links = len(problem.link_labels)
+    if problem.scenario.noise.bias_distribution == "uniform":  # same variance, bounded (003)
+        bias = problem.bias_lu + problem.bias_sigma_lu * np.sqrt(3.0) * rng.uniform(-1.0, 1.0, n_links)
+    else:
+        bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(n_links)
     y_obs = problem.measurements_true.copy()
     y_obs[1:] += noise
     biased = np.array([ch.takes_range_bias for ch in problem.channels])

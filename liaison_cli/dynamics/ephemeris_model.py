@@ -87,11 +87,23 @@ class EphemerisDynamicsModel:
 
     name = "ephemeris"
 
-    def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s):
+    def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None):
+        """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all)."""
         self.code = MODEL_EPHEMERIS
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
         self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)
+        keep = np.isin(self.bodies, self.bodies if filter_bodies is None else filter_bodies)
+        self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s)
+
+    def body_positions_lu(self, times_s) -> dict:
+        """The Earth (origin) and the Moon's geocentric positions (m, 3) at times_s past the epoch, scaled."""
+        from liaison_cli.dynamics.ephemeris import BODY_MOON, geocentric_state
+
+        w = self.window
+        moon = np.array([geocentric_state(w.coeffs, w.start_s, w.interval_s, w.n_records, BODY_MOON,
+                                          self.epoch_tdb_s + float(t))[:3] for t in np.asarray(times_s, dtype=float)])
+        return {"earth_lu": np.zeros(3), "moon_lu": moon / LU_KM}
 
     def truth_states(self, state0, times_tu) -> np.ndarray:
         """Truth (m, 6), scaled units, from state0 (scaled) at times_tu[0] (TU since the epoch)."""

@@ -80,6 +80,11 @@ class DynamicsModel:
         return rk4_states(np.asarray(state0, dtype=float), np.asarray(times_tu, dtype=float),
                           TRUTH_MAX_STEP_S / TU_S, self.params[0])
 
+    @property
+    def filter_params(self) -> np.ndarray:
+        """The parameters of the filter's own model: the CRTBP's are the truth's."""
+        return self.params
+
     def trajectory(self, states):
         return CrtbpTrajectory(states, self.params[0])
 

@@ -104,7 +104,7 @@ def normalized_error_squared(e, P, work):
 
 
 @njit(cache=True)
-def update_scalar(dx, P, y, H, R, n_gain=-1):
+def update_scalar(dx, P, y, H, R, n_gain=-1, underweight=0.0):
     """One scalar measurement update in Joseph form.
 
     dx (n,): state correction accumulated so far (relative to the linearisation point);
@@ -118,11 +118,16 @@ def update_scalar(dx, P, y, H, R, n_gain=-1):
     n_gain >= 0: only the first n_gain states are estimated; the rest are consider parameters whose gain
     is set to zero (Schmidt-Kalman). Their covariance still enters S and, through the Joseph form (valid
     for this suboptimal gain), the estimated states' covariance: the consider covariance.
+
+    underweight = beta > 0: Lear's underweighting, K = P H^T ((1 + beta) H P H^T + R)^-1. While the a-priori
+    spread H P H^T dwarfs R (a large initial error against a precise measurement), the full gain would trust
+    a linearisation that is not yet good; the smaller gain takes a fraction of the step and the Joseph form
+    keeps P honest for it. Once H P H^T << R the factor no longer matters.
     """
     n = dx.shape[0]
     h = P @ H
     S = H @ h + R
-    K = h / S  # K = P H^T (H P H^T + R)^-1 (Eq. 21)
+    K = h / (S + underweight * (S - R))  # K = P H^T (H P H^T + R)^-1 (Eq. 21); underweighted if beta > 0
     if n_gain >= 0:
         K[n_gain:] = 0.0
     innovation = y - H @ dx

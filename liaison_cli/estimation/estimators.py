@@ -59,6 +59,7 @@ class FilterArrays:
     substeps: int
     divergence_position_lu: float
     batch: BatchArrays | None = None
+    underweight: float = 0.0  # Lear's gain underweighting (ekf.update_scalar)
 
     @property
     def n_gain(self) -> int:
@@ -93,7 +94,7 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
             arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
             arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
-            arrays.divergence_position_lu)
+            arrays.divergence_position_lu, arrays.underweight)
     err, sigma, nees, innovation, innovation_std, status, fail_step = literal_entry(run_ekf, args, MODEL_ARG)(*args)
     ok = status == STATUS_OK
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],

@@ -74,7 +74,7 @@ def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, 
 @njit(cache=True)
 def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
             channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
-            n_gain, n_nees, divergence_position_lu):
+            n_gain, n_nees, divergence_position_lu, underweight):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
@@ -86,7 +86,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     block_kind / block_start / block_size (B,): the state layout. model, model_params: the dynamics.
     n_gain: states from this index on are consider parameters with zero gain (-1: none); n_nees: the NEES
     covers the first n_nees states. A spacecraft whose position error exceeds divergence_position_lu stops
-    the run.
+    the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none).
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), status,
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
@@ -146,7 +146,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
                     predicted += channel_mod_coeff[c, j] * x_bar[index]
                     H[index] += channel_mod_coeff[c, j]
             y = residual(channel_kind[c], y_meas, predicted)
-            dx, P, innovation, S = update_scalar(dx, P, y, H, sigma[c] ** 2, n_gain)
+            dx, P, innovation, S = update_scalar(dx, P, y, H, sigma[c] ** 2, n_gain, underweight)
             if not np.isfinite(innovation):  # a run with a non-finite innovation is never "ok"
                 return err, sig, nees, innovations, innov_std, STATUS_NONFINITE, k
             innovations[k, c] = innovation

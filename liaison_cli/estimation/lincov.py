@@ -74,7 +74,7 @@ def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t):
 @njit(cache=True)
 def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
                        channel_mod_coeff, channel_bias_link, sigma, P0, Q, D_initial, Q_true, S0, d_dyn_extra,
-                       block_kind, block_start, block_size, model, params, dt_tu, substeps, n_gain):
+                       block_kind, block_start, block_size, model, params, dt_tu, substeps, n_gain, underweight):
     """The filter's covariance and the error parts at every epoch, after the update.
 
     truth (m, n): the true filter states (clock / bias columns may be zero: they enter linearly);
@@ -141,14 +141,14 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                         H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
                 R = sigma[c] ** 2
                 h = P @ H
-                K = h / (H @ h + R)  # the filter's gain, K = P H^T (H P H^T + R)^-1
+                K = h / ((1.0 + underweight) * (H @ h) + R)  # the filter's gain (ekf.update_scalar)
                 if n_gain >= 0:
                     K[n_gain:] = 0.0
                 _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
                 hm = H @ mu_dyn
                 for i in range(n):
                     mu_dyn[i] -= K[i] * hm
-                dx, P, _, _ = update_scalar(dx, P, 0.0, H, R, n_gain)
+                dx, P, _, _ = update_scalar(dx, P, 0.0, H, R, n_gain, underweight)
         for i in range(n):
             P_diag[k, i] = P[i, i]
             mu_meas_out[k, i] = mu_meas[i]

@@ -3,7 +3,7 @@
 - Elevation mask: a ground station sees a spacecraft only above `mask_deg` over its local horizon
   (the plane normal to the station's geodetic up direction).
 - Occultation: the straight line between the two ends must not pass through the Earth or the Moon
-  (spheres of their mean radii at their CRTBP positions).
+  (spheres of their mean radii at their CRTBP positions, or, in dated dynamics, where DE421 puts them).
 """
 
 import numpy as np
@@ -33,7 +33,13 @@ def segment_clear_of_sphere(a, b, center, radius):
     return np.linalg.norm(closest - center, axis=1) > radius
 
 
-def not_occulted(a, b):
-    """True where neither the Earth nor the Moon blocks the line between the two ends (m, 3) x2."""
-    return segment_clear_of_sphere(a, b, EARTH_POSITION_LU, EARTH_RADIUS_KM / LU_KM) & segment_clear_of_sphere(
-        a, b, MOON_POSITION_LU, MOON_RADIUS_KM / LU_KM)
+def not_occulted(a, b, earth_lu=EARTH_POSITION_LU, moon_lu=MOON_POSITION_LU, check_earth=True):
+    """True where neither the Earth nor the Moon blocks the line between the two ends (m, 3) x2.
+
+    earth_lu / moon_lu: the bodies' centres, (3,) fixed (CRTBP) or (m, 3) per epoch (dated dynamics).
+    check_earth False: an end on the ground, whose elevation mask already stands for the Earth (its site
+    may lie inside the mean-radius sphere, which would hide everything)."""
+    clear = segment_clear_of_sphere(a, b, moon_lu, MOON_RADIUS_KM / LU_KM)
+    if check_earth:
+        clear &= segment_clear_of_sphere(a, b, earth_lu, EARTH_RADIUS_KM / LU_KM)
+    return clear

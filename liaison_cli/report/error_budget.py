@@ -8,7 +8,7 @@ import pandas as pd
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 
 COLOURS = {"initial": "tab:blue", "noise": "tab:orange", "process": "tab:green", "bias": "tab:red",
-           "measurement_model": "tab:purple", "dynamics_model": "tab:brown"}
+           "measurement_model": "tab:purple", "dynamics_model": "tab:brown", "cr": "tab:olive"}
 
 
 def budget_table(budget, part_of) -> pd.DataFrame:

@@ -1,10 +1,12 @@
 """The dated pieces of a `dynamics: ephemeris` scenario (003): the model, the initial states, the stations.
 
 - Model: DE421 (the window of the scenario's dates), the Earth's, Moon's, Sun's and the planets' point
-  masses, and the SRP cannonball C_R A/m of the `ephemeris` section (one for all spacecraft today).
+  masses, and the SRP cannonball C_R A/m of the `ephemeris` section (one for all spacecraft today); the
+  filter's model keeps only `ephemeris.filter_bodies` (003: the Moon and the Sun).
 - Initial states: a catalog orbit (a CRTBP state) is mapped to patch points every node_spacing_days over
   the scenario and corrected by multiple shooting into the dated model (003's continuity criterion); its
-  first node is the initial state. `orbit: icrf_state` takes `state_km` as given.
+  first node is the initial state. `orbit: icrf_state` takes `state_km` as given; `orbit: departure` puts
+  the spacecraft on its hyperbola (orbits.departure, orbits.departure_missions).
 - Stations: WGS84 geodetic coordinates (true longitude) on the IAU 1976/1980 + UT1 Earth
   (dynamics.earth_rotation), sampled at the scenario's epochs.
 States are in the estimators' scaled units (LU, LU/TU), geocentric ICRF.
@@ -20,9 +22,18 @@ from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
 from liaison_cli.orbits.catalog import CATALOG
+from liaison_cli.orbits.departure import departure_state_km as departure_state_km_at
+from liaison_cli.orbits.departure_missions import (
+    DEPARTURE_MISSIONS,
+    derived_launch_targets,
+    parking_inclination_deg,
+    periapsis_radius_km,
+)
 from liaison_cli.orbits.ephemeris_correction import ForceModel, multiple_shooting, patch_points_from_crtbp
 
 THIRD_BODIES = (301, 10, 1, 2, 4, 5, 6, 7, 8, 9)  # Moon, Sun, the planets' systems
+BODY_CODES = {"moon": 301, "sun": 10, "mercury": 1, "venus": 2, "mars": 4, "jupiter": 5, "saturn": 6, "uranus": 7,
+              "neptune": 8, "pluto": 9}
 
 
 def dated_model(scenario) -> EphemerisDynamicsModel:
@@ -31,12 +42,35 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
     window = load_window(epoch_s, epoch_s + scenario.duration_days * SECONDS_PER_DAY)
     bodies = np.array(THIRD_BODIES, dtype=np.int64)
     gms = np.array([GM_KM3_S2[b] for b in THIRD_BODIES])
-    return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[399], spec.cr * spec.area_to_mass_m2_kg, epoch_s)
+    filter_bodies = [BODY_CODES[name] for name in spec.filter_bodies]
+    return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[399], spec.cr * spec.area_to_mass_m2_kg, epoch_s,
+                                  filter_bodies)
+
+
+def departure_state_km(spec, epoch_utc) -> np.ndarray:
+    """The departure's geocentric ICRF state (6,) km, km/s at the scenario epoch."""
+    if spec.mission is None:
+        c3, dla, rla = spec.c3_km2_s2, spec.dla_deg, spec.rla_deg
+        altitude_km, since_periapsis_s = spec.periapsis_altitude_km, spec.time_from_periapsis_s
+    else:
+        mission = DEPARTURE_MISSIONS[spec.mission]
+        c3, dla, rla = derived_launch_targets(mission)
+        altitude_km = mission.parking_altitude_km
+        periapsis = mission.start_utc_datetime() - timedelta(seconds=mission.time_from_periapsis_s())
+        since_periapsis_s = (epoch_utc - periapsis).total_seconds()
+        if since_periapsis_s < 0:
+            raise ValueError(f"departure mission {spec.mission!r}: the scenario epoch is {-since_periapsis_s:.0f} s "
+                             f"before its injection ({periapsis.isoformat()})")
+    inclination = spec.parking_inclination_deg or parking_inclination_deg(dla)
+    return departure_state_km_at(c3, dla, rla, periapsis_radius_km(altitude_km), since_periapsis_s, inclination,
+                                 spec.branch)
 
 
 def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> np.ndarray:
     if spacecraft.state_km is not None:
         return np.asarray(spacecraft.state_km, dtype=float) / SCALE
+    if spacecraft.departure is not None:
+        return departure_state_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
     forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
     span_s = scenario.duration_days * SECONDS_PER_DAY
     spacing_s = min(scenario.ephemeris.node_spacing_days * SECONDS_PER_DAY, span_s)

@@ -24,6 +24,8 @@ from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_r
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
 ICRF_STATE_ORBIT = "icrf_state"
+DEPARTURE_ORBIT = "departure"
+DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT)
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
@@ -111,6 +113,49 @@ class ClockSpec(StrictModel):
         return CLOCK_PRESETS[self.preset].mu2_per_s if self.preset is not None else 0.0
 
 
+class DepartureSpec(StrictModel):
+    """A hyperbolic Earth departure (orbit: departure, dynamics: ephemeris): one of 003's missions, whose
+    launch targets are derived on DE421 (orbits.departure_missions), or C3 / DLA / RLA given directly."""
+
+    mission: str | None = Field(None, description="cassini | mer_a | msl (003)")
+    c3_km2_s2: float | None = Field(None, description="launch energy, > 0")
+    dla_deg: float | None = Field(None, ge=-90.0, le=90.0, description="declination of the outgoing asymptote")
+    rla_deg: float | None = Field(None, ge=-360.0, le=360.0, description="right ascension of the asymptote")
+    periapsis_altitude_km: float = Field(185.0, gt=0, description="parking orbit altitude (injection at periapsis)")
+    time_from_periapsis_s: float = Field(0.0, ge=0, description="at the scenario epoch")
+    parking_inclination_deg: float | None = Field(None, gt=0, lt=180, description="default max(28.5, |DLA|)")
+    branch: Literal[1, -1] = Field(1, description="which of the two planes of that inclination")
+
+    @field_validator("mission")
+    @classmethod
+    def _known_mission(cls, value):
+        from liaison_cli.orbits.departure_missions import departure_mission_names
+
+        if value is not None and value not in departure_mission_names():
+            raise ValueError(f"unknown mission {value!r}; allowed: {', '.join(departure_mission_names())}")
+        return value
+
+    @field_validator("c3_km2_s2")
+    @classmethod
+    def _hyperbolic(cls, value):
+        if value is not None and value <= 0:
+            raise ValueError(f"C3 = {value:g} km^2/s^2 is no departure: a hyperbola needs C3 > 0")
+        return value
+
+    @model_validator(mode="after")
+    def _mission_or_targets(self):
+        targets = [self.c3_km2_s2, self.dla_deg, self.rla_deg]
+        if self.mission is not None and any(t is not None for t in targets):
+            raise ValueError(f"mission {self.mission!r} derives c3_km2_s2 / dla_deg / rla_deg; remove them")
+        if self.mission is None and any(t is None for t in targets):
+            raise ValueError("give a mission, or all of c3_km2_s2, dla_deg and rla_deg")
+        if (self.parking_inclination_deg is not None and self.dla_deg is not None
+                and min(self.parking_inclination_deg, 180.0 - self.parking_inclination_deg) < abs(self.dla_deg)):
+            raise ValueError(f"parking_inclination_deg = {self.parking_inclination_deg:g} cannot hold an asymptote at "
+                             f"dla_deg = {self.dla_deg:g} (needs an inclination of at least |DLA|)")
+        return self
+
+
 class SpacecraftSpec(StrictModel):
     name: str = Field(pattern=NAME_PATTERN)
     role: Literal["estimated", "known"] = Field(
@@ -127,11 +172,16 @@ class SpacecraftSpec(StrictModel):
                                          "(km, km/s; dynamics: ephemeris)")
     clock: ClockSpec | None = Field(None, description="an onboard clock (estimated by the EKF; simulated, and "
                                     "synchronised by a clock fit, with the batch estimator)")
+    departure: DepartureSpec | None = Field(None, description="orbit: departure: the hyperbola (dynamics: ephemeris)")
+    apriori_sigma_position_m: float | None = Field(
+        None, gt=0, description="this spacecraft's filter a-priori sigma and (initial_error draw fixed_sigma) its "
+        "initial-error sigma; default: the filter's and initial_error's")
+    apriori_sigma_velocity_m_s: float | None = Field(None, gt=0, description="as apriori_sigma_position_m")
 
     @field_validator("orbit")
     @classmethod
     def _known_orbit(cls, value):
-        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names(), ICRF_STATE_ORBIT]
+        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS]
         if value not in allowed:
             raise ValueError(f"unknown orbit {value!r}; allowed: {', '.join(allowed)}")
         return value
@@ -149,6 +199,8 @@ class SpacecraftSpec(StrictModel):
                 f"'period_days' / 'amplitude_km' are only allowed with an orbit family ({', '.join(family_names())})")
         if (self.orbit == ICRF_STATE_ORBIT) != (self.state_km is not None):
             raise ValueError(f"orbit {ICRF_STATE_ORBIT!r} and 'state_km' (6 numbers) go together")
+        if (self.orbit == DEPARTURE_ORBIT) != (self.departure is not None):
+            raise ValueError(f"orbit {DEPARTURE_ORBIT!r} and a 'departure' section go together")
         if self.state_km is not None and len(self.state_km) != 6:
             raise ValueError(f"'state_km' needs 6 numbers (x, y, z km, vx, vy, vz km/s), got {len(self.state_km)}")
         if self.role == "known" and self.clock is not None:
@@ -161,10 +213,29 @@ class GroundStationSpec(StrictModel):
     of the Earth-Moon line at t0; it sees spacecraft above its elevation mask."""
 
     name: str = Field(pattern=NAME_PATTERN)
+    site: str | None = Field(None, description="a named DSN site (dynamics: ephemeris), its 70 m antenna's "
+                             "coordinates instead of latitude_deg / longitude_deg / altitude_m")
     latitude_deg: float = Field(ge=-90.0, le=90.0)
     longitude_deg: float = Field(ge=-180.0, le=360.0)
     altitude_m: float = Field(0.0, ge=-500.0, le=9000.0)
     elevation_mask_deg: float = Field(10.0, ge=0.0, lt=90.0)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _site_coordinates(cls, data):
+        if not isinstance(data, dict) or data.get("site") is None:
+            return data
+        from liaison_cli.dynamics.dsn_sites import dsn_site_geodetic, dsn_site_names
+
+        site = data["site"]
+        if site not in dsn_site_names():
+            raise ValueError(f"unknown site {site!r}; allowed: {', '.join(dsn_site_names())}")
+        coordinates = dict(zip(("latitude_deg", "longitude_deg", "altitude_m"), dsn_site_geodetic(site)))
+        # a validated scenario written back (model_dump) carries the site's own coordinates: those pass
+        clash = [k for k, v in coordinates.items() if k in data and data[k] != v]
+        if clash:
+            raise ValueError(f"site {site!r} gives the coordinates; remove {', '.join(clash)}")
+        return {**data, **coordinates}
 
 
 ObservableName = Literal[tuple(OBSERVABLES)]
@@ -303,7 +374,9 @@ class NoiseSpec(StrictModel):
     ranging_power_fraction_db: float | None = Field(None, le=0)
     carrier: CarrierSpec | None = None
     bias_m: float = 0.0
-    bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a N(0, bias_sigma_m) bias is added")
+    bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a random bias of this 1-sigma is added")
+    bias_distribution: Literal["normal", "uniform"] = Field(
+        "normal", description="the per-run bias's law: normal, or uniform over +-sqrt(3) bias_sigma_m (003)")
     pn_chip_rate_offset_hz: float | None = Field(
         None, description="PN ranging: received minus local chip rate; adds the constant bias of 000 Eq. 2")
     range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels")
@@ -452,12 +525,18 @@ class FilterSpec(StrictModel):
         "ignore", description="range bias per link: not modelled, estimated (augmented state) or considered"
     )
     bias_apriori_sigma_m: float | None = Field(None, gt=0, description="a-priori 1-sigma of each link's bias")
+    underweighting: float = Field(
+        0.0, ge=0, le=10, description="Lear's underweighting beta of the EKF gain, K = P H' ((1+beta) H P H' + R)^-1: "
+        "keeps a large a-priori error from being corrected on a linearisation not yet good (e.g. 0.2)")
 
     @model_validator(mode="after")
     def _bias_needs_apriori(self):
         if self.bias != "ignore" and self.bias_apriori_sigma_m is None:
             raise ValueError(f"bias {self.bias!r} needs 'bias_apriori_sigma_m' (the a-priori 1-sigma, m)")
         return self
+
+
+ThirdBodyName = Literal["moon", "sun", "mercury", "venus", "mars", "jupiter", "saturn", "uranus", "neptune", "pluto"]
 
 
 class EphemerisSpec(StrictModel):
@@ -469,6 +548,17 @@ class EphemerisSpec(StrictModel):
     node_spacing_days: float = Field(1.0, gt=0, description="patch-point spacing for catalog orbits")
     cr_error_sigma: float = Field(0.0, ge=0, lt=1, description="per run, the filter's C_R is the truth's times "
                                   "(1 + N(0, cr_error_sigma)) (003: 0.05)")
+    filter_bodies: list[ThirdBodyName] = Field(
+        default_factory=lambda: ["moon", "sun"],
+        description="third bodies in the filter's model beside the Earth (the truth has them all; 003: the Moon "
+        "and the Sun)")
+
+    @field_validator("filter_bodies")
+    @classmethod
+    def _no_repeated_bodies(cls, value):
+        if len(set(value)) != len(value):
+            raise ValueError(f"repeated body in {value}")
+        return value
 
     @field_validator("epoch_utc")
     @classmethod
@@ -547,6 +637,9 @@ class Scenario(StrictModel):
     spacecraft: list[SpacecraftSpec] = Field(min_length=1)
     ground_stations: list[GroundStationSpec] = Field(default_factory=list)
     links: list[LinkSpec] = Field(min_length=1)
+    station_priority: list[str] | None = Field(
+        None, description="one ground observation per epoch and spacecraft: of the listed stations that see it, "
+        "only the first measures (003: Goldstone, Madrid, Canberra)")
     dynamics: Literal["crtbp", "ephemeris"] = "crtbp"
     ephemeris: EphemerisSpec | None = None
     estimator: Literal[tuple(estimator_names())] = "ekf"
@@ -588,6 +681,7 @@ class Scenario(StrictModel):
             receiver = self.participant(link.receiver)
             for observable in link.observables:
                 self._check_observable(i, link, observable, receiver)
+        self._check_station_priority()
         self._check_batch()
         self._check_clock_sync()
         self._check_dynamics()
@@ -629,12 +723,28 @@ class Scenario(StrictModel):
                                      "batch estimator solves for orbits only; use dual_one_way_derived (range + "
                                      "clock offset, synchronised by clock_sync) or the ekf")
 
+    def _check_station_priority(self):
+        if self.station_priority is None:
+            return
+        stations = [st.name for st in self.ground_stations]
+        for i, name in enumerate(self.station_priority):
+            if name not in stations:
+                raise ValueError(f"station_priority[{i}] = {name!r} is not a ground station; defined: "
+                                 f"{', '.join(stations) or 'none'}")
+        if len(set(self.station_priority)) != len(self.station_priority):
+            raise ValueError(f"station_priority lists a station twice: {self.station_priority}")
+
     def _check_dynamics(self):
         if self.dynamics == "crtbp":
+            for i, st in enumerate(self.ground_stations):
+                if st.site is not None:
+                    raise ValueError(f"ground_stations[{i}].site = {st.site!r} needs dynamics: ephemeris (CRTBP "
+                                     "stations take a longitude from the Earth-Moon line, not a true one)")
             if self.ephemeris is not None:
                 raise ValueError("an 'ephemeris' section needs dynamics: ephemeris")
-            if any(sc.orbit == ICRF_STATE_ORBIT for sc in self.spacecraft):
-                raise ValueError(f"orbit {ICRF_STATE_ORBIT!r} needs dynamics: ephemeris")
+            for i, sc in enumerate(self.spacecraft):
+                if sc.orbit in DATED_ONLY_ORBITS:
+                    raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r} needs dynamics: ephemeris")
             return
         if self.ephemeris is None:
             raise ValueError("key 'dynamics' = 'ephemeris' needs an 'ephemeris' section with its epoch_utc")
@@ -655,13 +765,29 @@ class Scenario(StrictModel):
         for i, link in enumerate(self.links):
             unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s")
                            or OBSERVABLES[o].needs_receiver_clock or OBSERVABLES[o].needs_both_clocks]
-            if unsupported or link.occultation:
-                raise ValueError(f"links[{i}]: dynamics: ephemeris takes range and range-rate links without "
-                                 f"occultation today; got {', '.join(unsupported) or 'occultation: true'}")
+            if unsupported:
+                raise ValueError(f"links[{i}]: dynamics: ephemeris takes range and range-rate links today; got "
+                                 f"{', '.join(unsupported)}")
+        self._check_departures()
         for i, sc in enumerate(self.spacecraft):
             if sc.orbit == KEPLERIAN_ORBIT or sc.orbit in FAMILIES:
                 raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog orbit "
-                                 f"(corrected into the dated model) or {ICRF_STATE_ORBIT!r}")
+                                 f"(corrected into the dated model), {ICRF_STATE_ORBIT!r} or {DEPARTURE_ORBIT!r}")
+
+    def _check_departures(self):
+        from datetime import timedelta
+
+        from liaison_cli.orbits.departure_missions import DEPARTURE_MISSIONS
+
+        for i, sc in enumerate(self.spacecraft):
+            if sc.departure is None or sc.departure.mission is None:
+                continue
+            mission = DEPARTURE_MISSIONS[sc.departure.mission]
+            injection = mission.start_utc_datetime() - timedelta(seconds=mission.time_from_periapsis_s())
+            if self.ephemeris.epoch() < injection:
+                raise ValueError(f"spacecraft[{i}].departure.mission = {sc.departure.mission!r}: the scenario epoch "
+                                 f"{self.ephemeris.epoch_utc} is before its injection "
+                                 f"({injection.strftime('%Y-%m-%dT%H:%M:%S')} UTC)")
 
     def _check_clock_sync(self):
         if self.clock_sync is None:

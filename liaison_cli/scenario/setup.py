@@ -202,18 +202,42 @@ def dynamics_model(scenario: Scenario):
     return crtbp_model(MU)
 
 
-def _visible(scenario: Scenario, link, trajectories) -> np.ndarray:
+def _station_priority(scenario: Scenario, visibility: list) -> list:
+    """One ground observation per epoch and spacecraft (003): of the prioritised stations that see a
+    spacecraft, only the first keeps its link's epoch; links without such a station are untouched."""
+    if scenario.station_priority is None:
+        return visibility
+    out = list(visibility)
+    rank = {name: r for r, name in enumerate(scenario.station_priority)}
+    by_target = {}
+    for i, link in enumerate(scenario.links):
+        station = next((end for end in (link.receiver, link.transponder) if end in rank), None)
+        if station is not None:
+            target = link.transponder if station == link.receiver else link.receiver
+            by_target.setdefault(target, []).append((rank[station], i))
+    for ranked in by_target.values():
+        taken = np.zeros_like(out[0])
+        for _, i in sorted(ranked):
+            out[i] = out[i] & ~taken
+            taken |= out[i]
+    return out
+
+
+def _visible(scenario: Scenario, link, trajectories, model, times_s) -> np.ndarray:
     """(m,) True where the link can measure: station elevation masks, optional Earth / Moon occultation."""
     receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
     visible = np.ones(len(receiver.states), dtype=bool)
     stations = {st.name: st for st in scenario.ground_stations}
+    on_ground = link.receiver in stations or link.transponder in stations
     for station, other in ((link.receiver, transponder), (link.transponder, receiver)):
         if station in stations:
             track = trajectories[station]
             elevation = elevation_rad(track.states[:, 0:3], track.up, other.states[:, 0:3])
             visible &= elevation >= np.radians(stations[station].elevation_mask_deg)
     if link.occultation:
-        visible &= not_occulted(receiver.states[:, 0:3], transponder.states[:, 0:3])
+        bodies = model.body_positions_lu(times_s) if hasattr(model, "body_positions_lu") else {}
+        visible &= not_occulted(receiver.states[:, 0:3], transponder.states[:, 0:3], **bodies,
+                                check_earth=not on_ground)
     return visible
 
 
@@ -221,10 +245,11 @@ def _truth_and_measurements(scenario: Scenario, model: DynamicsModel):
     """times_s (m,), {name: trajectory}, noise-free measurements (m, C) with row 0 NaN."""
     times_s = measurement_times_s(scenario)
     trajectories = _trajectories(scenario, model, times_s)
+    visibility = _station_priority(scenario, [_visible(scenario, link, trajectories, model, times_s)
+                                              for link in scenario.links])
     columns = []
-    for link in scenario.links:
+    for link, visible in zip(scenario.links, visibility):
         receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
-        visible = _visible(scenario, link, trajectories)
         for observable in link_observables(link):
             for channel in observable.channels:
                 values = observable.simulate(channel.code, receiver, transponder, scenario.measurement.light_time)
@@ -263,6 +288,23 @@ def _clock_scale() -> np.ndarray:
     return np.array([SPEED_OF_LIGHT_M_S / M_PER_LU, SPEED_OF_LIGHT_M_S / M_S_PER_VU])
 
 
+def _apriori_sigmas(spacecraft, position_m: float, velocity_m_s: float) -> tuple[float, float]:
+    """A spacecraft's own a-priori sigmas where it gives them, else the scenario-wide ones."""
+    own_r, own_v = spacecraft.apriori_sigma_position_m, spacecraft.apriori_sigma_velocity_m_s
+    return (position_m if own_r is None else own_r), (velocity_m_s if own_v is None else own_v)
+
+
+def _initial_error_sigma(scenario: Scenario) -> np.ndarray:
+    """(6 n_sc,) per-axis sigmas of the fixed_sigma initial error, scaled units."""
+    ie = scenario.initial_error
+    by_name = {sc.name: sc for sc in scenario.spacecraft}
+    out = []
+    for name in scenario.spacecraft_names():
+        sigma_r, sigma_v = _apriori_sigmas(by_name[name], ie.sigma_position_m, ie.sigma_velocity_m_s)
+        out += [sigma_r / M_PER_LU] * 3 + [sigma_v / M_S_PER_VU] * 3
+    return np.array(out)
+
+
 def _matrices(scenario: Scenario, layout: StateLayout):
     """P0 and Q (n, n), block by block."""
     n = layout.n
@@ -273,8 +315,9 @@ def _matrices(scenario: Scenario, layout: StateLayout):
     for block, a in zip(layout.blocks, layout.starts):
         s = slice(a, a + block.size)
         if block.kind == BLOCK_SPACECRAFT:
-            P0[s, s] = per_axis_block_diagonal(1, (flt.initial_sigma_position_m / M_PER_LU) ** 2,
-                                               (flt.initial_sigma_velocity_m_s / M_S_PER_VU) ** 2)
+            sigma_r, sigma_v = _apriori_sigmas(by_name[block.owner], flt.initial_sigma_position_m,
+                                               flt.initial_sigma_velocity_m_s)
+            P0[s, s] = per_axis_block_diagonal(1, (sigma_r / M_PER_LU) ** 2, (sigma_v / M_S_PER_VU) ** 2)
             # State-noise compensation: white acceleration sigma_a on each velocity axis, q = (sigma_a dt)^2.
             own = by_name[block.owner].process_noise_accel_m_s2
             sigma_a = flt.process_noise_accel_m_s2 if own is None else own
@@ -396,12 +439,11 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         layout=layout, P0=P0, Q=Q, known_states=known_states,
         channel_kind=np.array([ch.kind for ch in channels], dtype=np.int64), channel_ends=ends,
         channel_flags=flags, channel_mod_index=mod_index, channel_mod_coeff=mod_coeff,
-        sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.params,
+        sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.filter_params,
         dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
-        divergence_position_lu=flt.divergence_position_km / LU_KM,
+        divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting,
         batch=_batch_arrays(scenario, model, times_s, trajectories),
     )
-    ie = scenario.initial_error
     sc_index = {name: i for i, name in enumerate(names)}
     return Problem(
         scenario=scenario,
@@ -419,7 +461,6 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         bias_sigma_lu=scenario.noise.bias_sigma_m / M_PER_LU,
         bias_state_start=layout.start_of(BLOCK_CONSTANT, "bias 0"),
         clocks=_clock_truths(scenario, channels, layout),
-        initial_error_sigma=np.diag(per_axis_block_diagonal(
-            len(names), ie.sigma_position_m / M_PER_LU, ie.sigma_velocity_m_s / M_S_PER_VU)).copy(),
+        initial_error_sigma=_initial_error_sigma(scenario),
         dynamics=model,
     )

@@ -1,0 +1,92 @@
+"""003's study as a table and figures: the 3D RMS table, per-mission histories (the analogue of 003 Figs.
+2-5, 8-9, 12-13) and the departing spacecraft's error for the three missions (the analogue of Fig. 15)."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+CASE_TITLES = {"full": "DSN + LiAISON", "dsn_only": "DSN only", "liaison_only": "LiAISON only"}
+
+
+def _fmt(value: float, scale: float, digits: int) -> str:
+    return "—" if not np.isfinite(value) else f"{value * scale:.{digits}f}"
+
+
+def format_table(summary: pd.DataFrame) -> str:
+    """Markdown: per mission, case and spacecraft the 3D RMS of the formal sigma and of the error."""
+    lines = ["| mission | case | spacecraft | σ 3D RMS pos m | 003 | error 3D RMS pos m | σ 3D RMS vel mm/s | 003 | "
+             "error 3D RMS vel mm/s | inside 3σ pos | runs ok |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in summary.itertuples():
+        lines.append(
+            f"| {r.mission} | {CASE_TITLES[r.case]} | {r.spacecraft} | {_fmt(r.sigma3d_rms_position_m, 1, 1)} | "
+            f"{_fmt(r.paper_sigma3d_rms_position_m, 1, 0)} | {_fmt(r.error3d_rms_position_m, 1, 1)} | "
+            f"{_fmt(r.sigma3d_rms_velocity_m_s, 1e3, 2)} | {_fmt(r.paper_sigma3d_rms_velocity_m_s, 1e3, 2)} | "
+            f"{_fmt(r.error3d_rms_velocity_m_s, 1e3, 2)} | {100 * r.inside_3sigma_position:.1f} % | "
+            f"{r.runs_ok}/{r.runs} |")
+    return "\n".join(lines) + "\n"
+
+
+def _save(fig, path: Path) -> Path:
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    tmp.replace(path)
+    return path
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def draw_mission(history: pd.DataFrame, mission: str, out_dir: Path) -> Path:
+    """Rows: navigation position / velocity, departure position / velocity; columns: the three cases.
+    Solid: RMS over the runs of the error norm; dashed: the mean 3-sigma bound of the norm."""
+    plt = _pyplot()
+    data = history[history.mission == mission]
+    panels = [(role, quantity) for role in ("navigation", "departure") for quantity in ("position", "velocity")]
+    fig, axes = plt.subplots(len(panels), 3, figsize=(13, 11), sharex=True, squeeze=False)
+    for col, case in enumerate(CASE_TITLES):
+        for row, (role, quantity) in enumerate(panels):
+            ax = axes[row, col]
+            part = data[(data.case == case) & (data.role == role) & (data.quantity == quantity)]
+            scale, unit = (1.0, "m") if quantity == "position" else (1e3, "mm/s")
+            ax.semilogy(part.t_days, part.error_rms * scale, color="tab:blue", lw=1, label="error RMS")
+            ax.semilogy(part.t_days, part.bound_3sigma * scale, color="tab:red", lw=1, ls="--", label="3σ")
+            if col == 0:
+                name = part.spacecraft.iloc[0] if len(part) else role
+                ax.set_ylabel(f"{name} {quantity} ({unit})")
+            if row == 0:
+                ax.set_title(CASE_TITLES[case])
+            ax.grid(True, which="both", alpha=0.3)
+        axes[-1, col].set_xlabel("days")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{mission}: error norm (RMS over runs) and 3σ bound")
+    fig.tight_layout()
+    path = _save(fig, out_dir / f"{mission}_histories.png")
+    plt.close(fig)
+    return path
+
+
+def draw_comparison(history: pd.DataFrame, out_dir: Path) -> Path:
+    """The departing spacecraft's position error RMS, one line per mission, one panel per case."""
+    plt = _pyplot()
+    data = history[(history.role == "departure") & (history.quantity == "position")]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4), sharey=True)
+    for ax, case in zip(axes, CASE_TITLES):
+        for mission, part in data[data.case == case].groupby("mission"):
+            ax.semilogy(part.t_days, part.error_rms, lw=1, label=mission)
+        ax.set_title(CASE_TITLES[case])
+        ax.set_xlabel("days")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("departing spacecraft position error RMS (m)")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    path = _save(fig, out_dir / "departures_position_error.png")
+    plt.close(fig)
+    return path
