@@ -3,9 +3,9 @@
 The reference is the obvious implementation, written here only as a yardstick: scipy solve_ivp (DOP853,
 rtol 1e-10, atol 1e-9 km) once per measurement interval on state + STM, with the Moon's and the Sun's
 positions from jplephem's own `compute` at every right-hand-side call, point masses of the Earth, Moon
-and Sun plus cannonball SRP without shadow, numpy range / range-rate partials and the same underweighted
-Joseph update. Its model is the filter's (Earth, Moon, Sun; the run's drawn C_R), bar the shadow, so both
-filters must give the same errors to a small fraction of the RMS.
+and Sun plus cannonball SRP with its own conical shadow of the Earth and the Moon, numpy range /
+range-rate partials and the same underweighted Joseph update. Its model is the filter's (Earth, Moon,
+Sun; the run's drawn C_R), so both filters must give the same errors to a small fraction of the RMS.
 
     python -m benchmarks.ephemeris_vs_reference [--scenario scenarios/003/cassini.yaml] [--runs 10]
 """
@@ -19,7 +19,7 @@ from scipy.integrate import solve_ivp
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, J2000_JD, SECONDS_PER_DAY, de421_path
-from liaison_cli.dynamics.ephemeris_dynamics import AU_KM, P_1AU_N_M2
+from liaison_cli.dynamics.ephemeris_dynamics import AU_KM, P_1AU_N_M2, R_EARTH_KM, R_MOON_KM, R_SUN_KM
 from liaison_cli.dynamics.ephemeris_model import PARAM_CR_AM, SCALE
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.measurements.range import KIND_RANGE
@@ -45,6 +45,24 @@ class PlainSky:
         return moon, sun
 
 
+def _sunlit_fraction(r, sun, body, radius_body_km):
+    """Conical shadow: the share of the solar disc seen from r past one occulting sphere."""
+    to_sun, to_body = sun - r, body - r
+    a = np.arcsin(R_SUN_KM / np.linalg.norm(to_sun))
+    b = np.arcsin(radius_body_km / np.linalg.norm(to_body))
+    c = np.arccos(np.clip(to_sun @ to_body / (np.linalg.norm(to_sun) * np.linalg.norm(to_body)), -1.0, 1.0))
+    if c >= a + b:
+        return 1.0
+    if c <= b - a:
+        return 0.0
+    if c <= a - b:
+        return 1.0 - (b / a) ** 2
+    x = (c * c + a * a - b * b) / (2.0 * c)
+    y = np.sqrt(max(a * a - x * x, 0.0))
+    overlap = a * a * np.arccos(x / a) + b * b * np.arccos((c - x) / b) - c * y
+    return 1.0 - overlap / (np.pi * a * a)
+
+
 def _rhs(t_s, y, sky, cr_am):
     r = y[:3]
     moon, sun = sky.moon_sun(t_s)
@@ -55,7 +73,8 @@ def _rhs(t_s, y, sky, cr_am):
         acc += gm * (d / np.linalg.norm(d) ** 3 - r_b / np.linalg.norm(r_b) ** 3)
         G += gm * (3.0 * np.outer(d, d) / np.linalg.norm(d) ** 5 - np.eye(3) / np.linalg.norm(d) ** 3)
     d = r - sun
-    acc += P_1AU_N_M2 * (AU_KM / np.linalg.norm(d)) ** 2 * cr_am * 1e-3 * d / np.linalg.norm(d)
+    nu = _sunlit_fraction(r, sun, np.zeros(3), R_EARTH_KM) * _sunlit_fraction(r, sun, moon, R_MOON_KM)
+    acc += nu * P_1AU_N_M2 * (AU_KM / np.linalg.norm(d)) ** 2 * cr_am * 1e-3 * d / np.linalg.norm(d)
     A = np.zeros((6, 6))
     A[:3, 3:] = np.eye(3)
     A[3:, :3] = G
