@@ -44,9 +44,9 @@ def test_dual_one_way_partials_match_central_differences(kind, flags):
     x_i = CATALOG["nrho_gateway"].state()
     x_j = CATALOG["nrho_anchor_1"].state()
     g_i, g_j = np.empty(6), np.empty(6)
-    value = predict(kind, x_i, x_j, flags, g_i, g_j)
+    value = predict(kind, x_i, x_j, x_i, flags, g_i, g_j, np.empty(6))
     assert np.isfinite(value)
-    scratch = np.empty(6), np.empty(6)
+    scratch = np.empty(6), np.empty(6), np.empty(6)
     for which, (x, g) in enumerate(((x_i, g_i), (x_j, g_j))):
         for axis in range(6):
             h = 1e-7
@@ -55,7 +55,7 @@ def test_dual_one_way_partials_match_central_differences(kind, flags):
             minus[axis] -= h
             ends_plus = (plus, x_j) if which == 0 else (x_i, plus)
             ends_minus = (minus, x_j) if which == 0 else (x_i, minus)
-            numeric = (predict(kind, *ends_plus, flags, *scratch) - predict(kind, *ends_minus, flags, *scratch)) / (2 * h)
+            numeric = (predict(kind, *ends_plus, x_i, flags, *scratch) - predict(kind, *ends_minus, x_i, flags, *scratch)) / (2 * h)
             assert g[axis] == pytest.approx(numeric, rel=1e-6, abs=1e-9), (which, axis)
 
 
@@ -63,16 +63,16 @@ def test_dual_one_way_pair_means_range_and_half_difference_offset():
     """Without light time the two pseudoranges share their geometry: the mean is the range, the half
     difference's geometric part is zero; the two raw channels carry the clocks with opposite signs."""
     x_i, x_j = CATALOG["nrho_gateway"].state(), CATALOG["nrho_anchor_2"].state()
-    g = np.empty(6), np.empty(6)
+    g = np.empty(6), np.empty(6), np.empty(6)
     rho = np.linalg.norm(x_i[:3] - x_j[:3])
-    assert predict(KIND_DUAL_RANGE, x_i, x_j, 0, *g) == pytest.approx(rho, rel=1e-15)
-    assert predict(KIND_CLOCK_OFFSET, x_i, x_j, 0, *g) == 0.0
-    assert predict(KIND_PSEUDORANGE_JI, x_i, x_j, 0, *g) == pytest.approx(rho, rel=1e-15)
+    assert predict(KIND_DUAL_RANGE, x_i, x_j, x_i, 0, *g) == pytest.approx(rho, rel=1e-15)
+    assert predict(KIND_CLOCK_OFFSET, x_i, x_j, x_i, 0, *g) == 0.0
+    assert predict(KIND_PSEUDORANGE_JI, x_i, x_j, x_i, 0, *g) == pytest.approx(rho, rel=1e-15)
     # With light time the two directions differ by the motion during the flight.
-    forward = predict(KIND_PSEUDORANGE_IJ, x_i, x_j, FLAG_LIGHT_TIME, *g)
-    backward = predict(KIND_PSEUDORANGE_JI, x_i, x_j, FLAG_LIGHT_TIME, *g)
+    forward = predict(KIND_PSEUDORANGE_IJ, x_i, x_j, x_i, FLAG_LIGHT_TIME, *g)
+    backward = predict(KIND_PSEUDORANGE_JI, x_i, x_j, x_i, FLAG_LIGHT_TIME, *g)
     assert forward != backward
-    assert predict(KIND_CLOCK_OFFSET, x_i, x_j, FLAG_LIGHT_TIME, *g) == pytest.approx(0.5 * (forward - backward))
+    assert predict(KIND_CLOCK_OFFSET, x_i, x_j, x_i, FLAG_LIGHT_TIME, *g) == pytest.approx(0.5 * (forward - backward))
 
 
 def test_raw_dual_one_way_puts_both_clocks_on_both_channels(tmp_path):

@@ -25,7 +25,7 @@ MATCHED_DYNAMICS = {"filter.process_noise_accel_m_s2": 0.0, "spacecraft.1.proces
 
 def _pseudorange(flat, flags):
     g_r, g_t = np.empty(6), np.empty(6)
-    value = predict(KIND_PSEUDORANGE, flat[:6].copy(), flat[6:].copy(), flags, g_r, g_t)
+    value = predict(KIND_PSEUDORANGE, flat[:6].copy(), flat[6:].copy(), flat[:6].copy(), flags, g_r, g_t, np.empty(6))
     return value, np.concatenate([g_r, g_t])
 
 
@@ -123,7 +123,7 @@ def test_a_known_partner_is_not_estimated_and_tightens_the_covariance():
     known = apply_overrides(scenario, {"spacecraft.1.role": "known"})
     problem = prepare_problem(known)
     assert problem.filter.layout.n == 6 and problem.spacecraft == ("EML2",)
-    assert list(problem.filter.channel_ends[0]) == [0, -1, -1, 0]
+    assert list(problem.filter.channel_ends[0]) == [0, -1, -1, 0, -1, -1]  # no second receiver
     both = run_campaign(scenario, jobs=1, progress=False).outcomes[0]
     alone = run_campaign(known, jobs=1, progress=False).outcomes[0]
     # Knowing the partner removes its uncertainty from every range: EML2's formal sigma can only shrink.

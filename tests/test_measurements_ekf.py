@@ -29,7 +29,7 @@ def _truth(hours=24.0, n=200):
 
 def _range(flat):
     g_a, g_b = np.empty(6), np.empty(6)
-    value = predict(KIND_RANGE, flat[:6].copy(), flat[6:].copy(), 0, g_a, g_b)
+    value = predict(KIND_RANGE, flat[:6].copy(), flat[6:].copy(), flat[:6].copy(), 0, g_a, g_b, np.empty(6))
     return value, np.concatenate([g_a, g_b])
 
 

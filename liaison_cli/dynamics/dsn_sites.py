@@ -1,11 +1,13 @@
-"""The three Deep Space Network complexes as named sites (003: Goldstone, Madrid, Canberra).
+"""Named ground sites: the three Deep Space Network complexes (003: Goldstone, Madrid, Canberra) and two
+VLBA antennas (004: Mauna Kea, Owens Valley).
 
 Each site is its 70 m antenna, given as published Earth-fixed Cartesian coordinates (m) and turned into
 WGS84 geodetic latitude, longitude and height here, the form a scenario's ground station takes.
 
 Source: J. Astron. Space Sci. 40(2), 79 (2023), Table 1 (DSN antennas allocated to KPLO): DSS 14, 43, 63.
 They agree with the IAU Commission 4 list of DSN coordinates (ITRF2005, epoch 2003.0) within 0.11 m for
-DSS 14 and DSS 43, far below the 10 m station noise of 003; tests/test_dsn_sites.py keeps that check.
+DSS 14 and DSS 43, far below the 10 m station noise of 003; tests/test_dsn_tracking.py keeps that check.
+VLBA: NRAO's VLBA Observational Status Summary, Table 1 (WGS84 geodetic, degrees-minutes-seconds, metres).
 """
 
 import numpy as np
@@ -20,8 +22,16 @@ DSN_SITES_ECEF_M = {
 }
 
 
+# name -> (antenna, latitude deg, east longitude deg, height m)
+VLBA_SITES = {
+    "mauna_kea": ("VLBA MK", 19 + 48 / 60 + 4.97 / 3600, -(155 + 27 / 60 + 19.81 / 3600), 3763.0),
+    "owens_valley": ("VLBA OV", 37 + 13 / 60 + 53.95 / 3600, -(118 + 16 / 60 + 37.37 / 3600), 1196.0),
+}
+
+
 def dsn_site_names() -> list[str]:
-    return list(DSN_SITES_ECEF_M)
+    """Every named site (DSN and VLBA)."""
+    return [*DSN_SITES_ECEF_M, *VLBA_SITES]
 
 
 def ecef_to_geodetic(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]:
@@ -44,6 +54,8 @@ def ecef_to_geodetic(x_m: float, y_m: float, z_m: float) -> tuple[float, float, 
 
 
 def dsn_site_geodetic(name: str) -> tuple[float, float, float]:
-    """(latitude_deg, longitude_deg, altitude_m) of a named DSN site."""
+    """(latitude_deg, longitude_deg, altitude_m) of a named site."""
+    if name in VLBA_SITES:
+        return VLBA_SITES[name][1:]
     _, x, y, z = DSN_SITES_ECEF_M[name]
     return ecef_to_geodetic(x, y, z)

@@ -76,16 +76,21 @@ def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts
 
 @njit(cache=True)
 def _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-         channel_mod_index, channel_mod_coeff, h, g_r, g_t):
+         channel_mod_index, channel_mod_coeff, h, g_r, g_t, g_s):
     """Predicted value of channel c at epoch k and its row h (n,) of partials w.r.t. the epoch state;
-    g_r, g_t (6,) are scratch for the partials w.r.t. the two ends' current states."""
+    g_r, g_t, g_s (6,) are scratch for the partials w.r.t. the ends' current states (g_s: a three-end
+    channel's second receiver)."""
     for i in range(h.shape[0]):
         h[i] = 0.0
     ends = channel_ends[c]
     x_r = traj[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
     x_t = traj[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
-    value = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_r, g_t)
-    for end, g in ((ends[0], g_r), (ends[2], g_t)):
+    if ends[4] < 0 and ends[5] < 0:
+        x_s = x_r
+    else:
+        x_s = traj[k, ends[4] : ends[4] + 6] if ends[4] >= 0 else known_states[k, ends[5]]
+    value = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_r, g_t, g_s)
+    for end, g in ((ends[0], g_r), (ends[2], g_t), (ends[4], g_s)):
         if end < 0:
             continue
         b = block_of_start[end]
@@ -115,6 +120,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
     h = np.empty(n)
     g_r = np.empty(6)
     g_t = np.empty(6)
+    g_s = np.empty(6)
     nz = np.empty(n, dtype=np.int64)
     for k in range(1, n_use):
         for c in range(n_channels):
@@ -122,7 +128,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
             if not np.isfinite(y):
                 continue
             value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-                         channel_mod_index, channel_mod_coeff, h, g_r, g_t)
+                         channel_mod_index, channel_mod_coeff, h, g_r, g_t, g_s)
             r = residual(channel_kind[c], y, value)
             w = 1.0 / (sigma[c] * sigma[c])
             ss[c] += r * r
@@ -152,13 +158,14 @@ def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channel_ki
     h = np.empty(n)
     g_r = np.empty(6)
     g_t = np.empty(6)
+    g_s = np.empty(6)
     for k in range(1, m):
         for c in range(n_channels):
             y = y_obs[k, c]
             if not np.isfinite(y):
                 continue
             value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-                         channel_mod_index, channel_mod_coeff, h, g_r, g_t)
+                         channel_mod_index, channel_mod_coeff, h, g_r, g_t, g_s)
             out[k, c] = residual(channel_kind[c], y, value)
             hph = h @ P @ h
             var = sigma[c] * sigma[c] + (-hph if k < n_use else hph)

@@ -28,9 +28,11 @@ STATUS_NAMES = {
     STATUS_ERROR_BEYOND_BOUND: "diverged: position error beyond the scenario bound",
 }
 
-# Columns of `channel_ends`: the receiving end and the transmitting (or transponding) end, each either an
-# estimated spacecraft (offset of its 6-state block in x) or a known participant (row of known_states).
+# Columns of `channel_ends`: the receiving end, the transmitting (or transponding) end and a three-end
+# channel's second receiver (TDoA, FDoA), each either an estimated spacecraft (offset of its 6-state block
+# in x) or a known participant (row of known_states); -1 in both columns of an end: no such end.
 END_RECEIVER_STATE, END_RECEIVER_KNOWN, END_TRANSMITTER_STATE, END_TRANSMITTER_KNOWN = 0, 1, 2, 3
+END_SECOND_STATE, END_SECOND_KNOWN = 4, 5
 
 
 @njit(cache=True, inline="always")
@@ -80,7 +82,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
     the filter states at the m epochs t_k = k * dt_tu; y_obs (m, C) observed values of the C scalar
     channels (row 0 unused, NaN = no measurement); known_states (m, K, 6) states of the known participants.
-    Per channel: channel_kind (C,) the measurement kind code; channel_ends (C, 4) see END_* (-1 = unused);
+    Per channel: channel_kind (C,) the measurement kind code; channel_ends (C, 6) see END_* (-1 = unused);
     channel_flags (C,) model flags for the kind; channel_mod_index / channel_mod_coeff (C, M): additive
     modifiers value += coeff * x[index] (range bias, clock phases; -1 = none); sigma (C,) 1-sigma.
     block_kind / block_start / block_size (B,): the state layout. model, model_params: the dynamics.
@@ -116,6 +118,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     H = np.zeros(n)
     g_receiver = np.empty(6)
     g_transmitter = np.empty(6)
+    g_second = np.empty(6)
     for k in range(1, m):
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
         _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
@@ -133,13 +136,17 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             ra, ta = ends[END_RECEIVER_STATE], ends[END_TRANSMITTER_STATE]
             x_r = _end_state(x_bar, known_states, k, ra, ends[END_RECEIVER_KNOWN])
             x_t = _end_state(x_bar, known_states, k, ta, ends[END_TRANSMITTER_KNOWN])
-            predicted = predict(channel_kind[c], x_r, x_t, channel_flags[c], g_receiver, g_transmitter)
+            sa, sk = ends[END_SECOND_STATE], ends[END_SECOND_KNOWN]
+            x_s = x_r if sa < 0 and sk < 0 else _end_state(x_bar, known_states, k, sa, sk)
+            predicted = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter, g_second)
             H[:] = 0.0
             for i in range(6):  # element loops: see _time_update
                 if ra >= 0:
-                    H[ra + i] = g_receiver[i]
+                    H[ra + i] += g_receiver[i]
                 if ta >= 0:
-                    H[ta + i] = g_transmitter[i]
+                    H[ta + i] += g_transmitter[i]
+                if sa >= 0:
+                    H[sa + i] += g_second[i]
             for j in range(n_mods):  # bias and clock modifiers: linear in their states
                 index = channel_mod_index[c, j]
                 if index >= 0:

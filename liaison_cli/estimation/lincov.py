@@ -64,11 +64,16 @@ def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
 
 
 @njit(cache=True, inline="always")
-def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t):
-    """The filter's model of one channel on the true states of its ends at one epoch (partials into g_r, g_t)."""
+def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
+    """The filter's model of one channel on the true states of its ends at one epoch (partials into g_r, g_t
+    and, for a three-end channel, g_s)."""
     x_r = truth_k[ends[0] : ends[0] + 6] if ends[0] >= 0 else known_k[ends[1]]
     x_t = truth_k[ends[2] : ends[2] + 6] if ends[2] >= 0 else known_k[ends[3]]
-    return predict(kind, x_r, x_t, flags, g_r, g_t)
+    if ends[4] < 0 and ends[5] < 0:
+        x_s = x_r
+    else:
+        x_s = truth_k[ends[4] : ends[4] + 6] if ends[4] >= 0 else known_k[ends[5]]
+    return predict(kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
 
 
 @njit(cache=True)
@@ -109,6 +114,7 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
     H = np.zeros(n)
     g_r = np.empty(6)
     g_t = np.empty(6)
+    g_s = np.empty(6)
     scratch = np.empty((n, n))
     for k in range(m):
         if k > 0:
@@ -129,13 +135,16 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                 if not np.isfinite(y_true[k, c]):
                     continue
                 ends = channel_ends[c]
-                predicted = _model_on_truth(truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r, g_t)
+                predicted = _model_on_truth(truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r,
+                                            g_t, g_s)
                 H[:] = 0.0
                 for i in range(6):
                     if ends[0] >= 0:
-                        H[ends[0] + i] = g_r[i]
+                        H[ends[0] + i] += g_r[i]
                     if ends[2] >= 0:
-                        H[ends[2] + i] = g_t[i]
+                        H[ends[2] + i] += g_t[i]
+                    if ends[4] >= 0:
+                        H[ends[4] + i] += g_s[i]
                 for j in range(n_mods):
                     if channel_mod_index[c, j] >= 0:
                         H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
@@ -170,10 +179,11 @@ def filter_model_along_truth(truth, y_true, known_states, channel_kind, channel_
     out = np.full((m, n_channels), np.nan)
     g_r = np.empty(6)
     g_t = np.empty(6)
+    g_s = np.empty(6)
     for k in range(m):
         for c in range(n_channels):
             if not np.isfinite(y_true[k, c]):
                 continue
             out[k, c] = _model_on_truth(truth[k], known_states[k], channel_ends[c], channel_kind[c], channel_flags[c],
-                                        g_r, g_t)
+                                        g_r, g_t, g_s)
     return out

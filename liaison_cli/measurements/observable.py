@@ -32,7 +32,8 @@ class Observable:
     clock_coefficients: (receiver, transmitter) factors of the ends' clock phase (range units) in the
     value; (0, 0) for two-way observables, whose clock terms cancel. One pair for every channel, or a
     tuple of pairs, one per channel (dual one-way: the second pseudorange is timed by the other end).
-    needs_receiver_clock / needs_both_clocks / needs_receiver_baseline: what the ends must carry.
+    needs_receiver_clock / needs_both_clocks / needs_receiver_baseline: what the ends must carry;
+    needs_second_receiver: the link names a second receiver (a third end) and simulate takes its trajectory.
     clock_offset_channel: index of the channel that measures the ends' clock offset (for synchronisation
     by a clock fit), or -1.
     """
@@ -47,6 +48,7 @@ class Observable:
     needs_both_clocks: bool = False
     clock_offset_channel: int = -1
     needs_receiver_baseline: bool = False
+    needs_second_receiver: bool = False  # a three-end channel (TDoA / FDoA): simulate(..., second=trajectory)
     filter_flags: Callable = lambda filter_spec: 0  # model options of the filter's prediction, as bit flags
     missing_noise: Callable = lambda noise: None  # what the noise section lacks for this observable, or None
     description: str = ""

@@ -8,17 +8,18 @@ To add an observable: a new file in `measurements/` with its kind code, a compil
 import numpy as np
 from numba import njit
 
-from liaison_cli.measurements import dual_one_way, los, pseudorange, range as range_, range_rate
+from liaison_cli.measurements import dual_one_way, los, pseudorange, range as range_, range_rate, tdoa
 from liaison_cli.measurements.dual_one_way import KIND_CLOCK_OFFSET, KIND_PSEUDORANGE_IJ, predict_dual_one_way
 from liaison_cli.measurements.los import KIND_AZIMUTH, KIND_ELEVATION, predict_angle, wrap_angle
 from liaison_cli.measurements.observable import ChannelKind, Observable
 from liaison_cli.measurements.pseudorange import KIND_PSEUDORANGE, predict_pseudorange
 from liaison_cli.measurements.range import KIND_RANGE, predict_range
 from liaison_cli.measurements.range_rate import KIND_RANGE_RATE, predict_range_rate
+from liaison_cli.measurements.tdoa import KIND_FDOA, KIND_TDOA, predict_difference
 
 OBSERVABLES: dict[str, Observable] = {
     obs.name: obs for obs in (range_.OBSERVABLE, range_rate.OBSERVABLE, los.OBSERVABLE, pseudorange.OBSERVABLE,
-                              dual_one_way.RAW, dual_one_way.DERIVED)
+                              dual_one_way.RAW, dual_one_way.DERIVED, tdoa.TDOA, tdoa.FDOA)
 }
 CHANNEL_KINDS: dict[int, ChannelKind] = {ch.code: ch for obs in OBSERVABLES.values() for ch in obs.channels}
 assert len(CHANNEL_KINDS) == sum(len(obs.channels) for obs in OBSERVABLES.values()), "kind codes must be unique"
@@ -36,10 +37,11 @@ def get_observable(name: str) -> Observable:
 
 
 @njit(cache=True, inline="always")
-def predict(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
+def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
     """Predicted value of a channel of this kind (filter units) from its ends' states (6,) each; writes
-    d(value)/d(end state) into g_receiver, g_transmitter (6,). Clock and bias modifiers are added by the
-    caller from the channel's modifier table (they are linear in their states)."""
+    d(value)/d(end state) into g_receiver, g_transmitter, g_second (6,). x_second / g_second: the second
+    receiver of a three-end channel (TDoA, FDoA); two-end kinds leave them alone. Clock and bias modifiers
+    are added by the caller from the channel's modifier table (they are linear in their states)."""
     if kind == KIND_RANGE:
         return predict_range(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
     if kind == KIND_RANGE_RATE:
@@ -50,6 +52,8 @@ def predict(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter):
         return predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
     if KIND_PSEUDORANGE_IJ <= kind <= KIND_CLOCK_OFFSET:
         return predict_dual_one_way(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+    if kind == KIND_TDOA or kind == KIND_FDOA:
+        return predict_difference(kind, x_receiver, x_transmitter, x_second, g_receiver, g_transmitter, g_second)
     return np.nan
 
 
@@ -69,6 +73,8 @@ def predict_along(kind, receiver_states, transmitter_states, flags):
     values = np.empty(m)
     g_receiver = np.empty((m, 6))
     g_transmitter = np.empty((m, 6))
+    g_unused = np.empty(6)
     for k in range(m):
-        values[k] = predict(kind, receiver_states[k], transmitter_states[k], flags, g_receiver[k], g_transmitter[k])
+        values[k] = predict(kind, receiver_states[k], transmitter_states[k], receiver_states[k], flags, g_receiver[k],
+                            g_transmitter[k], g_unused)
     return values, g_receiver, g_transmitter

@@ -21,7 +21,6 @@ from liaison_cli.dynamics.earth_rotation import station_gcrf
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
-from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.departure import departure_state_km as departure_state_km_at
 from liaison_cli.orbits.departure_missions import (
     DEPARTURE_MISSIONS,
@@ -30,6 +29,7 @@ from liaison_cli.orbits.departure_missions import (
     periapsis_radius_km,
 )
 from liaison_cli.orbits.ephemeris_correction import ForceModel, multiple_shooting, patch_points_from_crtbp
+from liaison_cli.scenario.reference_states import phased_state_lu
 
 THIRD_BODIES = (301, 10, 1, 2, 4, 5, 6, 7, 8, 9)  # Moon, Sun, the planets' systems
 BODY_CODES = {"moon": 301, "sun": 10, "mercury": 1, "venus": 2, "mars": 4, "jupiter": 5, "saturn": 6, "uranus": 7,
@@ -74,7 +74,7 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
     forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
     span_s = scenario.duration_days * SECONDS_PER_DAY
     spacing_s = min(scenario.ephemeris.node_spacing_days * SECONDS_PER_DAY, span_s)
-    times, nodes = patch_points_from_crtbp(CATALOG[spacecraft.orbit].state(), model.epoch_tdb_s, span_s, spacing_s,
+    times, nodes = patch_points_from_crtbp(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s,
                                            forces)
     corrected = multiple_shooting(times, nodes, forces)
     if not corrected.converged:

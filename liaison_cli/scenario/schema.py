@@ -25,7 +25,8 @@ from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_r
 KEPLERIAN_ORBIT = "lunar_keplerian"
 ICRF_STATE_ORBIT = "icrf_state"
 DEPARTURE_ORBIT = "departure"
-DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT)
+GEOSTATIONARY_ORBIT = "geostationary"
+DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT, GEOSTATIONARY_ORBIT)
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
@@ -177,6 +178,10 @@ class SpacecraftSpec(StrictModel):
         None, gt=0, description="this spacecraft's filter a-priori sigma and (initial_error draw fixed_sigma) its "
         "initial-error sigma; default: the filter's and initial_error's")
     apriori_sigma_velocity_m_s: float | None = Field(None, gt=0, description="as apriori_sigma_position_m")
+    phase: float = Field(0.0, ge=0.0, lt=1.0, description="advance a catalog or family orbit by this fraction of "
+                         "its period (e.g. 0.5: the second of a pair half a period apart)")
+    longitude_deg: float | None = Field(None, ge=-180.0, le=360.0, description="orbit: geostationary: the "
+                                        "station-kept longitude (east; 004: 130 W = -130)")
 
     @field_validator("orbit")
     @classmethod
@@ -201,6 +206,13 @@ class SpacecraftSpec(StrictModel):
             raise ValueError(f"orbit {ICRF_STATE_ORBIT!r} and 'state_km' (6 numbers) go together")
         if (self.orbit == DEPARTURE_ORBIT) != (self.departure is not None):
             raise ValueError(f"orbit {DEPARTURE_ORBIT!r} and a 'departure' section go together")
+        if (self.orbit == GEOSTATIONARY_ORBIT) != (self.longitude_deg is not None):
+            raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} and 'longitude_deg' go together")
+        if self.orbit == GEOSTATIONARY_ORBIT and self.role != "known":
+            raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} is station-kept, not flown by the filter's dynamics: "
+                             "give it role: known")
+        if self.phase and (self.orbit == KEPLERIAN_ORBIT or self.orbit in DATED_ONLY_ORBITS):
+            raise ValueError(f"'phase' advances a periodic orbit (catalog or family), not orbit {self.orbit!r}")
         if self.state_km is not None and len(self.state_km) != 6:
             raise ValueError(f"'state_km' needs 6 numbers (x, y, z km, vx, vy, vz km/s), got {len(self.state_km)}")
         if self.role == "known" and self.clock is not None:
@@ -213,8 +225,8 @@ class GroundStationSpec(StrictModel):
     of the Earth-Moon line at t0; it sees spacecraft above its elevation mask."""
 
     name: str = Field(pattern=NAME_PATTERN)
-    site: str | None = Field(None, description="a named DSN site (dynamics: ephemeris), its 70 m antenna's "
-                             "coordinates instead of latitude_deg / longitude_deg / altitude_m")
+    site: str | None = Field(None, description="a named site (dynamics: ephemeris), a DSN 70 m antenna or a VLBA "
+                             "dish: its coordinates instead of latitude_deg / longitude_deg / altitude_m")
     latitude_deg: float = Field(ge=-90.0, le=90.0)
     longitude_deg: float = Field(ge=-180.0, le=360.0)
     altitude_m: float = Field(0.0, ge=-500.0, le=9000.0)
@@ -267,6 +279,8 @@ class LinkSpec(StrictModel):
 
     receiver: str
     transponder: str
+    second_receiver: str | None = Field(None, description="the other receiver of a difference of arrival (tdoa, "
+                                        "fdoa): value = second minus first")
     observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1)
     occultation: bool = False
     noise: LinkNoiseSpec | None = Field(None, description="this link's sigmas (default: the noise section's)")
@@ -382,6 +396,9 @@ class NoiseSpec(StrictModel):
     range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels")
     los_path_sigma_m: float | None = Field(
         None, gt=0, description="path-difference error across the receiver's baseline (LOS, 001 Eq. 8)")
+    tdoa_sigma_ns: float | None = Field(None, gt=0, description="1-sigma of TDoA channels (004 Table 3: 20 ns)")
+    fdoa_sigma_hz: float | None = Field(None, gt=0, description="1-sigma of FDoA channels (004 Table 3: 0.04 Hz)")
+    carrier_frequency_hz: float | None = Field(None, gt=0, description="the transmitter's carrier (FDoA)")
 
     @model_validator(mode="after")
     def _one_source_of_sigma(self):
@@ -667,15 +684,18 @@ class Scenario(StrictModel):
             raise ValueError("no spacecraft to estimate: give at least one spacecraft with role: estimated")
         known = {sc.name for sc in self.spacecraft if sc.role == "known"} | {st.name for st in self.ground_stations}
         for i, link in enumerate(self.links):
-            for role in ("receiver", "transponder"):
+            for role in ("receiver", "transponder", "second_receiver"):
                 who = getattr(link, role)
+                if who is None:
+                    continue
                 if who not in names:
                     raise ValueError(
                         f"links[{i}].{role} = {who!r} is not a spacecraft or ground station; defined: {', '.join(names)}"
                     )
             if link.receiver == link.transponder:
                 raise ValueError(f"links[{i}] links {link.receiver!r} to itself")
-            if link.receiver in known and link.transponder in known:
+            self._check_second_receiver(i, link, known)
+            if link.receiver in known and link.transponder in known and link.second_receiver is None:
                 raise ValueError(f"links[{i}] joins two known participants ({link.receiver!r}, {link.transponder!r}): "
                                  "it carries no information on any estimated state")
             receiver = self.participant(link.receiver)
@@ -723,6 +743,26 @@ class Scenario(StrictModel):
                                      "batch estimator solves for orbits only; use dual_one_way_derived (range + "
                                      "clock offset, synchronised by clock_sync) or the ekf")
 
+    def _check_second_receiver(self, i, link, known):
+        """Three-end channels (TDoA, FDoA) and the links that carry them."""
+        differences = [o for o in link.observables if OBSERVABLES[o].needs_second_receiver]
+        if differences and link.second_receiver is None:
+            raise ValueError(f"links[{i}] measures {differences[0]!r}, a difference between two receivers, with one "
+                             f"receiver ({link.receiver!r}): give 'second_receiver'")
+        if link.second_receiver is None:
+            return
+        others = [o for o in link.observables if not OBSERVABLES[o].needs_second_receiver]
+        if others:
+            raise ValueError(f"links[{i}] has a second_receiver, but {others[0]!r} is a two-end observable; "
+                             "a link with a second receiver carries tdoa / fdoa only")
+        if link.second_receiver == link.transponder:
+            raise ValueError(f"links[{i}]: {link.transponder!r} is the transmitter and also a receiver")
+        if link.second_receiver == link.receiver:
+            raise ValueError(f"links[{i}] names {link.receiver!r} as both receivers")
+        if {link.receiver, link.transponder, link.second_receiver} <= known:
+            raise ValueError(f"links[{i}] joins three known participants: it carries no information on any "
+                             "estimated state")
+
     def _check_station_priority(self):
         if self.station_priority is None:
             return
@@ -763,16 +803,16 @@ class Scenario(StrictModel):
             raise ValueError("dynamics: ephemeris runs the ekf with instantaneous measurements today "
                              "(estimator: ekf, measurement.light_time: false)")
         for i, link in enumerate(self.links):
-            unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s")
+            unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s", "s")
                            or OBSERVABLES[o].needs_receiver_clock or OBSERVABLES[o].needs_both_clocks]
             if unsupported:
-                raise ValueError(f"links[{i}]: dynamics: ephemeris takes range and range-rate links today; got "
+                raise ValueError(f"links[{i}]: dynamics: ephemeris takes range, range-rate, tdoa and fdoa links today; got "
                                  f"{', '.join(unsupported)}")
         self._check_departures()
         for i, sc in enumerate(self.spacecraft):
-            if sc.orbit == KEPLERIAN_ORBIT or sc.orbit in FAMILIES:
-                raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog orbit "
-                                 f"(corrected into the dated model), {ICRF_STATE_ORBIT!r} or {DEPARTURE_ORBIT!r}")
+            if sc.orbit == KEPLERIAN_ORBIT:
+                raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog or "
+                                 f"family orbit (corrected into the dated model), {', '.join(DATED_ONLY_ORBITS)}")
 
     def _check_departures(self):
         from datetime import timedelta

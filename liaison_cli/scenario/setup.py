@@ -18,27 +18,11 @@ from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
 from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
-from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
-from liaison_cli.scenario.schema import KEPLERIAN_ORBIT, Scenario
+from liaison_cli.scenario.reference_states import initial_state_lu
+from liaison_cli.scenario.schema import Scenario
 
 SPEED_OF_LIGHT_M_S = 299792458.0
 MAX_MODIFIERS = 3  # per channel: a link bias and the two ends' clocks
-
-
-def initial_state_lu(spec) -> np.ndarray:
-    if spec.period_days is not None:
-        from liaison_cli.orbits.family_store import member_state
-
-        return np.array(member_state(spec.orbit, float(spec.period_days)).state)
-    if spec.amplitude_km is not None:
-        from liaison_cli.orbits.family_store import member_by_amplitude_km
-
-        return np.array(member_by_amplitude_km(spec.orbit, float(spec.amplitude_km)).state)
-    if spec.orbit == KEPLERIAN_ORBIT:
-        el = spec.elements
-        return lunar_orbiter_state_lu(el.a_km, el.e, el.i_deg, el.raan_deg, el.argp_deg, el.ta_deg)
-    return CATALOG[spec.orbit].state()
 
 
 def per_axis_block_diagonal(n_sc: int, position_value: float, velocity_value: float) -> np.ndarray:
@@ -148,7 +132,9 @@ def truth_key(scenario: Scenario) -> str:
     """The scenario fields that fix truth and noise-free measurements (not noise, filter or seed)."""
     fields = {
         "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(),
-                        "period_days": sc.period_days, "amplitude_km": sc.amplitude_km, "role": sc.role}
+                        "period_days": sc.period_days, "amplitude_km": sc.amplitude_km, "role": sc.role,
+                        "phase": sc.phase, "longitude_deg": sc.longitude_deg,
+                        "departure": sc.departure and sc.departure.model_dump()}
                        for sc in scenario.spacecraft],
         "ground_stations": [st.model_dump(mode="json") for st in scenario.ground_stations],
         "links": [link.model_dump(mode="json") for link in scenario.links],
@@ -175,14 +161,23 @@ def link_observables(link) -> list:
     return [obs for name, obs in OBSERVABLES.items() if name in link.observables]
 
 
+GEOSTATIONARY_ALTITUDE_M = 35786.03e3  # radius 42,164.17 km above the WGS84 equator (sidereal-day orbit)
+
+
 def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
     times_tu = times_s / TU_S
     if scenario.dynamics == "ephemeris":
         from liaison_cli.scenario.dated import DatedStationTrajectory, dated_initial_state_lu
 
-        out = {sc.name: model.trajectory(model.truth_states(dated_initial_state_lu(sc, scenario, model), times_tu))
-               for sc in scenario.spacecraft}
+        out = {}
+        for sc in scenario.spacecraft:
+            if sc.longitude_deg is not None:  # station-kept geostationary: a point fixed to the rotating Earth
+                out[sc.name] = DatedStationTrajectory(0.0, sc.longitude_deg, GEOSTATIONARY_ALTITUDE_M,
+                                                      scenario.ephemeris.epoch(), times_s)
+            else:
+                out[sc.name] = model.trajectory(model.truth_states(dated_initial_state_lu(sc, scenario, model),
+                                                                   times_tu))
         for st in scenario.ground_stations:
             out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
                                                   scenario.ephemeris.epoch(), times_s)
@@ -224,20 +219,24 @@ def _station_priority(scenario: Scenario, visibility: list) -> list:
 
 
 def _visible(scenario: Scenario, link, trajectories, model, times_s) -> np.ndarray:
-    """(m,) True where the link can measure: station elevation masks, optional Earth / Moon occultation."""
-    receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
-    visible = np.ones(len(receiver.states), dtype=bool)
+    """(m,) True where the link can measure: every signal path (receiver - transponder, and a second
+    receiver's) clears the elevation masks of its station ends and, with `occultation`, the Earth and Moon."""
     stations = {st.name: st for st in scenario.ground_stations}
-    on_ground = link.receiver in stations or link.transponder in stations
-    for station, other in ((link.receiver, transponder), (link.transponder, receiver)):
-        if station in stations:
-            track = trajectories[station]
-            elevation = elevation_rad(track.states[:, 0:3], track.up, other.states[:, 0:3])
-            visible &= elevation >= np.radians(stations[station].elevation_mask_deg)
-    if link.occultation:
-        bodies = model.body_positions_lu(times_s) if hasattr(model, "body_positions_lu") else {}
-        visible &= not_occulted(receiver.states[:, 0:3], transponder.states[:, 0:3], **bodies,
-                                check_earth=not on_ground)
+    ends = [link.receiver] + ([link.second_receiver] if link.second_receiver is not None else [])
+    visible = np.ones(len(times_s), dtype=bool)
+    bodies = None
+    for end in ends:
+        path = (end, link.transponder)
+        for station, other in (path, path[::-1]):
+            if station in stations:
+                track = trajectories[station]
+                elevation = elevation_rad(track.states[:, 0:3], track.up, trajectories[other].states[:, 0:3])
+                visible &= elevation >= np.radians(stations[station].elevation_mask_deg)
+        if link.occultation:
+            if bodies is None:
+                bodies = model.body_positions_lu(times_s) if hasattr(model, "body_positions_lu") else {}
+            visible &= not_occulted(trajectories[end].states[:, 0:3], trajectories[link.transponder].states[:, 0:3],
+                                    **bodies, check_earth=not any(who in stations for who in path))
     return visible
 
 
@@ -250,9 +249,11 @@ def _truth_and_measurements(scenario: Scenario, model: DynamicsModel):
     columns = []
     for link, visible in zip(scenario.links, visibility):
         receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
+        second = [trajectories[link.second_receiver]] if link.second_receiver is not None else []
         for observable in link_observables(link):
             for channel in observable.channels:
-                values = observable.simulate(channel.code, receiver, transponder, scenario.measurement.light_time)
+                values = observable.simulate(channel.code, receiver, transponder, scenario.measurement.light_time,
+                                             *second)
                 columns.append(np.where(visible, values, np.nan))
     measurements = np.stack(columns, axis=1)
     measurements[0, :] = np.nan  # the filter starts at t0 with no measurement
@@ -334,16 +335,18 @@ def _matrices(scenario: Scenario, layout: StateLayout):
 
 
 def _channel_tables(scenario: Scenario, channels, layout: StateLayout, index_of_known):
-    """channel_ends (C, 4), channel_flags (C,), channel_mod_index / _coeff (C, MAX_MODIFIERS)."""
+    """channel_ends (C, 6), channel_flags (C,), channel_mod_index / _coeff (C, MAX_MODIFIERS)."""
     n_channels = len(channels)
-    ends = np.full((n_channels, 4), -1, dtype=np.int64)
+    ends = np.full((n_channels, 6), -1, dtype=np.int64)
     flags = np.zeros(n_channels, dtype=np.int64)
     mod_index = np.full((n_channels, MAX_MODIFIERS), -1, dtype=np.int64)
     mod_coeff = np.zeros((n_channels, MAX_MODIFIERS))
     bias_start = layout.start_of(BLOCK_CONSTANT, "bias 0")
     for c, ch in enumerate(channels):
         link = scenario.links[ch.link]
-        for column, who in ((0, link.receiver), (2, link.transponder)):
+        for column, who in ((0, link.receiver), (2, link.transponder), (4, link.second_receiver)):
+            if who is None:
+                continue
             state = layout.start_of(BLOCK_SPACECRAFT, who)
             ends[c, column] = state
             ends[c, column + 1] = -1 if state >= 0 else index_of_known[who]

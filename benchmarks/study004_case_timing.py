@@ -1,0 +1,49 @@
+"""Seconds per 004 study case on one core: one EKF run (one transmitter x one receiver pair, full arc) and
+the LinCov pass along the truth, after compilation; the truth and measurement set-up is timed apart.
+
+    python -m benchmarks.study004_case_timing [--runs 5]
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from liaison_cli.campaign.error_budget import error_budget
+from liaison_cli.campaign.study003 import mission_name
+from liaison_cli.campaign.study004 import pair_name, pair_scenario
+from liaison_cli.campaign.worker import RunTask, execute_run
+from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.setup import prepare_problem
+
+SCENARIOS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5)
+    args = parser.parse_args()
+    print("| transmitter | pair | epochs | set-up s | EKF run s (median) | LinCov s |")
+    print("|---|---|---|---|---|---|")
+    for path in SCENARIOS:
+        scenario, _ = load_scenario(path)
+        for index, link in enumerate(scenario.links):
+            t0 = time.perf_counter()
+            problem = prepare_problem(pair_scenario(scenario, mission_name(path), index))
+            setup_s = time.perf_counter() - t0
+            execute_run(problem, RunTask(0))  # compiled code loaded (or compiled) here, not timed
+            error_budget(problem)
+            times = []
+            for run in range(args.runs):
+                t0 = time.perf_counter()
+                execute_run(problem, RunTask(run))
+                times.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            error_budget(problem)
+            lincov_s = time.perf_counter() - t0
+            print(f"| {mission_name(path)} | {pair_name(link)} | {len(problem.times_s)} | {setup_s:.1f} | "
+                  f"{np.median(times):.3f} | {lincov_s:.3f} |")
+
+
+if __name__ == "__main__":
+    main()

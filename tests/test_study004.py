@@ -1,0 +1,81 @@
+"""004 items 3-4: the receivers of 004 Table 2 as participants, DOP, bad TDoA input, and `liaison study004`
+end to end on a shortened arc."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from liaison_cli.analysis.dop import tdoa_dop
+from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
+from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.setup import prepare_problem
+
+HALO = SCENARIOS / "004" / "eml2_halo.yaml"
+
+
+def test_receivers_of_table_2():
+    """GEO receivers stay at 42,164 km moving at 3.075 km/s; the EML1 pair is half a period apart (the two
+    spacecraft are far apart, not co-located); the VLBA baseline is about 4,000 km (004: over 4,000 km)."""
+    scenario, _ = load_scenario(HALO)
+    problem = prepare_problem(apply_overrides(scenario, {"duration_days": 1.0}))
+    known = dict(zip(["GEO130W", "GEO170W", "L1A", "L1B", "MaunaKea", "OwensValley"],
+                     np.moveaxis(problem.filter.known_states, 1, 0)))
+    for name in ("GEO130W", "GEO170W"):
+        r_km = np.linalg.norm(known[name][:, :3], axis=1) * LU_KM
+        v_km_s = np.linalg.norm(known[name][:, 3:], axis=1) * VU_KM_S
+        assert np.allclose(r_km, 42164.17, atol=0.5) and np.allclose(v_km_s, 3.0747, atol=1e-3)
+    geo_baseline = np.linalg.norm(known["GEO130W"][:, :3] - known["GEO170W"][:, :3], axis=1) * LU_KM
+    assert np.allclose(geo_baseline, 2 * 42164.17 * np.sin(np.radians(20.0)), rtol=1e-4)  # 28,842 km
+    vlba = np.linalg.norm(known["MaunaKea"][:, :3] - known["OwensValley"][:, :3], axis=1) * LU_KM
+    assert 3900 < vlba.min() <= vlba.max() < 4100
+    l1 = np.linalg.norm(known["L1A"][:, :3] - known["L1B"][:, :3], axis=1) * LU_KM
+    assert l1.min() > 15000  # 004: an effective baseline of 20,000-50,000 km
+
+
+def test_dop_is_the_inverse_gradient_and_favours_long_baselines():
+    tx = np.array([[4.0e5, 1.0e5, 2.0e4]])
+    for baseline in (4.0e3, 3.0e4):
+        first = np.array([[0.0, -baseline / 2, 6.4e3]])
+        second = np.array([[0.0, baseline / 2, 6.4e3]])
+        dop = tdoa_dop(first, tx, second)[0]
+        u1 = (tx - first) / np.linalg.norm(tx - first)
+        u2 = (tx - second) / np.linalg.norm(tx - second)
+        assert dop == pytest.approx(1.0 / np.linalg.norm(u2 - u1), rel=1e-9)
+        assert dop == pytest.approx(np.linalg.norm(tx) / baseline, rel=0.05)  # far field: range / baseline
+
+
+@pytest.mark.parametrize("old,new,fragments", [
+    ("{receiver: MaunaKea, second_receiver: OwensValley, transponder: TX, observables: [tdoa, fdoa]",
+     "{receiver: MaunaKea, transponder: TX, observables: [tdoa, fdoa]",
+     ["links[0]", "'tdoa'", "one receiver", "second_receiver"]),
+    ("{receiver: GEO130W, second_receiver: GEO170W, transponder: TX,",
+     "{receiver: GEO130W, second_receiver: TX, transponder: TX,", ["links[1]", "'TX' is the transmitter and also a receiver"]),
+    ("{receiver: L1A, second_receiver: L1B, transponder: TX, observables: [tdoa, fdoa]",
+     "{receiver: L1A, second_receiver: L1B, transponder: TX, observables: [range, tdoa]",
+     ["links[2]", "'range' is a two-end observable"]),
+    ("  tdoa_sigma_ns: 20\n", "", ["tdoa_sigma_ns"]),
+    ("{name: GEO130W, role: known, orbit: geostationary, longitude_deg: -130}",
+     "{name: GEO130W, orbit: geostationary, longitude_deg: -130}", ["station-kept", "role: known"]),
+])
+def test_bad_tdoa_input_is_one_line(tmp_path, old, new, fragments):
+    path = edited_scenario(tmp_path, "004/eml2_halo.yaml", old, new)
+    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, fragments)
+
+
+def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
+    """Two days, 2 runs per pair: the table, Parquet and figure are written, and the GEO pair's 3σ position
+    along the truth ends below the ground pair's (a 7x longer baseline; measured over the full 14.75 days:
+    0.12 km against 1.18 km)."""
+    short = tmp_path / "eml2_halo.yaml"
+    short.write_text(HALO.read_text().replace("duration_days: 14.75", "duration_days: 2"))
+    out = tmp_path / "study"
+    proc = run_cli("study004", short, "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    for name in ("summary.parquet", "histories.parquet", "table.md", "eml2_halo_3sigma.png"):
+        assert (out / name).exists(), name
+    history = pd.read_parquet(out / "histories.parquet")
+    final = history[history.t_days == history.t_days.max()].set_index("pair").position_3sigma_m
+    assert final["GEO130W+GEO170W"] < final["MaunaKea+OwensValley"]
+    summary = pd.read_parquet(out / "summary.parquet")
+    assert len(summary) == 3 and (summary.measured_share > 0.2).all()
