@@ -7,6 +7,7 @@ Per transmitter and pair:
 - the EKF Monte Carlo beside it: runs that finished, their mean 3-sigma and error RMS, and the share of
   epochs inside 3-sigma;
 - steady state: the median LinCov 3-sigma bound over the last quarter of the arc;
+- days below 1 km / 1 cm/s: from when the 3-sigma bound stays below 004's yardsticks;
 - convergence time: the first epoch from which the position 3-sigma bound stays below twice its steady
   state for the rest of the arc;
 - DOP (004 §4) along the true geometry: sqrt(trace(pinv(H' H))) with H the TDoA path partials with respect
@@ -36,9 +37,9 @@ def pair_scenario(scenario: Scenario, transmitter: str, index: int) -> Scenario:
                            f"{transmitter} ({pair_name(link)})")
 
 
-def convergence_day(t_days, bound, steady) -> float:
-    """First time from which `bound` stays below 2 x steady; NaN if it never settles."""
-    above = np.flatnonzero(~(bound <= 2.0 * steady))
+def first_day_staying_below(t_days, bound, limit) -> float:
+    """First time from which `bound` stays below `limit`; NaN if it never settles."""
+    above = np.flatnonzero(~(bound <= limit))
     if len(above) == 0:
         return float(t_days[0])
     last = above[-1]
@@ -58,7 +59,9 @@ def _statistics(campaign, transmitter: str, pair: str):
         history[f"{kind}_3sigma_{unit}"] = bound
         steady = float(np.median(bound[quarter]))
         row[f"steady_3sigma_{kind}_{unit}"] = steady
-        row[f"convergence_days_{kind}"] = convergence_day(t_days, bound, steady)
+        row[f"convergence_days_{kind}"] = first_day_staying_below(t_days, bound, 2.0 * steady)
+        yardstick = ("1km", 1e3) if kind == "position" else ("1cm_s", 1e-2)  # 004's: 1 km and 1 cm/s
+        row[f"days_below_{yardstick[0]}"] = first_day_staying_below(t_days, bound, yardstick[1])
         if ok:
             err = np.array([o.norms[f"{kind}_error_{unit}"][:, 0] for o in ok])
             mc_bound = np.array([o.norms[f"{kind}_3sigma_{unit}"][:, 0] for o in ok])

@@ -49,6 +49,7 @@ class Observable:
     clock_offset_channel: int = -1
     needs_receiver_baseline: bool = False
     needs_second_receiver: bool = False  # a three-end channel (TDoA / FDoA): simulate(..., second=trajectory)
+    light_time_from_states: bool = False  # its light-time model needs only the ends' states (any frame)
     filter_flags: Callable = lambda filter_spec: 0  # model options of the filter's prediction, as bit flags
     missing_noise: Callable = lambda noise: None  # what the noise section lacks for this observable, or None
     description: str = ""

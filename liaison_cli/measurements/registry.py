@@ -53,7 +53,8 @@ def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_tran
     if KIND_PSEUDORANGE_IJ <= kind <= KIND_CLOCK_OFFSET:
         return predict_dual_one_way(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
     if kind == KIND_TDOA or kind == KIND_FDOA:
-        return predict_difference(kind, x_receiver, x_transmitter, x_second, g_receiver, g_transmitter, g_second)
+        return predict_difference(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter,
+                                  g_second)
     return np.nan
 
 

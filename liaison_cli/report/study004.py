@@ -10,11 +10,16 @@ from liaison_cli.report.study003 import _pyplot, _save
 
 
 def format_table(summary: pd.DataFrame) -> str:
-    lines = ["| transmitter | pair | steady 3σ pos km | steady 3σ vel cm/s | converged pos (d) | epochs measured | "
-             "median DOP | EKF runs ok | EKF inside 3σ pos | EKF error RMS last quarter km |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| transmitter | pair | steady 3σ pos km | steady 3σ vel cm/s | converged pos (d) | < 1 km from (d) | "
+             "< 1 cm/s from (d) | epochs measured | median DOP | EKF runs ok | EKF inside 3σ pos | "
+             "EKF error RMS last quarter km |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+
+    def day(value):
+        return "never" if not np.isfinite(value) else f"{value:.2f}"
+
     for r in summary.itertuples():
-        converged = "never" if not np.isfinite(r.convergence_days_position) else f"{r.convergence_days_position:.2f}"
+        converged = f"{day(r.convergence_days_position)} | {day(r.days_below_1km)} | {day(r.days_below_1cm_s)}"
         inside = "—" if not np.isfinite(r.ekf_inside_3sigma_position) else f"{100 * r.ekf_inside_3sigma_position:.1f} %"
         late = r.ekf_error_rms_last_quarter_position_m
         late = "—" if not np.isfinite(late) else f"{late / 1e3:.3f}"

@@ -799,9 +799,12 @@ class Scenario(StrictModel):
         if start < lo or start + self.duration_days * SECONDS_PER_DAY > hi:
             raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} plus {self.duration_days:g} d is "
                              "outside DE421 (1899-07-29 to 2053-10-09)")
-        if self.estimator != "ekf" or self.measurement.light_time:
-            raise ValueError("dynamics: ephemeris runs the ekf with instantaneous measurements today "
-                             "(estimator: ekf, measurement.light_time: false)")
+        if self.estimator != "ekf":
+            raise ValueError("dynamics: ephemeris runs the ekf today (estimator: ekf)")
+        timed = [o for link in self.links for o in link.observables if not OBSERVABLES[o].light_time_from_states]
+        if self.measurement.light_time and timed:
+            raise ValueError(f"dynamics: ephemeris takes measurement.light_time: true for tdoa / fdoa only; "
+                             f"{timed[0]!r} is instantaneous there (measurement.light_time: false)")
         for i, link in enumerate(self.links):
             unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s", "s")
                            or OBSERVABLES[o].needs_receiver_clock or OBSERVABLES[o].needs_both_clocks]
