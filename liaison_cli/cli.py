@@ -383,14 +383,16 @@ def study003(
     typer.echo(f"results: {output}")
 
 
-STUDY004_TRANSMITTERS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml")
+STUDY004_TRANSMITTERS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml",
+                         "scenarios/004/low_energy_transfer.yaml")
 
 
 @app.command("study004")
 @user_errors
 def study004(
     scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="transmitter scenarios, one link "
-                                           "per receiver pair (default: scenarios/004/eml2_halo, dro)"),
+                                           "per receiver pair (default: scenarios/004/eml2_halo, dro, "
+                                           "low_energy_transfer)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
     jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
     output: Path = typer.Option(Path("results/study004"), "--output", help="result folder"),

@@ -11,6 +11,10 @@ class ScenarioError(LiaisonError):
     """The scenario file cannot be read or does not satisfy the schema."""
 
 
+class OrbitCorrectionError(LiaisonError):
+    """A reference orbit could not be corrected into the dated model (multiple shooting did not converge)."""
+
+
 class OutputExistsError(LiaisonError):
     """The output directory exists and --overwrite was not given."""
 

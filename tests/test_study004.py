@@ -79,3 +79,14 @@ def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
     assert final["GEO130W+GEO170W"] < final["MaunaKea+OwensValley"]
     summary = pd.read_parquet(out / "summary.parquet")
     assert len(summary) == 3 and (summary.measured_share > 0.2).all()
+
+
+def test_the_low_energy_transfer_scenario_carries_its_manoeuvre():
+    """The scenario is valid and its Delta-v block sits after the transmitter's, burning on day 47.6."""
+    from liaison_cli.scenario.setup import _layout, burn_step
+
+    scenario, _ = load_scenario(SCENARIOS / "004" / "low_energy_transfer.yaml")
+    tx = scenario.spacecraft[0]
+    assert tx.manoeuvre is not None and burn_step(scenario, tx.manoeuvre) == round(47.6 * 86400 / 300)
+    layout = _layout(scenario)
+    assert layout.n == 9 and layout.blocks[1].owner == "dv TX"

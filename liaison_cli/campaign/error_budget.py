@@ -59,6 +59,8 @@ def _filter_truth(problem: Problem) -> np.ndarray:
     n = problem.filter.layout.n
     truth = np.zeros((problem.n_steps, n))
     truth[:, : problem.truth.shape[1]] = problem.truth
+    for start, delta_v, _ in problem.manoeuvres:  # the true Delta-v, as the burn's linearisation point
+        truth[:, start : start + 3] = delta_v[None, :]
     return truth
 
 
@@ -72,6 +74,8 @@ def _inputs(problem: Problem):
         D_initial[:n_sc6, :n_sc6] = problem.P0[:n_sc6, :n_sc6]
     else:
         D_initial[:n_sc6, :n_sc6] = np.diag(problem.initial_error_sigma[:n_sc6] ** 2)
+    for start, _, sigma in problem.manoeuvres:  # the filter's a-priori Delta-v error
+        D_initial[start : start + 3, start : start + 3] = np.eye(3) * sigma**2
     Q_true = np.zeros((n, n))
     d_dyn_extra = np.zeros(n)
     dt_s = spec.measurement.interval_s
@@ -113,7 +117,8 @@ def error_budget(problem: Problem) -> Budget:
     D_initial, Q_true, S0, d_dyn_extra, bias_link = _inputs(problem)
     args = (_filter_truth(problem), problem.measurements_true, f.known_states, f.channel_kind, f.channel_ends,
             f.channel_flags, f.channel_mod_index, f.channel_mod_coeff, bias_link, f.sigma, f.P0, f.Q, D_initial, Q_true,
-            S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain, f.underweight)
+            S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain, f.underweight,
+            f.burns)
     run_lincov = literal_entry(lincov_along_truth, args, 19)
     P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft

@@ -59,7 +59,8 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     """Everything random in one run, from (scenario seed, run index) alone.
 
     Draw order is part of the reproducibility contract: initial error first, then measurement noise
-    (one channel after another), then the per-run random bias of each link, then each clock's history.
+    (one channel after another), then the per-run random bias of each link, then each clock's history,
+    then the filter's C_R error, then each manoeuvre's a-priori error.
     """
     rng = run_rng(problem.scenario.monte_carlo.seed, run_index)
     n = problem.truth.shape[1]
@@ -99,7 +100,12 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
         truth[:, problem.bias_state_start : problem.bias_state_start + problem.n_bias] = bias[None, :]
     # The filter starts its clock and bias states at their a-priori mean, zero.
     x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
-    return RunInputs(x0_hat, y_obs, truth, bias, phases, _filter_params(problem, rng))
+    filter_params = _filter_params(problem, rng)
+    # Manoeuvres (drawn last): the truth keeps the scenario's Delta-v, the filter starts its a-priori sigma off.
+    for start, delta_v, sigma in problem.manoeuvres:
+        truth[:, start : start + 3] = delta_v[None, :]
+        x0_hat[start : start + 3] = delta_v + sigma * rng.standard_normal(3)
+    return RunInputs(x0_hat, y_obs, truth, bias, phases, filter_params)
 
 
 def _filter_params(problem: Problem, rng):

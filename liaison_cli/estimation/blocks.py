@@ -2,7 +2,9 @@
 
 - spacecraft (6): x, y, z, vx, vy, vz; transition = the dynamics model's STM over the step;
 - clock (2 or 3): phase, frequency (, aging) in range units; transition Phi_ij = dt^(j-i) / (j-i)!;
-- constant (1): a range bias or any other constant parameter; identity transition.
+- constant (1 or 3): a range bias, a manoeuvre's Delta-v (3) or any other constant parameter; identity
+  transition. A Delta-v block acts once, at its burn epoch: filter_loop.apply_burns adds it to its
+  spacecraft's velocity (state and covariance, x <- J x, P <- J P J^T).
 Process noise is a fixed (n, n) block-diagonal Q built block by block by the problem setup. Consider
 blocks (zero gain, Schmidt-Kalman) come last, so the estimated states are a prefix of the state.
 """
@@ -14,7 +16,7 @@ import numpy as np
 BLOCK_SPACECRAFT = 0
 BLOCK_CLOCK = 1
 BLOCK_CONSTANT = 2
-BLOCK_SIZES = {BLOCK_SPACECRAFT: (6,), BLOCK_CLOCK: (2, 3), BLOCK_CONSTANT: (1,)}
+BLOCK_SIZES = {BLOCK_SPACECRAFT: (6,), BLOCK_CLOCK: (2, 3), BLOCK_CONSTANT: (1, 3)}
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ dynamics model as code + parameters. The history it returns is the same whatever
 errors and sigmas, NEES, innovations per channel, a status and the step at which it failed.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -60,6 +60,7 @@ class FilterArrays:
     divergence_position_lu: float
     batch: BatchArrays | None = None
     underweight: float = 0.0  # Lear's gain underweighting (ekf.update_scalar)
+    burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
 
     @property
     def n_gain(self) -> int:
@@ -94,7 +95,7 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
             arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
             arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
-            arrays.divergence_position_lu, arrays.underweight)
+            arrays.divergence_position_lu, arrays.underweight, arrays.burns)
     err, sigma, nees, innovation, innovation_std, status, fail_step = literal_entry(run_ekf, args, MODEL_ARG)(*args)
     ok = status == STATUS_OK
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],

@@ -42,6 +42,35 @@ def _end_state(x_bar, known_states, k, state_offset, known_index):
     return known_states[k, known_index]
 
 
+@njit(cache=True)
+def apply_burns(x, P, burns, k):
+    """Impulsive manoeuvres after epoch k: each burn row (Delta-v block start, spacecraft block start, epoch
+    index) adds the Delta-v states to the spacecraft's velocity, x <- J x and P <- J P J^T with
+    J = I + (the Delta-v columns into the velocity rows)."""
+    for b in range(burns.shape[0]):
+        if burns[b, 2] != k:
+            continue
+        d, v = burns[b, 0], burns[b, 1] + 3
+        for i in range(3):
+            x[v + i] += x[d + i]
+        apply_burn_rows(P, burns[b : b + 1], k)  # J P
+        for i in range(P.shape[0]):  # (J P) J^T
+            for j in range(3):
+                P[i, v + j] += P[i, d + j]
+
+
+@njit(cache=True)
+def apply_burn_rows(M, burns, k):
+    """M <- J M for the burns after epoch k (M (n, L): sensitivities, or the rows of a covariance)."""
+    for b in range(burns.shape[0]):
+        if burns[b, 2] != k:
+            continue
+        d, v = burns[b, 0], burns[b, 1] + 3
+        for i in range(3):
+            for j in range(M.shape[1]):
+                M[v + i, j] += M[d + i, j]
+
+
 @njit(cache=True, inline="always")
 def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
                  substeps):
@@ -76,7 +105,7 @@ def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, 
 @njit(cache=True)
 def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
             channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
-            n_gain, n_nees, divergence_position_lu, underweight):
+            n_gain, n_nees, divergence_position_lu, underweight, burns):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
@@ -88,7 +117,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     block_kind / block_start / block_size (B,): the state layout. model, model_params: the dynamics.
     n_gain: states from this index on are consider parameters with zero gain (-1: none); n_nees: the NEES
     covers the first n_nees states. A spacecraft whose position error exceeds divergence_position_lu stops
-    the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none).
+    the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none). burns
+    (N, 3): impulsive manoeuvres (apply_burns), applied after the update of their epoch.
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), status,
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
@@ -120,6 +150,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     g_transmitter = np.empty(6)
     g_second = np.empty(6)
     for k in range(1, m):
+        apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
         _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
                      (k - 1) * dt_tu, dt_tu, substeps)

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.estimation.ekf import predict_covariance_blocks, update_scalar
-from liaison_cli.estimation.filter_loop import _time_update
+from liaison_cli.estimation.filter_loop import _time_update, apply_burn_rows, apply_burns
 from liaison_cli.measurements.registry import predict
 
 PART_INITIAL, PART_NOISE, PART_PROCESS = 0, 1, 2
@@ -79,7 +79,8 @@ def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
 @njit(cache=True)
 def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
                        channel_mod_coeff, channel_bias_link, sigma, P0, Q, D_initial, Q_true, S0, d_dyn_extra,
-                       block_kind, block_start, block_size, model, params, dt_tu, substeps, n_gain, underweight):
+                       block_kind, block_start, block_size, model, params, dt_tu, substeps, n_gain, underweight,
+                       burns):
     """The filter's covariance and the error parts at every epoch, after the update.
 
     truth (m, n): the true filter states (clock / bias columns may be zero: they enter linearly);
@@ -118,11 +119,20 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
     scratch = np.empty((n, n))
     for k in range(m):
         if k > 0:
-            _time_update(truth[k - 1], x_bar, Phi, block_kind, block_start, block_size, model, params,
+            # A manoeuvre after epoch k - 1: the truth takes its true Delta-v (the Delta-v columns of the
+            # truth), the filter's covariance and every error part the map J (filter_loop.apply_burns).
+            linearisation = truth[k - 1].copy()
+            apply_burns(linearisation, P, burns, k - 1)
+            for p in range(N_RANDOM_PARTS):
+                apply_burns(np.zeros(n), D[p], burns, k - 1)
+            apply_burn_rows(S, burns, k - 1)
+            apply_burn_rows(mu_meas.reshape((n, 1)), burns, k - 1)
+            apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k - 1)
+            _time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
                          (k - 1) * dt_tu, dt_tu, substeps)
             d_dyn = truth[k] - x_bar + d_dyn_extra
             for b in range(block_kind.shape[0]):
-                if block_kind[b] != 0:  # clocks and constants: only the stated drifts (truth columns are 0)
+                if block_kind[b] != 0:  # clocks and constants: only the stated drifts
                     for i in range(block_start[b], block_start[b] + block_size[b]):
                         d_dyn[i] = d_dyn_extra[i]
                         if block_kind[b] == 2:  # constants: identity transition (_time_update leaves it out)

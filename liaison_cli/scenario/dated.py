@@ -21,6 +21,7 @@ from liaison_cli.dynamics.earth_rotation import station_gcrf
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
+from liaison_cli.errors import OrbitCorrectionError
 from liaison_cli.orbits.departure import departure_state_km as departure_state_km_at
 from liaison_cli.orbits.departure_missions import (
     DEPARTURE_MISSIONS,
@@ -78,8 +79,11 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
                                            forces)
     corrected = multiple_shooting(times, nodes, forces)
     if not corrected.converged:
-        raise RuntimeError(f"{spacecraft.name}: multiple shooting of {spacecraft.orbit!r} did not converge "
-                           f"(defects {corrected.position_defects_km[-1]:.3g} km)")
+        raise OrbitCorrectionError(
+            f"{scenario.name}: spacecraft {spacecraft.name!r}: multiple shooting of {spacecraft.orbit!r} over "
+            f"{scenario.duration_days:g} d did not converge (largest defect {corrected.position_defects_km[-1]:.3g} "
+            f"km); try another ephemeris.node_spacing_days (now {scenario.ephemeris.node_spacing_days:g}) or a "
+            "shorter scenario")
     return corrected.nodes[0] / SCALE
 
 

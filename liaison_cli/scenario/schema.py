@@ -157,6 +157,16 @@ class DepartureSpec(StrictModel):
         return self
 
 
+class ManoeuvreSpec(StrictModel):
+    """An impulsive, deterministic manoeuvre (004's low-energy transfer): the truth applies delta_v_m_s
+    (ICRF axes in dated scenarios, rotating axes in the CRTBP) just after the measurement epoch nearest
+    epoch_days; the filter estimates it as a Delta-v block starting apriori_sigma_m_s (per axis) off."""
+
+    epoch_days: float = Field(gt=0, description="days after the start; rounded to the nearest measurement epoch")
+    delta_v_m_s: list[float] = Field(min_length=3, max_length=3)
+    apriori_sigma_m_s: float = Field(gt=0, description="the filter's a-priori 1-sigma of each component")
+
+
 class SpacecraftSpec(StrictModel):
     name: str = Field(pattern=NAME_PATTERN)
     role: Literal["estimated", "known"] = Field(
@@ -178,6 +188,7 @@ class SpacecraftSpec(StrictModel):
         None, gt=0, description="this spacecraft's filter a-priori sigma and (initial_error draw fixed_sigma) its "
         "initial-error sigma; default: the filter's and initial_error's")
     apriori_sigma_velocity_m_s: float | None = Field(None, gt=0, description="as apriori_sigma_position_m")
+    manoeuvre: ManoeuvreSpec | None = Field(None, description="an impulsive manoeuvre the filter solves for (ekf)")
     phase: float = Field(0.0, ge=0.0, lt=1.0, description="advance a catalog or family orbit by this fraction of "
                          "its period (e.g. 0.5: the second of a pair half a period apart)")
     longitude_deg: float | None = Field(None, ge=-180.0, le=360.0, description="orbit: geostationary: the "
@@ -208,6 +219,8 @@ class SpacecraftSpec(StrictModel):
             raise ValueError(f"orbit {DEPARTURE_ORBIT!r} and a 'departure' section go together")
         if (self.orbit == GEOSTATIONARY_ORBIT) != (self.longitude_deg is not None):
             raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} and 'longitude_deg' go together")
+        if self.manoeuvre is not None and self.role != "estimated":
+            raise ValueError("a manoeuvre is solved for by the filter: give it to an estimated spacecraft")
         if self.orbit == GEOSTATIONARY_ORBIT and self.role != "known":
             raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} is station-kept, not flown by the filter's dynamics: "
                              "give it role: known")
@@ -702,6 +715,7 @@ class Scenario(StrictModel):
             for observable in link.observables:
                 self._check_observable(i, link, observable, receiver)
         self._check_station_priority()
+        self._check_manoeuvres()
         self._check_batch()
         self._check_clock_sync()
         self._check_dynamics()
@@ -762,6 +776,17 @@ class Scenario(StrictModel):
         if {link.receiver, link.transponder, link.second_receiver} <= known:
             raise ValueError(f"links[{i}] joins three known participants: it carries no information on any "
                              "estimated state")
+
+    def _check_manoeuvres(self):
+        for i, sc in enumerate(self.spacecraft):
+            if sc.manoeuvre is None:
+                continue
+            if self.estimator != "ekf":
+                raise ValueError(f"spacecraft[{i}].manoeuvre: the ekf solves for manoeuvres (estimator: ekf)")
+            last = self.duration_days - self.measurement.interval_s / SECONDS_PER_DAY
+            if not sc.manoeuvre.epoch_days <= last + 1e-9:
+                raise ValueError(f"spacecraft[{i}].manoeuvre.epoch_days = {sc.manoeuvre.epoch_days:g} is outside the "
+                                 f"scenario: allowed after 0 and up to {last:g} d (one interval before its end)")
 
     def _check_station_priority(self):
         if self.station_priority is None:

@@ -90,6 +90,7 @@ class Problem:
     clocks: tuple[ClockTruth, ...]
     initial_error_sigma: np.ndarray
     dynamics: DynamicsModel
+    manoeuvres: tuple = ()  # (Delta-v state start, true Delta-v (3,), a-priori sigma), scaled units
 
     @property
     def n_spacecraft(self) -> int:
@@ -134,7 +135,8 @@ def truth_key(scenario: Scenario) -> str:
         "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(),
                         "period_days": sc.period_days, "amplitude_km": sc.amplitude_km, "role": sc.role,
                         "phase": sc.phase, "longitude_deg": sc.longitude_deg,
-                        "departure": sc.departure and sc.departure.model_dump()}
+                        "departure": sc.departure and sc.departure.model_dump(),
+                        "manoeuvre": sc.manoeuvre and sc.manoeuvre.model_dump()}
                        for sc in scenario.spacecraft],
         "ground_stations": [st.model_dump(mode="json") for st in scenario.ground_stations],
         "links": [link.model_dump(mode="json") for link in scenario.links],
@@ -164,6 +166,19 @@ def link_observables(link) -> list:
 GEOSTATIONARY_ALTITUDE_M = 35786.03e3  # radius 42,164.17 km above the WGS84 equator (sidereal-day orbit)
 
 
+def _flown(scenario: Scenario, model, spacecraft, state0, times_tu) -> np.ndarray:
+    """The truth (m, 6) from state0; a manoeuvre's Delta-v joins the velocity just after its epoch (the
+    state at that epoch is the one before the burn)."""
+    if spacecraft.manoeuvre is None:
+        return model.truth_states(state0, times_tu)
+    k = burn_step(scenario, spacecraft.manoeuvre)
+    before = model.truth_states(state0, times_tu[: k + 1])
+    kicked = before[-1].copy()
+    kicked[3:] += np.array(spacecraft.manoeuvre.delta_v_m_s) / M_S_PER_VU
+    after = model.truth_states(kicked, times_tu[k:])
+    return np.vstack([before, after[1:]])
+
+
 def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
     times_tu = times_s / TU_S
@@ -176,13 +191,14 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
                 out[sc.name] = DatedStationTrajectory(0.0, sc.longitude_deg, GEOSTATIONARY_ALTITUDE_M,
                                                       scenario.ephemeris.epoch(), times_s)
             else:
-                out[sc.name] = model.trajectory(model.truth_states(dated_initial_state_lu(sc, scenario, model),
-                                                                   times_tu))
+                out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
+                                                       times_tu))
         for st in scenario.ground_stations:
             out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
                                                   scenario.ephemeris.epoch(), times_s)
         return out
-    out = {sc.name: model.trajectory(model.truth_states(initial_state_lu(sc), times_tu)) for sc in scenario.spacecraft}
+    out = {sc.name: model.trajectory(_flown(scenario, model, sc, initial_state_lu(sc), times_tu))
+           for sc in scenario.spacecraft}
     for st in scenario.ground_stations:
         out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
     return out
@@ -278,10 +294,29 @@ def _layout(scenario: Scenario) -> StateLayout:
     if scenario.estimator != "batch":  # the batch solves for orbits; clocks are synchronised by clock_sync
         blocks += [StateBlock(BLOCK_CLOCK, 2, sc.name) for sc in scenario.spacecraft
                    if sc.role == "estimated" and sc.clock is not None]
+    blocks += [StateBlock(BLOCK_CONSTANT, 3, f"dv {sc.name}") for sc in scenario.spacecraft if sc.manoeuvre]
     if scenario.filter.bias != "ignore":
         consider = scenario.filter.bias == "consider"
         blocks += [StateBlock(BLOCK_CONSTANT, 1, f"bias {i}", consider) for i in range(len(scenario.links))]
     return StateLayout(tuple(blocks))
+
+
+def burn_step(scenario: Scenario, manoeuvre) -> int:
+    """The measurement epoch a manoeuvre follows (its index)."""
+    return int(round(manoeuvre.epoch_days * SECONDS_PER_DAY / scenario.measurement.interval_s))
+
+
+def _manoeuvres(scenario: Scenario, layout: StateLayout):
+    """burns (N, 3) for filter_loop.apply_burns, and per burn (Delta-v start, true Delta-v (3,) and its
+    a-priori sigma, scaled units) for the truth columns and the initial draw."""
+    burns, truths = [], []
+    for sc in scenario.spacecraft:
+        if sc.manoeuvre is None:
+            continue
+        start = layout.start_of(BLOCK_CONSTANT, f"dv {sc.name}")
+        burns.append((start, layout.start_of(BLOCK_SPACECRAFT, sc.name), burn_step(scenario, sc.manoeuvre)))
+        truths.append((start, np.array(sc.manoeuvre.delta_v_m_s) / M_S_PER_VU, sc.manoeuvre.apriori_sigma_m_s / M_S_PER_VU))
+    return np.array(burns, dtype=np.int64).reshape(-1, 3), tuple(truths)
 
 
 def _clock_scale() -> np.ndarray:
@@ -329,6 +364,9 @@ def _matrices(scenario: Scenario, layout: StateLayout):
             P0[s, s] = np.diag((np.array([clock.initial_offset_sigma_s, clock.initial_frequency_sigma]) * scale) ** 2)
             Q[s, s] = clock_process_noise(interval_s, clock.sigma1, clock.sigma2) * np.outer(
                 scale, scale)
+        elif block.owner.startswith("dv "):
+            sigma_lu = by_name[block.owner[3:]].manoeuvre.apriori_sigma_m_s / M_S_PER_VU
+            P0[s, s] = np.eye(3) * sigma_lu**2
         else:
             P0[s, s] = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
     return P0, Q
@@ -434,6 +472,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
     for name, i in index_of_known.items():
         known_states[:, i] = trajectories[name].states
     layout = _layout(scenario)
+    burns, manoeuvres = _manoeuvres(scenario, layout)
     channels = _channels(scenario)
     P0, Q = _matrices(scenario, layout)
     ends, flags, mod_index, mod_coeff = _channel_tables(scenario, channels, layout, index_of_known)
@@ -444,7 +483,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         channel_flags=flags, channel_mod_index=mod_index, channel_mod_coeff=mod_coeff,
         sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.filter_params,
         dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
-        divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting,
+        divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting, burns=burns,
         batch=_batch_arrays(scenario, model, times_s, trajectories),
     )
     sc_index = {name: i for i, name in enumerate(names)}
@@ -466,4 +505,5 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         clocks=_clock_truths(scenario, channels, layout),
         initial_error_sigma=_initial_error_sigma(scenario),
         dynamics=model,
+        manoeuvres=manoeuvres,
     )
