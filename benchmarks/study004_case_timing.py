@@ -16,7 +16,7 @@ from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
-SCENARIOS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml")
+SCENARIOS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml", "scenarios/004/low_energy_transfer.yaml")
 
 
 def main() -> None:
