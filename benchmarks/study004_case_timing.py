@@ -6,11 +6,11 @@ the LinCov pass along the truth, after compilation; the truth and measurement se
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
 from liaison_cli.campaign.error_budget import error_budget
-from liaison_cli.campaign.study003 import mission_name
 from liaison_cli.campaign.study004 import pair_name, pair_scenario
 from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.scenario.schema import load_scenario
@@ -29,7 +29,7 @@ def main() -> None:
         scenario, _ = load_scenario(path)
         for index, link in enumerate(scenario.links):
             t0 = time.perf_counter()
-            problem = prepare_problem(pair_scenario(scenario, mission_name(path), index))
+            problem = prepare_problem(pair_scenario(scenario, Path(path).stem, index))
             setup_s = time.perf_counter() - t0
             execute_run(problem, RunTask(0))  # compiled code loaded (or compiled) here, not timed
             error_budget(problem)
@@ -41,7 +41,7 @@ def main() -> None:
             t0 = time.perf_counter()
             error_budget(problem)
             lincov_s = time.perf_counter() - t0
-            print(f"| {mission_name(path)} | {pair_name(link)} | {len(problem.times_s)} | {setup_s:.1f} | "
+            print(f"| {Path(path).stem} | {pair_name(link)} | {len(problem.times_s)} | {setup_s:.1f} | "
                   f"{np.median(times):.3f} | {lincov_s:.3f} |")
 
 

@@ -343,6 +343,30 @@ def errors(
     typer.echo(f"results: {out_dir}")
 
 
+def _load_study(paths: list[Path]) -> list:
+    """[(name = file stem, scenario, text)] of a study's scenario files."""
+    from liaison_cli.scenario.schema import load_scenario
+
+    return [(Path(path).stem, *load_scenario(path)) for path in paths]
+
+
+def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, history, table: str, draw) -> None:
+    """A study's table, Parquet (scenario texts, seeds and version in the metadata) and figures, swapped in
+    whole; `draw(history, stage)` draws the figures into the staging folder."""
+    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
+
+    typer.echo(table, nl=False)
+    meta = {"package": "liaison", "version": __version__, "runs": runs,
+            "scenarios_yaml": {name: text for name, _, text in loaded},
+            "seeds": {name: scenario.monte_carlo.seed for name, scenario, _ in loaded}}
+    with staged_output(output, overwrite) as stage:
+        write_parquet_atomic(summary, stage / "summary.parquet", meta)
+        write_parquet_atomic(history, stage / "histories.parquet", meta)
+        write_text_atomic(table, stage / "table.md")
+        draw(history, stage)
+    typer.echo(f"results: {output}")
+
+
 STUDY003_MISSIONS = ("scenarios/003/cassini.yaml", "scenarios/003/mer_a.yaml", "scenarios/003/msl.yaml")
 
 
@@ -358,29 +382,20 @@ def study003(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures."""
-    from liaison_cli.campaign.study003 import mission_name, run_study
+    from liaison_cli.campaign.study003 import run_study
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
-    from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
-    paths = scenarios or [Path(p) for p in STUDY003_MISSIONS]
-    loaded = [(mission_name(path), *load_scenario(path)) for path in paths]
+    loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
     summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet)
-    table = format_table(summary)
     typer.echo(f"003 study, {runs} runs per case: 3D RMS over the 9 days after t0 (σ: the filter's; "
                "003: its stated full-set values)")
-    typer.echo(table, nl=False)
-    meta = {"package": "liaison", "version": __version__, "runs": runs,
-            "scenarios_yaml": {name: text for name, _, text in loaded},
-            "seeds": {name: scenario.monte_carlo.seed for name, scenario, _ in loaded}}
-    with staged_output(output, overwrite) as stage:
-        write_parquet_atomic(summary, stage / "summary.parquet", meta)
-        write_parquet_atomic(history, stage / "histories.parquet", meta)
-        write_text_atomic(table, stage / "table.md")
+
+    def draw(history_, stage):
         for name, _, _ in loaded:
-            draw_mission(history, name, stage)
-        draw_comparison(history, stage)
-    typer.echo(f"results: {output}")
+            draw_mission(history_, name, stage)
+        draw_comparison(history_, stage)
+
+    _write_study(output, overwrite, loaded, runs, summary, history, format_table(summary), draw)
 
 
 STUDY004_TRANSMITTERS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml",
@@ -401,28 +416,18 @@ def study004(
 ):
     """004's study: each transmitter x receiver pair (TDoA + FDoA); 3σ histories, convergence, DOP, table."""
     from liaison_cli.campaign.study004 import run_study
-    from liaison_cli.campaign.study003 import mission_name
     from liaison_cli.report.study004 import draw_histories, format_table
-    from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
-    paths = scenarios or [Path(p) for p in STUDY004_TRANSMITTERS]
-    loaded = [(mission_name(path), *load_scenario(path)) for path in paths]
+    loaded = _load_study(scenarios or [Path(p) for p in STUDY004_TRANSMITTERS])
     summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet)
-    table = format_table(summary)
     typer.echo(f"004 study, {runs} runs per case: steady state = median 3σ over the last quarter; converged = "
                "3σ position below twice it from then on")
-    typer.echo(table, nl=False)
-    meta = {"package": "liaison", "version": __version__, "runs": runs,
-            "scenarios_yaml": {name: text for name, _, text in loaded},
-            "seeds": {name: scenario.monte_carlo.seed for name, scenario, _ in loaded}}
-    with staged_output(output, overwrite) as stage:
-        write_parquet_atomic(summary, stage / "summary.parquet", meta)
-        write_parquet_atomic(history, stage / "histories.parquet", meta)
-        write_text_atomic(table, stage / "table.md")
+
+    def draw(history_, stage):
         for name, _, _ in loaded:
-            draw_histories(history, name, stage)
-    typer.echo(f"results: {output}")
+            draw_histories(history_, name, stage)
+
+    _write_study(output, overwrite, loaded, runs, summary, history, format_table(summary), draw)
 
 
 @app.command("tables002")

@@ -12,7 +12,6 @@ Histories per epoch: RMS of the error norm over the runs and the mean 3-sigma bo
 """
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -116,7 +115,3 @@ def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, pr
     summary = pd.concat([r.summary for r in results], ignore_index=True)
     history = pd.concat([r.history for r in results], ignore_index=True)
     return summary, history, scenarios
-
-
-def mission_name(path: Path) -> str:
-    return Path(path).stem
