@@ -94,14 +94,17 @@ def _dop(problem) -> np.ndarray:
 
 
 def run_study(transmitters: list[tuple[str, Scenario]], runs: int, jobs: int = 2, progress: bool = True):
-    """(summary, histories): one row / history per transmitter and receiver pair."""
+    """(summary, histories): one row / history per transmitter and receiver pair. A transmitter's pairs share
+    its trajectories (propagated and corrected once)."""
     rows, histories = [], []
     for transmitter, scenario in transmitters:
         if not all(link.second_receiver is not None for link in scenario.links):
             raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a second_receiver")
+        shared: dict = {}
         for index, link in enumerate(scenario.links):
             campaign = run_campaign(pair_scenario(scenario, transmitter, index), runs=runs, jobs=jobs,
-                                    progress=progress, description=f"{transmitter} {pair_name(link)}")
+                                    progress=progress, description=f"{transmitter} {pair_name(link)}",
+                                    truth_cache=shared)
             row, history = _statistics(campaign, transmitter, pair_name(link))
             rows.append(row)
             histories.append(history)

@@ -79,23 +79,22 @@ def ut1_minus_utc_s(moment: datetime) -> float:
     return float(lo + frac * (hi - lo))
 
 
-def _r1(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
-
-
-def _r2(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
-
-
-def _r3(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+def _rot(axis: int, angles):
+    """Stacked frame rotations (m, 3, 3) about x (1), y (2) or z (3) by angles (m,) rad."""
+    c, s = np.cos(angles), np.sin(angles)
+    out = np.zeros((len(angles), 3, 3))
+    i, j = {1: (1, 2), 2: (2, 0), 3: (0, 1)}[axis]
+    k = 3 - i - j
+    out[:, k, k] = 1.0
+    out[:, i, i] = c
+    out[:, j, j] = c
+    out[:, i, j] = s
+    out[:, j, i] = -s
+    return out
 
 
 def _fundamental_arguments(t):
-    """Delaunay arguments l, l', F, D, Omega (rad) at TT Julian centuries t past J2000."""
+    """Delaunay arguments l, l', F, D, Omega (rad) at TT Julian centuries t (m,) past J2000."""
     deg = (
         134.96340251 + (1717915923.2178 * t + 31.8792 * t**2) / 3600.0,
         357.52910918 + (129596581.0481 * t - 0.5532 * t**2) / 3600.0,
@@ -103,45 +102,61 @@ def _fundamental_arguments(t):
         297.85019547 + (1602961601.2090 * t - 6.3706 * t**2) / 3600.0,
         125.04455501 + (-6962890.5431 * t + 7.4722 * t**2) / 3600.0,
     )
-    return [math.radians(d % 360.0) for d in deg]
+    return [np.radians(np.mod(d, 360.0)) for d in deg]
 
 
 def nutation(t):
-    """(dpsi, deps, mean obliquity) in rad at TT centuries t."""
+    """(dpsi, deps, mean obliquity) in rad at TT centuries t (scalar or (m,))."""
+    t = np.asarray(t, dtype=float)
     args = _fundamental_arguments(t)
-    dpsi = deps = 0.0
+    dpsi = np.zeros_like(t)
+    deps = np.zeros_like(t)
     for mult, a, a1, b, b1 in NUTATION_1980:
         arg = sum(m * x for m, x in zip(mult, args))
-        dpsi += (a + a1 * t) * math.sin(arg)
-        deps += (b + b1 * t) * math.cos(arg)
+        dpsi = dpsi + (a + a1 * t) * np.sin(arg)
+        deps = deps + (b + b1 * t) * np.cos(arg)
     eps0 = (84381.448 - 46.8150 * t - 0.00059 * t**2 + 0.001813 * t**3) * ARCSEC
     return dpsi * 1e-4 * ARCSEC, deps * 1e-4 * ARCSEC, eps0
 
 
-def itrf_to_gcrf(moment: datetime) -> np.ndarray:
-    """The rotation (3, 3) from the Earth-fixed frame to GCRF at a UTC moment (see module docstring)."""
-    if moment.tzinfo is None:
-        moment = moment.replace(tzinfo=timezone.utc)
-    t = utc_to_tt_seconds(moment) / (86400.0 * 36525.0)
+def _rotations(t, tu):
+    """ITRF -> GCRF (m, 3, 3) at TT centuries t (m,) and UT1 centuries tu (m,) past J2000."""
     zeta = (2306.2181 * t + 0.30188 * t**2 + 0.017998 * t**3) * ARCSEC
     z = (2306.2181 * t + 1.09468 * t**2 + 0.018203 * t**3) * ARCSEC
     theta = (2004.3109 * t - 0.42665 * t**2 - 0.041833 * t**3) * ARCSEC
-    precession = _r3(-z) @ _r2(theta) @ _r3(-zeta)  # J2000 -> mean of date
+    precession = _rot(3, -z) @ _rot(2, theta) @ _rot(3, -zeta)  # J2000 -> mean of date
     dpsi, deps, eps0 = nutation(t)
-    nut = _r1(-(eps0 + deps)) @ _r3(-dpsi) @ _r1(eps0)  # mean of date -> true of date
-    ut1_s = (moment - J2000_UTC).total_seconds() + ut1_minus_utc_s(moment)
-    tu = ut1_s / (86400.0 * 36525.0)
+    nut = _rot(1, -(eps0 + deps)) @ _rot(3, -dpsi) @ _rot(1, eps0)  # mean of date -> true of date
     gmst_s = 67310.54841 + (876600.0 * 3600.0 + 8640184.812866) * tu + 0.093104 * tu**2 - 6.2e-6 * tu**3
-    gast = math.radians((gmst_s % 86400.0) / 240.0) + dpsi * math.cos(eps0 + deps)
-    return precession.T @ nut.T @ _r3(-gast)
+    gast = np.radians(np.mod(gmst_s, 86400.0) / 240.0) + dpsi * np.cos(eps0 + deps)
+    return np.transpose(precession, (0, 2, 1)) @ np.transpose(nut, (0, 2, 1)) @ _rot(3, -gast)
+
+
+def itrf_to_gcrf_many(moments) -> np.ndarray:
+    """The rotations (m, 3, 3) from the Earth-fixed frame to GCRF at UTC moments (see module docstring)."""
+    moments = [m if m.tzinfo is not None else m.replace(tzinfo=timezone.utc) for m in moments]
+    t = np.array([utc_to_tt_seconds(m) for m in moments]) / (86400.0 * 36525.0)
+    tu = np.array([(m - J2000_UTC).total_seconds() + ut1_minus_utc_s(m) for m in moments]) / (86400.0 * 36525.0)
+    return _rotations(t, tu)
+
+
+def itrf_to_gcrf(moment: datetime) -> np.ndarray:
+    """The rotation (3, 3) from the Earth-fixed frame to GCRF at one UTC moment."""
+    return itrf_to_gcrf_many([moment])[0]
+
+
+def stations_gcrf(latitude_deg: float, longitude_deg: float, height_m: float, rotations):
+    """A station's GCRF positions (m, 3) km, velocities (m, 3) km/s (the Earth's spin) and local up (m, 3)
+    under rotations (m, 3, 3) from itrf_to_gcrf_many."""
+    r_itrf, up_itrf = geodetic_to_body_km(latitude_deg, longitude_deg, height_m)
+    v_itrf = np.cross([0.0, 0.0, EARTH_ROTATION_RATE_RAD_S], r_itrf)
+    return rotations @ r_itrf, rotations @ v_itrf, rotations @ up_itrf
 
 
 def station_gcrf(latitude_deg: float, longitude_deg: float, height_m: float, moment: datetime):
     """A station's GCRF position (km), velocity (km/s, the Earth's spin) and local up (unit) at a UTC moment."""
-    rotation = itrf_to_gcrf(moment)
-    r_itrf, up_itrf = geodetic_to_body_km(latitude_deg, longitude_deg, height_m)
-    v_itrf = np.cross([0.0, 0.0, EARTH_ROTATION_RATE_RAD_S], r_itrf)
-    return rotation @ r_itrf, rotation @ v_itrf, rotation @ up_itrf
+    r, v, up = stations_gcrf(latitude_deg, longitude_deg, height_m, itrf_to_gcrf_many([moment]))
+    return r[0], v[0], up[0]
 
 
 def elevation_deg(station_km, up, target_km) -> float:

@@ -28,14 +28,14 @@ def format_table(summary: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _save(fig, path: Path) -> Path:
+def save_png(fig, path: Path) -> Path:
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=110)
     tmp.replace(path)
     return path
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -47,7 +47,7 @@ def _pyplot():
 def draw_mission(history: pd.DataFrame, mission: str, out_dir: Path) -> Path:
     """Rows: navigation position / velocity, departure position / velocity; columns: the three cases.
     Solid: RMS over the runs of the error norm; dashed: the mean 3-sigma bound of the norm."""
-    plt = _pyplot()
+    plt = pyplot()
     data = history[history.mission == mission]
     panels = [(role, quantity) for role in ("navigation", "departure") for quantity in ("position", "velocity")]
     fig, axes = plt.subplots(len(panels), 3, figsize=(13, 11), sharex=True, squeeze=False)
@@ -68,14 +68,14 @@ def draw_mission(history: pd.DataFrame, mission: str, out_dir: Path) -> Path:
     axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"{mission}: error norm (RMS over runs) and 3σ bound")
     fig.tight_layout()
-    path = _save(fig, out_dir / f"{mission}_histories.png")
+    path = save_png(fig, out_dir / f"{mission}_histories.png")
     plt.close(fig)
     return path
 
 
 def draw_comparison(history: pd.DataFrame, out_dir: Path) -> Path:
     """The departing spacecraft's position error RMS, one line per mission, one panel per case."""
-    plt = _pyplot()
+    plt = pyplot()
     data = history[(history.role == "departure") & (history.quantity == "position")]
     fig, axes = plt.subplots(1, 3, figsize=(13, 4), sharey=True)
     for ax, case in zip(axes, CASE_TITLES):
@@ -87,6 +87,6 @@ def draw_comparison(history: pd.DataFrame, out_dir: Path) -> Path:
     axes[0].set_ylabel("departing spacecraft position error RMS (m)")
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    path = _save(fig, out_dir / "departures_position_error.png")
+    path = save_png(fig, out_dir / "departures_position_error.png")
     plt.close(fig)
     return path

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liaison_cli.report.study003 import _pyplot, _save
+from liaison_cli.report.study003 import pyplot, save_png
 
 
 def format_table(summary: pd.DataFrame) -> str:
@@ -30,7 +30,7 @@ def format_table(summary: pd.DataFrame) -> str:
 
 
 def draw_histories(history: pd.DataFrame, transmitter: str, out_dir: Path) -> Path:
-    plt = _pyplot()
+    plt = pyplot()
     data = history[history.transmitter == transmitter]
     fig, axes = plt.subplots(3, 1, figsize=(9, 10), sharex=True)
     for pair, part in data.groupby("pair", sort=False):
@@ -46,6 +46,6 @@ def draw_histories(history: pd.DataFrame, transmitter: str, out_dir: Path) -> Pa
     axes[0].legend(fontsize=8)
     fig.suptitle(f"{transmitter}: TDoA + FDoA, 3σ of the filter along the truth, and the pair's DOP")
     fig.tight_layout()
-    path = _save(fig, out_dir / f"{transmitter}_3sigma.png")
+    path = save_png(fig, out_dir / f"{transmitter}_3sigma.png")
     plt.close(fig)
     return path

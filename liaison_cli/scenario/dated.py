@@ -17,7 +17,7 @@ from datetime import timedelta
 import numpy as np
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-from liaison_cli.dynamics.earth_rotation import station_gcrf
+from liaison_cli.dynamics.earth_rotation import itrf_to_gcrf_many, stations_gcrf
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
@@ -88,14 +88,24 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
 
 
 class DatedStationTrajectory:
-    """A station's GCRF states (m, 6) in scaled units and its up vectors (m, 3) at the scenario's epochs."""
+    """A station's GCRF states (m, 6) in scaled units and its up vectors (m, 3) at the scenario's epochs.
+    The Earth's orientation at those epochs is computed once per scenario and shared by its stations."""
 
     def __init__(self, latitude_deg, longitude_deg, altitude_m, epoch_utc, times_s):
-        states, ups = [], []
-        for t in np.asarray(times_s, dtype=float):
-            r, v, up = station_gcrf(latitude_deg, longitude_deg, altitude_m, epoch_utc + timedelta(seconds=float(t)))
-            states.append(np.concatenate([r, v]) / SCALE)
-            ups.append(up)
-        self.states = np.array(states)
-        self.up = np.array(ups)
+        r, v, up = stations_gcrf(latitude_deg, longitude_deg, altitude_m, _earth_orientation(epoch_utc, times_s))
+        self.states = np.hstack([r, v]) / SCALE
+        self.up = up
 
+
+_ORIENTATION: dict = {}
+
+
+def _earth_orientation(epoch_utc, times_s) -> np.ndarray:
+    """itrf_to_gcrf at epoch + times_s (m, 3, 3), kept for the last few scenarios' epoch grids."""
+    times_s = np.asarray(times_s, dtype=float)
+    key = (epoch_utc.isoformat(), times_s.tobytes())
+    if key not in _ORIENTATION:
+        if len(_ORIENTATION) >= 4:
+            _ORIENTATION.pop(next(iter(_ORIENTATION)))
+        _ORIENTATION[key] = itrf_to_gcrf_many([epoch_utc + timedelta(seconds=float(t)) for t in times_s])
+    return _ORIENTATION[key]

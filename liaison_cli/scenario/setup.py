@@ -131,6 +131,14 @@ class Problem:
 
 def truth_key(scenario: Scenario) -> str:
     """The scenario fields that fix truth and noise-free measurements (not noise, filter or seed)."""
+    return json.dumps({"trajectories": trajectory_key(scenario),
+                       "links": [link.model_dump(mode="json") for link in scenario.links],
+                       "station_priority": scenario.station_priority,
+                       "light_time": scenario.measurement.light_time}, sort_keys=True)
+
+
+def trajectory_key(scenario: Scenario) -> str:
+    """The scenario fields that fix the participants' trajectories at the epochs (not the links)."""
     fields = {
         "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(),
                         "period_days": sc.period_days, "amplitude_km": sc.amplitude_km, "role": sc.role,
@@ -139,10 +147,8 @@ def truth_key(scenario: Scenario) -> str:
                         "manoeuvre": sc.manoeuvre and sc.manoeuvre.model_dump()}
                        for sc in scenario.spacecraft],
         "ground_stations": [st.model_dump(mode="json") for st in scenario.ground_stations],
-        "links": [link.model_dump(mode="json") for link in scenario.links],
         "duration_days": scenario.epochs_end_days(),
         "interval_s": scenario.measurement.interval_s,
-        "light_time": scenario.measurement.light_time,
         "dynamics": scenario.dynamics,
         "ephemeris": scenario.ephemeris and scenario.ephemeris.model_dump(),
         "state_km": [sc.state_km for sc in scenario.spacecraft],
@@ -256,10 +262,25 @@ def _visible(scenario: Scenario, link, trajectories, model, times_s) -> np.ndarr
     return visible
 
 
-def _truth_and_measurements(scenario: Scenario, model: DynamicsModel):
-    """times_s (m,), {name: trajectory}, noise-free measurements (m, C) with row 0 NaN."""
+def _truth_and_measurements(scenario: Scenario, model: DynamicsModel, cache: dict | None = None):
+    """times_s (m,), {name: trajectory}, noise-free measurements (m, C) with row 0 NaN. With `cache`, the
+    trajectories are kept under a key without the links (another link set reuses them: 004's receiver
+    pairs) and the measurements under one with them (a sweep over noise or filter settings)."""
+    if cache is not None:
+        key = truth_key(scenario)
+        if key not in cache:
+            flown_key = ("trajectories", trajectory_key(scenario))
+            if flown_key not in cache:
+                times = measurement_times_s(scenario)
+                cache[flown_key] = (times, _trajectories(scenario, model, times))
+            cache[key] = _measured(scenario, model, *cache[flown_key])
+        return cache[key]
     times_s = measurement_times_s(scenario)
-    trajectories = _trajectories(scenario, model, times_s)
+    return _measured(scenario, model, times_s, _trajectories(scenario, model, times_s))
+
+
+def _measured(scenario: Scenario, model: DynamicsModel, times_s, trajectories):
+    """(times_s, trajectories, noise-free measurements (m, C) with row 0 NaN) for the scenario's links."""
     visibility = _station_priority(scenario, [_visible(scenario, link, trajectories, model, times_s)
                                               for link in scenario.links])
     columns = []
@@ -457,13 +478,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
     """Build the arrays of a scenario. Pass the same `truth_cache` dict to a series of scenarios that
     differ only in noise / filter / seed (a sweep over sigma) and the truth is propagated once."""
     model = dynamics_model(scenario)
-    if truth_cache is None:
-        times_s, trajectories, measurements = _truth_and_measurements(scenario, model)
-    else:
-        key = truth_key(scenario)
-        if key not in truth_cache:
-            truth_cache[key] = _truth_and_measurements(scenario, model)
-        times_s, trajectories, measurements = truth_cache[key]
+    times_s, trajectories, measurements = _truth_and_measurements(scenario, model, truth_cache)
 
     names = scenario.spacecraft_names()
     known = [sc.name for sc in scenario.spacecraft if sc.role == "known"] + [st.name for st in scenario.ground_stations]
