@@ -51,11 +51,13 @@ def _propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
     raise TypingError(f"unknown dynamics model code {model.literal_value}")
 
 
-def literal_entry(dispatcher, args, literal_index: int):
-    """The compiled entry point of `dispatcher` for these arguments with args[literal_index] (a model code)
-    as a compile-time constant: loaded from the on-disk cache, or compiled once. Calling the dispatcher
-    with a plain int would cost a full typing pass in every process before numba.literally redirects it."""
-    sig = tuple(types.literal(a) if i == literal_index else typeof(a) for i, a in enumerate(args))
+def literal_entry(dispatcher, args, literal_index):
+    """The compiled entry point of `dispatcher` for these arguments with args[literal_index] (a model code;
+    or a tuple of indices: the model code and a kind set) as compile-time constants: loaded from the on-disk
+    cache, or compiled once. Calling the dispatcher with a plain int would cost a full typing pass in every
+    process before numba.literally redirects it."""
+    literal = {literal_index} if isinstance(literal_index, int) else set(literal_index)
+    sig = tuple(types.literal(a) if i in literal else typeof(a) for i, a in enumerate(args))
     return dispatcher.compile(sig)
 
 

@@ -14,8 +14,10 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
+from liaison_cli.measurements.registry import kinds_mask
 
 MODEL_ARG = 15  # position of the model code among run_ekf's arguments
+KINDS_ARG = 24  # ... and of its kind set (measurements.registry.kinds_mask)
 
 @dataclass(frozen=True, eq=False)
 class BatchArrays:
@@ -95,8 +97,8 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
             arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
             arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
-            arrays.divergence_position_lu, arrays.underweight, arrays.burns)
-    err, sigma, nees, innovation, innovation_std, status, fail_step = literal_entry(run_ekf, args, MODEL_ARG)(*args)
+            arrays.divergence_position_lu, arrays.underweight, arrays.burns, kinds_mask(arrays.channel_kind))
+    err, sigma, nees, innovation, innovation_std, status, fail_step = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))(*args)
     ok = status == STATUS_OK
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step))

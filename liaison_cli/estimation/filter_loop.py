@@ -14,7 +14,7 @@ from numba import njit
 from liaison_cli.dynamics.model import propagate_state_stm
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_SPACECRAFT
 from liaison_cli.estimation.ekf import normalized_error_squared, predict_covariance_blocks, update_scalar
-from liaison_cli.measurements.registry import predict, residual
+from liaison_cli.measurements.registry import predict_for, residual
 
 STATUS_OK = 0
 STATUS_NONFINITE = 1
@@ -105,7 +105,7 @@ def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, 
 @njit(cache=True)
 def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
             channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
-            n_gain, n_nees, divergence_position_lu, underweight, burns):
+            n_gain, n_nees, divergence_position_lu, underweight, burns, kinds):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
@@ -118,13 +118,15 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     n_gain: states from this index on are consider parameters with zero gain (-1: none); n_nees: the NEES
     covers the first n_nees states. A spacecraft whose position error exceeds divergence_position_lu stops
     the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none). burns
-    (N, 3): impulsive manoeuvres (apply_burns), applied after the update of their epoch.
+    (N, 3): impulsive manoeuvres (apply_burns), applied after the update of their epoch. kinds: the bit set
+    of channel_kind's codes (registry.kinds_mask), a compile-time constant like model.
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), status,
     fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
     Rows after a failure stay NaN.
     """
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
+    numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     m, n = truth.shape
     n_channels = channel_kind.shape[0]
     n_mods = channel_mod_index.shape[1]
@@ -169,7 +171,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             x_t = _end_state(x_bar, known_states, k, ta, ends[END_TRANSMITTER_KNOWN])
             sa, sk = ends[END_SECOND_STATE], ends[END_SECOND_KNOWN]
             x_s = x_r if sa < 0 and sk < 0 else _end_state(x_bar, known_states, k, sa, sk)
-            predicted = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter, g_second)
+            predicted = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter,
+                                    g_second)
             H[:] = 0.0
             for i in range(6):  # element loops: see _time_update
                 if ra >= 0:

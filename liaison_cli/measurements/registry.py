@@ -6,7 +6,9 @@ To add an observable: a new file in `measurements/` with its kind code, a compil
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core.errors import TypingError
+from numba.extending import overload
 
 from liaison_cli.measurements import dual_one_way, los, pseudorange, range as range_, range_rate, tdoa
 from liaison_cli.measurements.dual_one_way import KIND_CLOCK_OFFSET, KIND_PSEUDORANGE_IJ, predict_dual_one_way
@@ -56,6 +58,52 @@ def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_tran
         return predict_difference(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter,
                                   g_second)
     return np.nan
+
+
+def kinds_mask(channel_kinds) -> int:
+    """The bit set of the kind codes a scenario's channels use (predict_for's compile-time constant)."""
+    mask = 0
+    for kind in channel_kinds:
+        mask |= 1 << int(kind)
+    return mask
+
+
+def predict_for(kinds, kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
+    """predict() compiled for the kinds in the bit set `kinds` only (a compile-time constant: the caller
+    says numba.literally(kinds)). A scenario's filter loop then carries the code of its own observables and
+    not the others' (light-time TDoA paths, dual one-way, angles): less to compile on a first run."""
+    raise NotImplementedError("predict_for is compiled code; call it from a numba function")
+
+
+@overload(predict_for, inline="always")
+def _predict_for(kinds, kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
+    if not isinstance(kinds, types.IntegerLiteral):
+        raise TypingError("predict_for: the kind set must be a compile-time constant (numba.literally)")
+    mask = kinds.literal_value
+    has = [bool(mask >> code & 1) for code in range(max(CHANNEL_KINDS) + 1)]
+    use_range, use_rate = has[KIND_RANGE], has[KIND_RANGE_RATE]
+    use_angle = has[KIND_AZIMUTH] or has[KIND_ELEVATION]
+    use_pseudorange = has[KIND_PSEUDORANGE]
+    use_dual = any(has[KIND_PSEUDORANGE_IJ : KIND_CLOCK_OFFSET + 1])
+    use_difference = has[KIND_TDOA] or has[KIND_FDOA]
+
+    def impl(kinds, kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
+        if use_range and kind == KIND_RANGE:
+            return predict_range(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+        if use_rate and kind == KIND_RANGE_RATE:
+            return predict_range_rate(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+        if use_angle and (kind == KIND_AZIMUTH or kind == KIND_ELEVATION):
+            return predict_angle(kind, x_receiver, x_transmitter, g_receiver, g_transmitter)
+        if use_pseudorange and kind == KIND_PSEUDORANGE:
+            return predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+        if use_dual and KIND_PSEUDORANGE_IJ <= kind <= KIND_CLOCK_OFFSET:
+            return predict_dual_one_way(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
+        if use_difference and (kind == KIND_TDOA or kind == KIND_FDOA):
+            return predict_difference(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter,
+                                      g_second)
+        return np.nan
+
+    return impl
 
 
 @njit(cache=True, inline="always")

@@ -38,40 +38,44 @@ SECONDS_PER_LU = LU_KM / SPEED_OF_LIGHT_KM_S  # light time across one LU of path
 @njit(cache=True)
 def light_time_path(x_receiver, x_transmitter, rate, g_receiver, g_transmitter):
     """One signal path with light time (module docstring): rho (LU) or, with `rate`, rho_dot (LU/TU); the
-    partials with respect to the receiver's and transmitter's states into g_receiver, g_transmitter (6,)."""
+    partials with respect to the receiver's and transmitter's states into g_receiver, g_transmitter (6,).
+    Scalar arithmetic only: numba compiles it in a fraction of the time array expressions would take."""
     c = SPEED_OF_LIGHT_LU_TU
-    d = x_receiver[0:3] - x_transmitter[0:3]
-    v_t = x_transmitter[3:6]
-    tau = np.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2) / c
-    for _ in range(3):
-        w = d + v_t * tau
-        rho = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+    d0, d1, d2 = x_receiver[0] - x_transmitter[0], x_receiver[1] - x_transmitter[1], x_receiver[2] - x_transmitter[2]
+    v0, v1, v2 = x_transmitter[3], x_transmitter[4], x_transmitter[5]
+    tau = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / c
+    for _ in range(4):  # the fixed point w = d + v tau, tau = |w| / c
+        w0, w1, w2 = d0 + v0 * tau, d1 + v1 * tau, d2 + v2 * tau
+        rho = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
         tau = rho / c
-    w = d + v_t * tau
-    rho = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-    u = w / rho
-    big_d = 1.0 - (u[0] * v_t[0] + u[1] * v_t[1] + u[2] * v_t[2]) / c
+    w0, w1, w2 = d0 + v0 * tau, d1 + v1 * tau, d2 + v2 * tau
+    rho = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    u0, u1, u2 = w0 / rho, w1 / rho, w2 / rho
+    big_d = 1.0 - (u0 * v0 + u1 * v1 + u2 * v2) / c
     if not rate:
-        for i in range(3):
-            g_receiver[i] = u[i] / big_d
-            g_receiver[3 + i] = 0.0
-            g_transmitter[i] = -u[i] / big_d
-            g_transmitter[3 + i] = tau * u[i] / big_d
+        g_receiver[0], g_receiver[1], g_receiver[2] = u0 / big_d, u1 / big_d, u2 / big_d
+        g_transmitter[0], g_transmitter[1], g_transmitter[2] = -u0 / big_d, -u1 / big_d, -u2 / big_d
+        g_receiver[3] = g_receiver[4] = g_receiver[5] = 0.0
+        g_transmitter[3], g_transmitter[4], g_transmitter[5] = tau * u0 / big_d, tau * u1 / big_d, tau * u2 / big_d
         return rho
-    dv = x_receiver[3:6] - v_t
-    f = (u[0] * dv[0] + u[1] * dv[1] + u[2] * dv[2]) / big_d
-    a = dv / big_d + f * v_t / (c * big_d)  # the coefficient of du
-    p = (a - (a[0] * u[0] + a[1] * u[1] + a[2] * u[2]) * u) / rho
-    q = p + (p[0] * v_t[0] + p[1] * v_t[1] + p[2] * v_t[2]) / (c * big_d) * u
-    for i in range(3):
-        g_receiver[i] = q[i]
-        g_receiver[3 + i] = u[i] / big_d
-        g_transmitter[i] = -q[i]
-        g_transmitter[3 + i] = tau * q[i] - u[i] / big_d + f * u[i] / (c * big_d)
+    dv0, dv1, dv2 = x_receiver[3] - v0, x_receiver[4] - v1, x_receiver[5] - v2
+    f = (u0 * dv0 + u1 * dv1 + u2 * dv2) / big_d
+    k = f / (c * big_d)
+    a0, a1, a2 = dv0 / big_d + k * v0, dv1 / big_d + k * v1, dv2 / big_d + k * v2  # the coefficient of du
+    au = a0 * u0 + a1 * u1 + a2 * u2
+    p0, p1, p2 = (a0 - au * u0) / rho, (a1 - au * u1) / rho, (a2 - au * u2) / rho
+    pv = (p0 * v0 + p1 * v1 + p2 * v2) / (c * big_d)
+    q0, q1, q2 = p0 + pv * u0, p1 + pv * u1, p2 + pv * u2
+    g_receiver[0], g_receiver[1], g_receiver[2] = q0, q1, q2
+    g_receiver[3], g_receiver[4], g_receiver[5] = u0 / big_d, u1 / big_d, u2 / big_d
+    g_transmitter[0], g_transmitter[1], g_transmitter[2] = -q0, -q1, -q2
+    g_transmitter[3] = tau * q0 - u0 / big_d + k * u0
+    g_transmitter[4] = tau * q1 - u1 / big_d + k * u1
+    g_transmitter[5] = tau * q2 - u2 / big_d + k * u2
     return f
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: keeps the EKF loop small for scenarios without TDoA (compile time)
 def predict_difference(kind, x_first, x_transmitter, x_second, flags, g_first, g_transmitter, g_second):
     """TDoA path difference rho_2 - rho_1 or FDoA rate difference rho_dot_1 - rho_dot_2 (filter units),
     with the partials with respect to the three ends' states (6,) each; FLAG_LIGHT_TIME: each path with
