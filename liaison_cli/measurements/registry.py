@@ -1,8 +1,9 @@
 """The observable registry and the compiled dispatch: the only code that branches on a channel's kind.
 
 To add an observable: a new file in `measurements/` with its kind code, a compiled
-`predict_<name>(x_receiver, x_transmitter, flags, g_receiver, g_transmitter) -> value` and an
-`OBSERVABLE` description; then one import and one branch below.
+`predict_<name>(x_receiver, x_transmitter, flags, g_receiver, g_transmitter) -> value` (three-end kinds
+also take the second receiver) and an `OBSERVABLE` description; then one import and one branch in
+`predict_for`, the single dispatch: filter loops compile it for their scenario's kinds, `predict` for all.
 """
 
 import numpy as np
@@ -25,6 +26,7 @@ OBSERVABLES: dict[str, Observable] = {
 }
 CHANNEL_KINDS: dict[int, ChannelKind] = {ch.code: ch for obs in OBSERVABLES.values() for ch in obs.channels}
 assert len(CHANNEL_KINDS) == sum(len(obs.channels) for obs in OBSERVABLES.values()), "kind codes must be unique"
+ALL_KINDS = sum(1 << code for code in CHANNEL_KINDS)
 
 
 def observable_names() -> list[str]:
@@ -36,28 +38,6 @@ def get_observable(name: str) -> Observable:
         return OBSERVABLES[name]
     except KeyError:
         raise ValueError(f"unknown observable {name!r}; allowed: {', '.join(OBSERVABLES)}") from None
-
-
-@njit(cache=True, inline="always")
-def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
-    """Predicted value of a channel of this kind (filter units) from its ends' states (6,) each; writes
-    d(value)/d(end state) into g_receiver, g_transmitter, g_second (6,). x_second / g_second: the second
-    receiver of a three-end channel (TDoA, FDoA); two-end kinds leave them alone. Clock and bias modifiers
-    are added by the caller from the channel's modifier table (they are linear in their states)."""
-    if kind == KIND_RANGE:
-        return predict_range(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
-    if kind == KIND_RANGE_RATE:
-        return predict_range_rate(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
-    if kind == KIND_AZIMUTH or kind == KIND_ELEVATION:
-        return predict_angle(kind, x_receiver, x_transmitter, g_receiver, g_transmitter)
-    if kind == KIND_PSEUDORANGE:
-        return predict_pseudorange(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
-    if KIND_PSEUDORANGE_IJ <= kind <= KIND_CLOCK_OFFSET:
-        return predict_dual_one_way(kind, x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
-    if kind == KIND_TDOA or kind == KIND_FDOA:
-        return predict_difference(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter,
-                                  g_second)
-    return np.nan
 
 
 def kinds_mask(channel_kinds) -> int:
@@ -104,6 +84,17 @@ def _predict_for(kinds, kind, x_receiver, x_transmitter, x_second, flags, g_rece
         return np.nan
 
     return impl
+
+
+@njit(cache=True, inline="always")
+def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
+    """Predicted value of a channel of this kind (filter units) from its ends' states (6,) each; writes
+    d(value)/d(end state) into g_receiver, g_transmitter, g_second (6,). x_second / g_second: the second
+    receiver of a three-end channel (TDoA, FDoA); two-end kinds leave them alone. Clock and bias modifiers
+    are added by the caller from the channel's modifier table (they are linear in their states).
+    Every kind is compiled in; a filter loop uses predict_for with its scenario's kinds only."""
+    return predict_for(ALL_KINDS, kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter,
+                       g_second)
 
 
 @njit(cache=True, inline="always")
