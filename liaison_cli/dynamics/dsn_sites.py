@@ -5,8 +5,8 @@ Each site is its 70 m antenna, given as published Earth-fixed Cartesian coordina
 WGS84 geodetic latitude, longitude and height here, the form a scenario's ground station takes.
 
 Source: J. Astron. Space Sci. 40(2), 79 (2023), Table 1 (DSN antennas allocated to KPLO): DSS 14, 43, 63.
-They agree with the IAU Commission 4 list of DSN coordinates (ITRF2005, epoch 2003.0) within 0.11 m for
-DSS 14 and DSS 43, far below the 10 m station noise of 003; tests/test_dsn_tracking.py keeps that check.
+They agree with the IAU Commission 4 list of DSN coordinates (ITRF2005, epoch 2003.0) to 0.07 m (DSS 14)
+and 0.11 m (DSS 43), far below the 10 m station noise of 003; tests/test_dsn_tracking.py keeps that check.
 VLBA: NRAO's VLBA Observational Status Summary, Table 1 (WGS84 geodetic, degrees-minutes-seconds, metres).
 """
 
