@@ -14,6 +14,7 @@ from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
 MODEL_EPHEMERIS = 1  # its code behind the dynamics interface (dynamics.model)
+SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
 HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
 PARAM_CR_AM = 5
 
@@ -56,23 +57,20 @@ def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
     """(6,) scaled state at t_tu (TU since the epoch) -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, scaled
     units, by n_steps fixed RK8 steps of the DE421 + SRP field."""
     coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
-    scale = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])
     y = np.zeros(42)
     for i in range(6):
-        y[i] = state[i] * scale[i]
+        y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
     rk8_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records, bodies,
                   gms, gm_earth, cr_am, RK8_A, RK8_B, RK8_C)
     out = np.empty(6)
     phi = np.empty((6, 6))
     for i in range(6):
-        out[i] = y[i] / scale[i]
+        out[i] = y[i] / SCALE[i]
         for j in range(6):
-            phi[i, j] = y[6 + 6 * i + j] * scale[j] / scale[i]
+            phi[i, j] = y[6 + 6 * i + j] * SCALE[j] / SCALE[i]
     return out, phi
 
-
-SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
 
 
 class SampledTrajectory:

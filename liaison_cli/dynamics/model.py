@@ -82,6 +82,11 @@ class DynamicsModel:
         return rk4_states(np.asarray(state0, dtype=float), np.asarray(times_tu, dtype=float),
                           TRUTH_MAX_STEP_S / TU_S, self.params[0])
 
+    def body_positions_lu(self, times_s) -> dict:
+        """Occulting bodies' centres for measurements.visibility.not_occulted: the CRTBP's are fixed (its
+        defaults)."""
+        return {}
+
     @property
     def filter_params(self) -> np.ndarray:
         """The parameters of the filter's own model: the CRTBP's are the truth's."""

@@ -27,6 +27,7 @@ from numba import njit
 
 from liaison_cli.dynamics.model import advance_rk8
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
+from liaison_cli.estimation.filter_loop import channel_states
 from liaison_cli.measurements.registry import predict, residual
 
 JACOBIAN_EVERY = 0
@@ -83,12 +84,7 @@ def _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_en
     for i in range(h.shape[0]):
         h[i] = 0.0
     ends = channel_ends[c]
-    x_r = traj[k, ends[0] : ends[0] + 6] if ends[0] >= 0 else known_states[k, ends[1]]
-    x_t = traj[k, ends[2] : ends[2] + 6] if ends[2] >= 0 else known_states[k, ends[3]]
-    if ends[4] < 0 and ends[5] < 0:
-        x_s = x_r
-    else:
-        x_s = traj[k, ends[4] : ends[4] + 6] if ends[4] >= 0 else known_states[k, ends[5]]
+    x_r, x_t, x_s = channel_states(traj[k], known_states[k], ends)
     value = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_r, g_t, g_s)
     for end, g in ((ends[0], g_r), (ends[2], g_t), (ends[4], g_s)):
         if end < 0:

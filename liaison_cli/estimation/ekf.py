@@ -103,6 +103,16 @@ def normalized_error_squared(e, P, work):
     return total
 
 
+@njit(cache=True, inline="always")
+def scalar_gain(h, hph, R, n_gain, underweight):
+    """K (n,) = P H^T ((1 + beta) H P H^T + R)^-1 from h = P H^T and hph = H P H^T (Eq. 21; beta = underweight,
+    see update_scalar), zero from n_gain on (consider states; n_gain < 0: none)."""
+    K = h / ((1.0 + underweight) * hph + R)
+    if n_gain >= 0:
+        K[n_gain:] = 0.0
+    return K
+
+
 @njit(cache=True)
 def update_scalar(dx, P, y, H, R, n_gain=-1, underweight=0.0):
     """One scalar measurement update in Joseph form.
@@ -127,9 +137,7 @@ def update_scalar(dx, P, y, H, R, n_gain=-1, underweight=0.0):
     n = dx.shape[0]
     h = P @ H
     S = H @ h + R
-    K = h / (S + underweight * (S - R))  # K = P H^T (H P H^T + R)^-1 (Eq. 21); underweighted if beta > 0
-    if n_gain >= 0:
-        K[n_gain:] = 0.0
+    K = scalar_gain(h, S - R, R, n_gain, underweight)  # Eq. 21
     innovation = y - H @ dx
     P_new = np.empty((n, n))
     new_dx = np.empty(n)

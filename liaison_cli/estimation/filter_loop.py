@@ -36,10 +36,35 @@ END_SECOND_STATE, END_SECOND_KNOWN = 4, 5
 
 
 @njit(cache=True, inline="always")
-def _end_state(x_bar, known_states, k, state_offset, known_index):
+def _end_state(x, known_k, state_offset, known_index):
     if state_offset >= 0:
-        return x_bar[state_offset : state_offset + 6]
-    return known_states[k, known_index]
+        return x[state_offset : state_offset + 6]
+    return known_k[known_index]
+
+
+@njit(cache=True, inline="always")
+def channel_states(x, known_k, ends):
+    """(x_receiver, x_transmitter, x_second) (6,) each of a channel with `ends` (6,) (see END_*), from the
+    filter states x (n,) and the known participants' states at the epoch known_k (K, 6); a two-end channel's
+    x_second is its receiver's (unused by its kind)."""
+    x_r = _end_state(x, known_k, ends[END_RECEIVER_STATE], ends[END_RECEIVER_KNOWN])
+    x_t = _end_state(x, known_k, ends[END_TRANSMITTER_STATE], ends[END_TRANSMITTER_KNOWN])
+    if ends[END_SECOND_STATE] < 0 and ends[END_SECOND_KNOWN] < 0:
+        return x_r, x_t, x_r
+    return x_r, x_t, _end_state(x, known_k, ends[END_SECOND_STATE], ends[END_SECOND_KNOWN])
+
+
+@njit(cache=True, inline="always")
+def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
+    """H (n,) = 0 but the partials of the estimated ends at their state offsets (ends sharing a block add)."""
+    H[:] = 0.0
+    for i in range(6):  # element loops: see _time_update
+        if ends[END_RECEIVER_STATE] >= 0:
+            H[ends[END_RECEIVER_STATE] + i] += g_receiver[i]
+        if ends[END_TRANSMITTER_STATE] >= 0:
+            H[ends[END_TRANSMITTER_STATE] + i] += g_transmitter[i]
+        if ends[END_SECOND_STATE] >= 0:
+            H[ends[END_SECOND_STATE] + i] += g_second[i]
 
 
 @njit(cache=True)
@@ -47,14 +72,19 @@ def apply_burns(x, P, burns, k):
     """Impulsive manoeuvres after epoch k: each burn row (Delta-v block start, spacecraft block start, epoch
     index) adds the Delta-v states to the spacecraft's velocity, x <- J x and P <- J P J^T with
     J = I + (the Delta-v columns into the velocity rows)."""
-    for b in range(burns.shape[0]):
+    apply_burn_rows(x.reshape((x.shape[0], 1)), burns, k)
+    apply_burn_covariance(P, burns, k)
+
+
+@njit(cache=True)
+def apply_burn_covariance(P, burns, k):
+    """P <- J P J^T for the burns after epoch k (apply_burns)."""
+    apply_burn_rows(P, burns, k)  # J P
+    for b in range(burns.shape[0]):  # (J P) J^T
         if burns[b, 2] != k:
             continue
         d, v = burns[b, 0], burns[b, 1] + 3
-        for i in range(3):
-            x[v + i] += x[d + i]
-        apply_burn_rows(P, burns[b : b + 1], k)  # J P
-        for i in range(P.shape[0]):  # (J P) J^T
+        for i in range(P.shape[0]):
             for j in range(3):
                 P[i, v + j] += P[i, d + j]
 
@@ -166,21 +196,10 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             if not np.isfinite(y_meas):
                 continue
             ends = channel_ends[c]
-            ra, ta = ends[END_RECEIVER_STATE], ends[END_TRANSMITTER_STATE]
-            x_r = _end_state(x_bar, known_states, k, ra, ends[END_RECEIVER_KNOWN])
-            x_t = _end_state(x_bar, known_states, k, ta, ends[END_TRANSMITTER_KNOWN])
-            sa, sk = ends[END_SECOND_STATE], ends[END_SECOND_KNOWN]
-            x_s = x_r if sa < 0 and sk < 0 else _end_state(x_bar, known_states, k, sa, sk)
+            x_r, x_t, x_s = channel_states(x_bar, known_states[k], ends)
             predicted = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter,
                                     g_second)
-            H[:] = 0.0
-            for i in range(6):  # element loops: see _time_update
-                if ra >= 0:
-                    H[ra + i] += g_receiver[i]
-                if ta >= 0:
-                    H[ta + i] += g_transmitter[i]
-                if sa >= 0:
-                    H[sa + i] += g_second[i]
+            scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
             for j in range(n_mods):  # bias and clock modifiers: linear in their states
                 index = channel_mod_index[c, j]
                 if index >= 0:

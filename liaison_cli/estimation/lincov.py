@@ -19,8 +19,15 @@ import numba
 import numpy as np
 from numba import njit
 
-from liaison_cli.estimation.ekf import predict_covariance_blocks, update_scalar
-from liaison_cli.estimation.filter_loop import _time_update, apply_burn_rows, apply_burns
+from liaison_cli.estimation.ekf import predict_covariance_blocks, scalar_gain, update_scalar
+from liaison_cli.estimation.filter_loop import (
+    _time_update,
+    apply_burn_covariance,
+    apply_burn_rows,
+    apply_burns,
+    channel_states,
+    scatter_partials,
+)
 from liaison_cli.measurements.registry import predict
 
 PART_INITIAL, PART_NOISE, PART_PROCESS = 0, 1, 2
@@ -67,12 +74,7 @@ def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
 def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
     """The filter's model of one channel on the true states of its ends at one epoch (partials into g_r, g_t
     and, for a three-end channel, g_s)."""
-    x_r = truth_k[ends[0] : ends[0] + 6] if ends[0] >= 0 else known_k[ends[1]]
-    x_t = truth_k[ends[2] : ends[2] + 6] if ends[2] >= 0 else known_k[ends[3]]
-    if ends[4] < 0 and ends[5] < 0:
-        x_s = x_r
-    else:
-        x_s = truth_k[ends[4] : ends[4] + 6] if ends[4] >= 0 else known_k[ends[5]]
+    x_r, x_t, x_s = channel_states(truth_k, known_k, ends)
     return predict(kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
 
 
@@ -124,7 +126,7 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
             linearisation = truth[k - 1].copy()
             apply_burns(linearisation, P, burns, k - 1)
             for p in range(N_RANDOM_PARTS):
-                apply_burns(np.zeros(n), D[p], burns, k - 1)
+                apply_burn_covariance(D[p], burns, k - 1)
             apply_burn_rows(S, burns, k - 1)
             apply_burn_rows(mu_meas.reshape((n, 1)), burns, k - 1)
             apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k - 1)
@@ -147,22 +149,13 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                 ends = channel_ends[c]
                 predicted = _model_on_truth(truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r,
                                             g_t, g_s)
-                H[:] = 0.0
-                for i in range(6):
-                    if ends[0] >= 0:
-                        H[ends[0] + i] += g_r[i]
-                    if ends[2] >= 0:
-                        H[ends[2] + i] += g_t[i]
-                    if ends[4] >= 0:
-                        H[ends[4] + i] += g_s[i]
+                scatter_partials(H, ends, g_r, g_t, g_s)
                 for j in range(n_mods):
                     if channel_mod_index[c, j] >= 0:
                         H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
                 R = sigma[c] ** 2
                 h = P @ H
-                K = h / ((1.0 + underweight) * (H @ h) + R)  # the filter's gain (ekf.update_scalar)
-                if n_gain >= 0:
-                    K[n_gain:] = 0.0
+                K = scalar_gain(h, H @ h, R, n_gain, underweight)  # the filter's own gain
                 _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
                 hm = H @ mu_dyn
                 for i in range(n):

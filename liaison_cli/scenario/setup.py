@@ -256,7 +256,7 @@ def _visible(scenario: Scenario, link, trajectories, model, times_s) -> np.ndarr
                 visible &= elevation >= np.radians(stations[station].elevation_mask_deg)
         if link.occultation:
             if bodies is None:
-                bodies = model.body_positions_lu(times_s) if hasattr(model, "body_positions_lu") else {}
+                bodies = model.body_positions_lu(times_s)
             visible &= not_occulted(trajectories[end].states[:, 0:3], trajectories[link.transponder].states[:, 0:3],
                                     **bodies, check_earth=not any(who in stations for who in path))
     return visible
