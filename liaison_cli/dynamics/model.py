@@ -15,7 +15,7 @@ from numba.core.errors import TypingError
 from numba.extending import overload
 
 from liaison_cli.dynamics.constants import TU_S
-from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_states
+from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_state_stm_into, rk4_states
 from liaison_cli.dynamics.ephemeris_model import MODEL_EPHEMERIS, ephemeris_state_stm_scaled
 from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
@@ -48,6 +48,30 @@ def _propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
     if model.literal_value == MODEL_EPHEMERIS:
         return lambda model, params, state, t_tu, dt_tu, substeps: ephemeris_state_stm_scaled(
             params, state, t_tu, dt_tu, substeps)
+    raise TypingError(f"unknown dynamics model code {model.literal_value}")
+
+
+def propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
+    """propagate_state_stm written into y (42,) = [state (6), Phi row-major (36)], with work (5, 42) the
+    caller's scratch: the filter loops' form (no allocation per interval where the model allows it)."""
+    raise NotImplementedError("propagate_state_stm_into is compiled code; call it from a numba function")
+
+
+@overload(propagate_state_stm_into, inline="always")
+def _propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
+    if not isinstance(model, types.IntegerLiteral):
+        raise TypingError("propagate_state_stm_into: the model code must be a compile-time constant")
+    if model.literal_value == MODEL_CRTBP:
+        return lambda model, params, state, t_tu, dt_tu, substeps, y, work: rk4_state_stm_into(
+            state, dt_tu, substeps, params[0], y, work)
+    if model.literal_value == MODEL_EPHEMERIS:
+        def ephemeris_into(model, params, state, t_tu, dt_tu, substeps, y, work):
+            xs, phi = ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, substeps)
+            for i in range(6):
+                y[i] = xs[i]
+                for j in range(6):
+                    y[6 + 6 * i + j] = phi[i, j]
+        return ephemeris_into
     raise TypingError(f"unknown dynamics model code {model.literal_value}")
 
 

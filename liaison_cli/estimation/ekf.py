@@ -10,7 +10,15 @@ from numba import njit
 
 @njit(cache=True)
 def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_size):
-    """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi, written into `out`.
+    """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi, written into `out` (and returned); see
+    predict_covariance_into."""
+    return predict_covariance_into(P, Phi, Q, out, np.empty((6, 6)), block_kind, block_start, block_size)
+
+
+@njit(cache=True)
+def predict_covariance_into(P, Phi, Q, out, tmp, block_kind, block_start, block_size):
+    """P_bar = Phi P Phi^T + Q (Eq. 12) for a block-diagonal Phi, written into `out` (and returned); tmp (6, 6)
+    scratch.
 
     P, Phi, Q, out: (n, n); block_kind / block_start / block_size (B,): the state layout (see
     estimation.blocks). Only Phi's diagonal blocks are read; constant blocks (kind 2) have identity
@@ -19,7 +27,6 @@ def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_siz
     block. Symmetric by construction (upper triangle mirrored).
     """
     n_blocks = block_kind.shape[0]
-    tmp = np.empty((6, 6))
     # The leading spacecraft blocks sit at 6 a: offsets the compiler can see are non-negative multiples
     # of 6 make this hot path ~1.5x faster than offsets read from block_start.
     n_sc = 0
@@ -74,10 +81,16 @@ def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_siz
 
 @njit(cache=True)
 def normalized_error_squared(e, P, work):
-    """NEES e^T P^-1 e by an in-place Cholesky factor of P (no inverse, no allocation).
+    """NEES e^T P^-1 e by an in-place Cholesky factor of P (no inverse).
 
     e (n,); P (n, n) symmetric positive definite; work (n, n) scratch. Returns NaN if P is not PD.
     """
+    return nees_into(e, P, work, np.empty(e.shape[0]))
+
+
+@njit(cache=True)
+def nees_into(e, P, work, z):
+    """normalized_error_squared with the caller's scratch: work (n, n) for L, z (n,) for L^-1 e."""
     n = e.shape[0]
     for j in range(n):  # work = L with P = L L^T (lower triangle)
         d = P[j, j]
@@ -93,7 +106,6 @@ def normalized_error_squared(e, P, work):
                 s -= work[i, k] * work[j, k]
             work[i, j] = s / d
     total = 0.0
-    z = np.empty(n)
     for i in range(n):  # solve L z = e; NEES = |z|^2
         s = e[i]
         for k in range(i):
@@ -107,10 +119,17 @@ def normalized_error_squared(e, P, work):
 def scalar_gain(h, hph, R, n_gain, underweight):
     """K (n,) = P H^T ((1 + beta) H P H^T + R)^-1 from h = P H^T and hph = H P H^T (Eq. 21; beta = underweight,
     see update_scalar), zero from n_gain on (consider states; n_gain < 0: none)."""
-    K = h / ((1.0 + underweight) * hph + R)
-    if n_gain >= 0:
-        K[n_gain:] = 0.0
+    K = np.empty(h.shape[0])
+    scalar_gain_into(h, hph, R, n_gain, underweight, K)
     return K
+
+
+@njit(cache=True, inline="always")
+def scalar_gain_into(h, hph, R, n_gain, underweight, K):
+    """scalar_gain written into K (n,)."""
+    denominator = (1.0 + underweight) * hph + R
+    for i in range(h.shape[0]):
+        K[i] = 0.0 if (n_gain >= 0 and i >= n_gain) else h[i] / denominator
 
 
 @njit(cache=True)
@@ -135,21 +154,36 @@ def update_scalar(dx, P, y, H, R, n_gain=-1, underweight=0.0):
     keeps P honest for it. Once H P H^T << R the factor no longer matters.
     """
     n = dx.shape[0]
-    h = P @ H
-    S = H @ h + R
-    K = scalar_gain(h, S - R, R, n_gain, underweight)  # Eq. 21
-    innovation = y - H @ dx
-    P_new = np.empty((n, n))
     new_dx = np.empty(n)
+    P_new = np.empty((n, n))
+    innovation, S = update_scalar_into(dx, P, y, H, R, n_gain, underweight, new_dx, P_new, np.empty(n), np.empty(n))
+    return new_dx, P_new, innovation, S
+
+
+@njit(cache=True)
+def update_scalar_into(dx, P, y, H, R, n_gain, underweight, dx_out, P_out, h, K):
+    """update_scalar written into dx_out (n,) and P_out (n, n) (neither may alias dx or P), with h, K (n,) the
+    caller's scratch; returns (innovation, S). No allocation: the filter loops call it at every channel."""
+    n = dx.shape[0]
+    S = R
+    innovation = y
+    for i in range(n):  # h = P H^T, S = H P H^T + R, innovation = y - H dx
+        acc = 0.0
+        for j in range(n):
+            acc += P[i, j] * H[j]
+        h[i] = acc
+        S += H[i] * acc
+        innovation -= H[i] * dx[i]
     hs = S - R
+    scalar_gain_into(h, hs, R, n_gain, underweight, K)  # Eq. 21
     for i in range(n):
-        new_dx[i] = dx[i] + K[i] * innovation  # Eq. 22, sequential form
+        dx_out[i] = dx[i] + K[i] * innovation  # Eq. 22, sequential form
         u_i = h[i] - K[i] * hs
         for j in range(n):
-            P_new[i, j] = P[i, j] - K[i] * h[j] - u_i * K[j] + R * K[i] * K[j]
+            P_out[i, j] = P[i, j] - K[i] * h[j] - u_i * K[j] + R * K[i] * K[j]
     for i in range(n):
         for j in range(i + 1, n):
-            sym = 0.5 * (P_new[i, j] + P_new[j, i])
-            P_new[i, j] = sym
-            P_new[j, i] = sym
-    return new_dx, P_new, innovation, S
+            sym = 0.5 * (P_out[i, j] + P_out[j, i])
+            P_out[i, j] = sym
+            P_out[j, i] = sym
+    return innovation, S

@@ -11,9 +11,9 @@ import numba
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.model import propagate_state_stm
+from liaison_cli.dynamics.model import propagate_state_stm_into
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_SPACECRAFT
-from liaison_cli.estimation.ekf import normalized_error_squared, predict_covariance_blocks, update_scalar
+from liaison_cli.estimation.ekf import nees_into, predict_covariance_into, update_scalar_into
 from liaison_cli.measurements.registry import predict_for, residual
 
 STATUS_OK = 0
@@ -103,18 +103,19 @@ def apply_burn_rows(M, burns, k):
 
 @njit(cache=True, inline="always")
 def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
-                 substeps):
-    """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11)."""
+                 substeps, y, work):
+    """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11). y (42,) and
+    work (5, 42): scratch for the state + STM propagation."""
     for b in range(block_kind.shape[0]):
         a, size = block_start[b], block_size[b]
         if block_kind[b] == BLOCK_SPACECRAFT:
-            xs, phis = propagate_state_stm(model, model_params, x_hat[a : a + 6], t_tu, dt_tu, substeps)
+            propagate_state_stm_into(model, model_params, x_hat[a : a + 6], t_tu, dt_tu, substeps, y, work)
             # Element loops, not slice assignment: numba compiles a shape-mismatch error path (string
             # formatting, seconds of compile time) for every array-to-slice assignment.
             for i in range(6):
-                x_bar[a + i] = xs[i]
+                x_bar[a + i] = y[i]
                 for j in range(6):
-                    Phi[a + i, a + j] = phis[i, j]
+                    Phi[a + i, a + j] = y[6 + 6 * i + j]
         elif block_kind[b] == BLOCK_CLOCK:
             for i in range(size):  # Phi_ij = dt^(j-i) / (j-i)!
                 Phi[a + i, a + i] = 1.0
@@ -166,31 +167,43 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     innovations = np.full((m, n_channels), np.nan)
     innov_std = np.full((m, n_channels), np.nan)
 
+    # Every buffer of the loop is allocated here, once per run: in the loop, allocation had cost as much
+    # as the arithmetic. P and P_spare swap roles at each covariance step (no step writes in place).
     x_hat = x0_hat.copy()
+    x_bar = np.empty(n)
+    dx = np.empty(n)
+    dx_spare = np.empty(n)
+    e = np.empty(n)
     P = P0.copy()
+    P_spare = np.empty((n, n))
+    Phi = np.zeros((n, n))
+    H = np.zeros(n)
+    h = np.empty(n)
+    K = np.empty(n)
+    g_receiver = np.empty(6)
+    g_transmitter = np.empty(6)
+    g_second = np.empty(6)
+    y_stm = np.empty(42)
+    work_stm = np.empty((5, 42))
+    work_block = np.empty((6, 6))
+    work_nees = np.empty((n_nees, n_nees))
+    z_nees = np.empty(n_nees)
     for i in range(n):  # element loop: see _time_update
         err[0, i] = x_hat[i] - truth[0, i]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
-    work = np.empty((n_nees, n_nees))
-    nees[0] = normalized_error_squared(err[0, :n_nees], P[:n_nees, :n_nees], work)
+    nees[0] = nees_into(err[0, :n_nees], P[:n_nees, :n_nees], work_nees, z_nees)
 
-    x_bar = np.empty(n)
-    Phi = np.zeros((n, n))
-    H = np.zeros(n)
-    g_receiver = np.empty(6)
-    g_transmitter = np.empty(6)
-    g_second = np.empty(6)
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
         _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
-                     (k - 1) * dt_tu, dt_tu, substeps)
-        # A fresh output buffer: P may still alias the previous one if no measurement came in.
-        P = predict_covariance_blocks(P, Phi, Q, np.empty((n, n)), block_kind, block_start, block_size)
+                     (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+        P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
 
         # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24).
-        dx = np.zeros(n)
+        for i in range(n):
+            dx[i] = 0.0
         for c in range(n_channels):
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
@@ -206,12 +219,16 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
                     predicted += channel_mod_coeff[c, j] * x_bar[index]
                     H[index] += channel_mod_coeff[c, j]
             y = residual(channel_kind[c], y_meas, predicted)
-            dx, P, innovation, S = update_scalar(dx, P, y, H, sigma[c] ** 2, n_gain, underweight)
+            innovation, S = update_scalar_into(dx, P, y, H, sigma[c] ** 2, n_gain, underweight, dx_spare, P_spare, h,
+                                               K)
+            dx, dx_spare = dx_spare, dx
+            P, P_spare = P_spare, P
             if not np.isfinite(innovation):  # a run with a non-finite innovation is never "ok"
                 return err, sig, nees, innovations, innov_std, STATUS_NONFINITE, k
             innovations[k, c] = innovation
             innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
-        x_hat = x_bar + dx
+        for i in range(n):
+            x_hat[i] = x_bar[i] + dx[i]
 
         # Health checks: a diverged run stops here and reports why.
         finite = True
@@ -223,12 +240,12 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
         for i in range(n):
             if P[i, i] <= 0.0:
                 return err, sig, nees, innovations, innov_std, STATUS_COVARIANCE_NOT_POSITIVE, k
-        e = x_hat - truth[k]
         for i in range(n):
+            e[i] = x_hat[i] - truth[k, i]
             err[k, i] = e[i]
         for i in range(n):
             sig[k, i] = np.sqrt(P[i, i])
-        nees[k] = normalized_error_squared(e[:n_nees], P[:n_nees, :n_nees], work)
+        nees[k] = nees_into(e[:n_nees], P[:n_nees, :n_nees], work_nees, z_nees)
         for b in range(block_kind.shape[0]):
             if block_kind[b] == BLOCK_SPACECRAFT:
                 a = block_start[b]

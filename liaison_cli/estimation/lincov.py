@@ -119,6 +119,8 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
     g_t = np.empty(6)
     g_s = np.empty(6)
     scratch = np.empty((n, n))
+    y_stm = np.empty(42)
+    work_stm = np.empty((5, 42))
     for k in range(m):
         if k > 0:
             # A manoeuvre after epoch k - 1: the truth takes its true Delta-v (the Delta-v columns of the
@@ -131,7 +133,7 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
             apply_burn_rows(mu_meas.reshape((n, 1)), burns, k - 1)
             apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k - 1)
             _time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
-                         (k - 1) * dt_tu, dt_tu, substeps)
+                         (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
             d_dyn = truth[k] - x_bar + d_dyn_extra
             for b in range(block_kind.shape[0]):
                 if block_kind[b] != 0:  # clocks and constants: only the stated drifts
