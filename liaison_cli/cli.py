@@ -55,40 +55,64 @@ def _left(text: str, width: int) -> str:
     return text.ljust(width) if len(text) < width else text + " "
 
 
-def _format_summary(summary: "pd.DataFrame", spacecraft) -> str:
-    ok = summary[summary.status == "ok"]
+def _ok_values(summary: list[dict], spacecraft: str, column: str, scale: float = 1.0) -> list[float]:
+    """The column's finite values over the runs that finished 'ok', for one spacecraft (NaN and absent
+    entries left out, as a DataFrame's mean leaves them out)."""
+    out = []
+    for row in summary:
+        value = row.get(column)
+        if row.get("status") == "ok" and row.get("spacecraft") == spacecraft and value is not None \
+                and math.isfinite(value):
+            out.append(scale * value)
+    return out
+
+
+def _mean(values: list[float]) -> float:
+    return sum(values) / len(values) if values else math.nan
+
+
+def _quantile(values: list[float], q: float) -> float:
+    """Linear interpolation between order statistics (numpy's and pandas' default)."""
+    ordered = sorted(values)
+    position = q * (len(ordered) - 1)
+    low = math.floor(position)
+    high = min(low + 1, len(ordered) - 1)
+    return ordered[low] + (position - low) * (ordered[high] - ordered[low])
+
+
+def _format_summary(summary: list[dict], spacecraft) -> str:
+    """Per spacecraft, the means over the runs that finished 'ok' of the summary rows' RMS and containment."""
     lines = [
         f"{'spacecraft':<12}{'pos RMS m':>11}{'[>1 d]':>9}{'vel RMS mm/s':>14}{'[>1 d]':>9}"
         f"{'in 2σ >1 d':>12}{'in 3σ >1 d':>12}"
     ]
     for name in spacecraft:
-        s = ok[ok.spacecraft == name]
+        def mean(column, scale=1.0):
+            return _mean(_ok_values(summary, name, column, scale))
+
         lines.append(
-            _left(name, 12) + _right(f"{s.rms_position_m.mean():.1f}", 11)
-            + _right(f"{s.rms_position_after_day1_m.mean():.1f}", 9)
-            + _right(f"{1e3 * s.rms_velocity_m_s.mean():.3f}", 14)
-            + _right(f"{1e3 * s.rms_velocity_after_day1_m_s.mean():.3f}", 9)
-            + _right(f"{100 * s.frac_in_2sigma_after_day1.mean():.1f}", 11) + "%"
-            + _right(f"{100 * s.frac_in_3sigma_after_day1.mean():.1f}", 11) + "%"
+            _left(name, 12) + _right(f"{mean('rms_position_m'):.1f}", 11)
+            + _right(f"{mean('rms_position_after_day1_m'):.1f}", 9)
+            + _right(f"{mean('rms_velocity_m_s', 1e3):.3f}", 14)
+            + _right(f"{mean('rms_velocity_after_day1_m_s', 1e3):.3f}", 9)
+            + _right(f"{mean('frac_in_2sigma_after_day1', 100):.1f}", 11) + "%"
+            + _right(f"{mean('frac_in_3sigma_after_day1', 100):.1f}", 11) + "%"
         )
     return "\n".join(lines)
 
 
-def _format_prediction(summary: "pd.DataFrame", spacecraft) -> str:
+def _format_prediction(summary: list[dict], spacecraft) -> str:
     """For a batch scenario: the DRMS of the prediction after the span and the clock synchronisation RMS,
     mean [90th percentile] over the runs that finished; empty for an EKF scenario."""
-    if "rms_position_prediction_m" not in summary:
+    if not any("rms_position_prediction_m" in row for row in summary):
         return ""
-    ok = summary[summary.status == "ok"]
-    clocks = "clock_rms_window_ns" in summary
+    clocks = any("clock_rms_window_ns" in row for row in summary)
     lines = [f"{'spacecraft':<12}{'prediction RMS m':>22}" + (f"{'clock RMS ns, window':>26}"
                                                                f"{'3 h prediction':>22}" if clocks else "")]
     for name in spacecraft:
-        s = ok[ok.spacecraft == name]
-
-        def stat(column, scale=1.0):
-            values = s[column].dropna() * scale if column in s else s.iloc[0:0, 0]
-            return f"{values.mean():.2f} [{values.quantile(0.9):.2f}]" if len(values) else "-"
+        def stat(column):
+            values = _ok_values(summary, name, column)
+            return f"{_mean(values):.2f} [{_quantile(values, 0.9):.2f}]" if values else "-"
 
         line = _left(name, 12) + _right(stat("rms_position_prediction_m"), 22)
         if clocks:
@@ -97,12 +121,15 @@ def _format_prediction(summary: "pd.DataFrame", spacecraft) -> str:
     return "after the data span, mean [90th percentile] over runs:\n" + "\n".join(lines)
 
 
-def _status_line(summary: "pd.DataFrame") -> str:
-    runs = summary.drop_duplicates("run")
-    bad = runs[runs.status != "ok"]
+def _status_line(summary: list[dict]) -> str:
+    first_rows: dict = {}
+    for row in summary:
+        first_rows.setdefault(row["run"], row)
+    runs = list(first_rows.values())
+    bad = [row for row in runs if row["status"] != "ok"]
     text = f"{len(runs) - len(bad)}/{len(runs)} runs ok"
-    if len(bad):
-        reasons = "; ".join(f"run {r.run}: {r.status} ({r.reason})" for r in bad.itertuples())
+    if bad:
+        reasons = "; ".join(f"run {r['run']}: {r['status']} ({r['reason']})" for r in bad)
         text += f"; excluded from the averages: {reasons}"
     return text
 
@@ -142,7 +169,7 @@ def run(
         typer.echo(prediction)
     typer.echo(_status_line(summary))
     typer.echo(f"results: {out_dir}")
-    if not (summary.status == "ok").any():
+    if not any(row["status"] == "ok" for row in summary):
         _fail(f"no run of {config.name} finished healthy (see the status line above); results kept in {out_dir}",
               EXIT_ALL_DIVERGED)
 

@@ -78,13 +78,58 @@ def write_text_atomic(text: str, path) -> None:
 def write_parquet_atomic(df, path, metadata: dict) -> None:
     """Write a DataFrame with JSON metadata under the 'liaison' key."""
     import pyarrow as pa
+
+    _write_table_atomic(pa.Table.from_pandas(df, preserve_index=False), path, metadata)
+
+
+def write_columns_atomic(columns: dict, path, metadata: dict) -> None:
+    """Write columns (name -> 1-D numpy array, see arrow_table) with JSON metadata, without pandas."""
+    _write_table_atomic(arrow_table(columns), path, metadata)
+
+
+def _write_table_atomic(table, path, metadata: dict) -> None:
     import pyarrow.parquet as pq
 
-    table = pa.Table.from_pandas(df, preserve_index=False)
     merged = dict(table.schema.metadata or {})
     merged[METADATA_KEY] = json.dumps(metadata, sort_keys=True).encode()
     table = table.replace_schema_metadata(merged)
     _write_atomic(path, lambda tmp: pq.write_table(table, tmp))
+
+
+def arrow_table(columns: dict):
+    """A pyarrow Table from columns (name -> 1-D numpy array: numbers, bools, or objects holding strings and
+    None), built from buffers. pa.array() and pa.table() import pandas (about 0.3 s) to ask whether their
+    input is a pandas object; `liaison run` writes all its tables without paying for that."""
+    import pyarrow as pa
+
+    return pa.Table.from_arrays([arrow_array(values) for values in columns.values()], names=list(columns))
+
+
+def arrow_array(values):
+    """The pyarrow array of a 1-D numpy array (see arrow_table): strings as utf8 with None as null; NaN in a
+    float column stays NaN, as pa.array(values) keeps it."""
+    import numpy as np
+    import pyarrow as pa
+
+    values = np.asarray(values)
+    n = len(values)
+    if values.dtype == object:
+        missing = np.array([v is None for v in values], dtype=bool)
+        text = np.where(missing, "", values).astype(str)
+        labels, codes = np.unique(text, return_inverse=True)  # few distinct labels: encode them once
+        encoded = [label.encode("utf-8") for label in labels]
+        offsets = np.zeros(len(encoded) + 1, dtype=np.int32)
+        offsets[1:] = np.cumsum([len(b) for b in encoded])
+        dictionary = pa.Array.from_buffers(pa.string(), len(encoded),
+                                           [None, pa.py_buffer(offsets), pa.py_buffer(b"".join(encoded))])
+        validity = pa.py_buffer(np.packbits(~missing, bitorder="little")) if missing.any() else None
+        indices = pa.Array.from_buffers(pa.int32(), n, [validity, pa.py_buffer(codes.astype(np.int32).ravel())],
+                                        null_count=int(missing.sum()))
+        return pa.DictionaryArray.from_arrays(indices, dictionary).dictionary_decode()
+    if values.dtype == bool:
+        return pa.Array.from_buffers(pa.bool_(), n, [None, pa.py_buffer(np.packbits(values, bitorder="little"))])
+    values = np.ascontiguousarray(values)
+    return pa.Array.from_buffers(pa.from_numpy_dtype(values.dtype), n, [None, pa.py_buffer(values)])
 
 
 class ParquetStream:
@@ -93,7 +138,7 @@ class ParquetStream:
     `append` takes columns (name -> 1-D array, the same names and dtypes each time); up to `flush_rows`
     rows are buffered and written as one row group (`dictionary_columns`: those whose values repeat). The file is built under a temporary name beside
     `path`, fsynced and renamed onto it by `close()` (`abort()` drops it). With no rows at all it writes an
-    empty table, as `write_parquet_atomic(pd.DataFrame())` does.
+    empty table.
     """
 
     def __init__(self, path, metadata: dict, flush_rows: int = 200_000, dictionary_columns=()):
@@ -117,13 +162,12 @@ class ParquetStream:
 
     def _flush(self) -> None:
         import numpy as np
-        import pyarrow as pa
         import pyarrow.parquet as pq
 
         if not self._buffer:
             return
         names = list(self._buffer[0])
-        table = pa.table({name: np.concatenate([part[name] for part in self._buffer]) for name in names})
+        table = arrow_table({name: np.concatenate([part[name] for part in self._buffer]) for name in names})
         self._buffer, self._buffered_rows = [], 0
         if self._writer is None:
             table = table.replace_schema_metadata(
@@ -149,9 +193,7 @@ class ParquetStream:
     def _close(self) -> None:
         self._flush()
         if self._writer is None:
-            import pandas as pd
-
-            write_parquet_atomic(pd.DataFrame(), self.path, self._metadata)
+            write_columns_atomic({}, self.path, self._metadata)
             return
         self._writer.close()
         with open(self._tmp, "rb") as handle:

@@ -172,6 +172,24 @@ def test_importing_the_core_loads_no_io_libraries():
     assert out.stdout.strip() == ""
 
 
+def test_liaison_run_loads_only_what_it_needs(tmp_path):
+    """Issue 13: a command does not pay for imports it does not use. A small `liaison run` writes its Parquet
+    without pandas (0.3 s), stays in its process without joblib, and takes its chi-square bounds without
+    scipy.special / scipy.stats; its truth needs no scipy.integrate. The check is run in a fresh process."""
+    unwanted = ["pandas", "joblib", "scipy.special", "scipy.stats", "scipy.integrate", "scipy.optimize", "matplotlib"]
+    scenario = PACKAGE.parent / "scenarios" / "smoke.yaml"
+    code = (
+        "import sys\nfrom liaison_cli.cli import app\n"
+        f"try:\n    app(['run', {str(scenario)!r}, '--quiet', '--output', {str(tmp_path / 'out')!r}])\n"
+        "except SystemExit as stop:\n    assert stop.code == 0, stop.code\n"
+        f"print('loaded: ' + ','.join(m for m in {unwanted!r} if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "2/2 runs ok" in out.stdout
+    assert out.stdout.strip().splitlines()[-1] == "loaded:", out.stdout
+    assert (tmp_path / "out" / "summary.parquet").exists()
+
+
 def observable_vocabulary_outside_measurements(package_root: Path) -> list[str]:
     """Kind codes defined or imported, or an observable's name compared against, outside measurements/."""
     found = []

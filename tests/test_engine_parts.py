@@ -212,3 +212,48 @@ def test_occultation_blanks_exactly_the_epochs_the_moon_blocks():
     assert 0.02 < hidden.mean() < 0.5  # the orbiter passes behind the Moon every revolution
     assert np.array_equal(np.isnan(blocked.measurements_true[1:, 0]), hidden)
     assert np.isfinite(open_sky.measurements_true[1:, 0]).all()
+
+
+@pytest.mark.parametrize("dof", [1, 2, 3, 6, 12, 13, 24, 120, 1_200, 12_000, 120_000])
+def test_chi_square_quantiles_match_scipy(dof):
+    """The pure-Python chi-square quantile (no scipy.special at start-up) against scipy.stats.chi2.ppf."""
+    from scipy.stats import chi2
+
+    from liaison_cli.analysis.metrics import chi2_quantile
+
+    for probability in (1e-6, 0.001, 0.025, 0.3, 0.5, 0.7, 0.975, 0.999, 1 - 1e-6):
+        assert chi2_quantile(probability, dof) == pytest.approx(chi2.ppf(probability, dof), rel=1e-11)
+
+
+@pytest.mark.parametrize("dof", [1.2e6, 1.2e7])
+def test_chi_square_quantiles_for_a_million_runs(dof):
+    """The NEES band of a million-run campaign (12 states) at the probabilities liaison uses."""
+    from scipy.stats import chi2
+
+    from liaison_cli.analysis.metrics import chi2_quantile
+
+    for probability in (0.025, 0.975, 0.999):
+        assert chi2_quantile(probability, dof) == pytest.approx(chi2.ppf(probability, dof), rel=1e-11)
+
+
+def test_summary_columns_are_typed_as_a_data_frame_would_type_them():
+    """`liaison run` writes its summary without pandas; the file reads back as the DataFrame of its rows."""
+    import pandas as pd
+
+    rows = [{"run": 0, "spacecraft": "A", "rms_position_m": 1.5, "status": "ok", "reason": "", "steps": 3,
+             "flag": True},
+            {"run": 0, "spacecraft": "B", "rms_position_m": float("nan"), "status": "ok", "reason": "",
+             "steps": 4, "flag": False, "clock_rms_window_ns": 2.0},
+            {"run": 1, "spacecraft": "A", "status": "diverged", "reason": "NEES", "steps": 5, "flag": True,
+             "label": "x"}]
+    columns = results_module.summary_columns(rows)
+    expected = pd.DataFrame(rows).astype({"run": "int32"})
+    assert list(columns) == list(expected.columns)
+    got = pd.DataFrame(columns)
+    for name in expected.columns:
+        if not (pd.api.types.is_numeric_dtype(expected[name]) or pd.api.types.is_bool_dtype(expected[name])):
+            assert [None if v is None or v != v else v for v in got[name]] == \
+                   [None if v is None or v != v else v for v in expected[name]], name
+        else:
+            assert got[name].dtype == expected[name].dtype, name
+            np.testing.assert_array_equal(got[name].to_numpy(), expected[name].to_numpy(), err_msg=name)

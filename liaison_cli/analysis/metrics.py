@@ -1,5 +1,8 @@
 """Per-run accuracy and consistency metrics from estimation errors and covariance diagonals."""
 
+import math
+from statistics import NormalDist
+
 import numpy as np
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
@@ -67,11 +70,75 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
 
 
 def chi2_quantile(probability: float, dof: float) -> float:
-    """The chi-square quantile, 2 * P^-1(dof / 2, p) with P the regularised lower incomplete gamma function
-    (scipy.special: importing scipy.stats for chi2.ppf would cost about a second)."""
-    from scipy.special import gammaincinv
+    """The chi-square quantile with `dof` degrees of freedom: x with P(dof / 2, x / 2) = probability, P the
+    regularised lower incomplete gamma function. Pure Python: importing scipy.special cost 50 ms at every
+    start. Against scipy.stats.chi2.ppf (tests/test_engine_parts.py): within 1e-11 relative for 1 to 120,000
+    degrees of freedom and probabilities 1e-6 to 1 - 1e-6; within 1e-11 up to 1e7 degrees of freedom at the
+    probabilities liaison asks for (0.025, 0.975, 0.999)."""
+    if not 0.0 < probability < 1.0 or dof <= 0.0:
+        raise ValueError(f"chi2_quantile: probability {probability} must be in (0, 1) and dof {dof} positive")
+    a = 0.5 * dof
+    upper = probability > 0.5  # solve on the smaller tail, where the function has its digits
+    target = 1.0 - probability if upper else probability
+    z = NormalDist().inv_cdf(probability)  # Wilson-Hilferty start
+    h = 2.0 / (9.0 * dof)
+    x = 0.5 * dof * max(1.0 - h + z * math.sqrt(h), 0.05) ** 3
+    low, high = 0.0, math.inf  # a bracket in x (half the chi-square value) kept by every step
+    for _ in range(100):
+        lower_p, upper_q = _regularised_gamma(a, x)
+        value = (upper_q if upper else lower_p) - target
+        if (value > 0.0) != upper:  # P too large (or Q too small): the root lies below x
+            high = x
+        else:
+            low = x
+        density = math.exp((a - 1.0) * math.log(x) - x - math.lgamma(a))  # dP/dx
+        step = value / density if not upper else -value / density
+        candidate = x - step
+        if not low < candidate < high:  # Newton left the bracket: bisect
+            candidate = 0.5 * (low + high) if math.isfinite(high) else 2.0 * x
+        if abs(candidate - x) <= 1e-15 * x:
+            x = candidate
+            break
+        x = candidate
+    return 2.0 * x
 
-    return 2.0 * float(gammaincinv(0.5 * dof, probability))
+
+def _regularised_gamma(a: float, x: float) -> tuple[float, float]:
+    """(P(a, x), Q(a, x)) = regularised lower and upper incomplete gamma functions: the series below
+    x = a + 1, Lentz's continued fraction for Q above (Numerical Recipes' split)."""
+    if x <= 0.0:
+        return 0.0, 1.0
+    log_prefactor = a * math.log(x) - x - math.lgamma(a)
+    if x < a + 1.0:
+        term = total = 1.0 / a
+        n = 1
+        while abs(term) > 1e-17 * abs(total):
+            term *= x / (a + n)
+            total += term
+            n += 1
+        lower = total * math.exp(log_prefactor)
+        return lower, 1.0 - lower
+    tiny = 1e-300
+    b = x + 1.0 - a
+    c = 1.0 / tiny
+    d = 1.0 / b
+    fraction = d
+    n = 1
+    while True:
+        an = -n * (n - a)
+        b += 2.0
+        d = an * d + b
+        d = tiny if abs(d) < tiny else d
+        c = b + an / c
+        c = tiny if abs(c) < tiny else c
+        d = 1.0 / d
+        delta = d * c
+        fraction *= delta
+        n += 1
+        if abs(delta - 1.0) < 1e-16 or n > 100_000:
+            break
+    upper = math.exp(log_prefactor) * fraction
+    return 1.0 - upper, upper
 
 
 def nees_band(state_size: int, n_runs: int, confidence: float = 0.95):

@@ -1,9 +1,15 @@
-"""Result tables of a campaign (Parquet, written atomically by liaison_cli.storage) with provenance."""
+"""Result tables of a campaign (Parquet, written atomically by liaison_cli.storage) with provenance.
 
+`liaison run` writes every table from numpy columns and gets its summary back as rows (dicts), so its path
+never imports pandas (about 0.3 s of a 1.5 s run). The table builders for studies across scenarios
+(summary_table, timeseries_table, ...) return DataFrames and import pandas when called.
+"""
+
+from numbers import Integral, Real
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from liaison_cli import __version__
 from liaison_cli.analysis.metrics import nees_band
@@ -11,7 +17,10 @@ from liaison_cli.campaign.runner import CampaignResult, iter_outcomes
 from liaison_cli.campaign.worker import RunOutcome
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.scenario.setup import Problem, prepare_problem
-from liaison_cli.storage import ParquetStream, write_parquet_atomic, write_text_atomic
+from liaison_cli.storage import ParquetStream, write_columns_atomic, write_text_atomic
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | None = None) -> dict:
@@ -37,8 +46,33 @@ def _summary_rows(problem: Problem, outcome: RunOutcome) -> list[dict]:
              "fail_time_s": outcome.fail_time_s} for row in per_sc]
 
 
-def _summary_frame(rows: list[dict]) -> pd.DataFrame:
+def _summary_frame(rows: list[dict]) -> "pd.DataFrame":
+    import pandas as pd
+
     return pd.DataFrame(rows).astype({"run": "int32"})
+
+
+def summary_columns(rows: list[dict]) -> dict:
+    """The summary rows as columns (name -> array), typed as pd.DataFrame(rows) would type them: keys in
+    order of first appearance; a key a row lacks is NaN in a number column and None in a text column; all
+    integers: int64 (run: int32); all booleans: bool."""
+    names = list(dict.fromkeys(key for row in rows for key in row))
+    columns = {}
+    for name in names:
+        values = [row.get(name) for row in rows]
+        present = [v for v in values if v is not None]
+        if name == "run":
+            columns[name] = np.array(values, dtype=np.int32)
+        elif present and all(isinstance(v, (bool, np.bool_)) for v in present) and len(present) == len(values):
+            columns[name] = np.array(values, dtype=bool)
+        elif present and all(isinstance(v, Integral) and not isinstance(v, (bool, np.bool_)) for v in present) \
+                and len(present) == len(values):
+            columns[name] = np.array(values, dtype=np.int64)
+        elif all(isinstance(v, Real) and not isinstance(v, (bool, np.bool_)) for v in present):
+            columns[name] = np.array([np.nan if v is None else v for v in values], dtype=float)
+        else:
+            columns[name] = np.array(values, dtype=object)
+    return columns
 
 
 # Per-run builders return columns (name -> 1-D array), not DataFrames: the writer stacks them per row
@@ -120,30 +154,32 @@ PER_RUN_TABLES = {"timeseries": _timeseries_columns, "residuals": _residuals_col
                   "clocks": _clock_columns}
 
 
-def _concat(parts) -> pd.DataFrame:
+def _concat(parts) -> "pd.DataFrame":
+    import pandas as pd
+
     parts = [p for p in parts if p is not None]
     if not parts:
         return pd.DataFrame()
     return pd.DataFrame({key: np.concatenate([p[key] for p in parts]) for key in parts[0]})
 
 
-def summary_table(result: CampaignResult) -> pd.DataFrame:
+def summary_table(result: CampaignResult) -> "pd.DataFrame":
     return _summary_frame([row for o in result.outcomes for row in _summary_rows(result.problem, o)])
 
 
-def timeseries_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
+def timeseries_table(result: CampaignResult, float_dtype="float32") -> "pd.DataFrame":
     return _concat(_timeseries_columns(result.problem, o, float_dtype) for o in result.outcomes)
 
 
-def residuals_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
+def residuals_table(result: CampaignResult, float_dtype="float32") -> "pd.DataFrame":
     return _concat(_residuals_columns(result.problem, o, float_dtype) for o in result.outcomes)
 
 
-def bias_table(result: CampaignResult) -> pd.DataFrame:
+def bias_table(result: CampaignResult) -> "pd.DataFrame":
     return _concat(_bias_columns(result.problem, o) for o in result.outcomes)
 
 
-def clock_table(result: CampaignResult, float_dtype="float32") -> pd.DataFrame:
+def clock_table(result: CampaignResult, float_dtype="float32") -> "pd.DataFrame":
     return _concat(_clock_columns(result.problem, o, float_dtype) for o in result.outcomes)
 
 
@@ -160,19 +196,26 @@ class NeesAccumulator:
             self.total += outcome.nees
             self.runs += 1
 
-    def table(self) -> pd.DataFrame:
-        """The mean NEES per epoch with its 95 % chi-square band (empty when no run finished)."""
+    def columns(self) -> dict:
+        """The mean NEES per epoch with its 95 % chi-square band (no columns when no run finished)."""
         if not self.runs:
-            return pd.DataFrame()
+            return {}
         state_size = self.problem.filter.n_nees  # the states the NEES covers (consider parameters excluded)
         lo, hi = nees_band(state_size, self.runs)
         mean = self.total / self.runs
-        return pd.DataFrame({"t_s": self.problem.times_s, "mean_nees": mean, "band_low": lo, "band_high": hi,
-                             "inside_band": (mean >= lo) & (mean <= hi), "runs": self.runs,
-                             "state_size": state_size})
+        m = len(mean)
+        return {"t_s": np.asarray(self.problem.times_s, dtype=float), "mean_nees": mean,
+                "band_low": np.full(m, lo, dtype=float), "band_high": np.full(m, hi, dtype=float),
+                "inside_band": (mean >= lo) & (mean <= hi), "runs": np.full(m, self.runs, dtype=np.int64),
+                "state_size": np.full(m, state_size, dtype=np.int64)}
+
+    def table(self) -> "pd.DataFrame":
+        import pandas as pd
+
+        return pd.DataFrame(self.columns())
 
 
-def consistency_table(result: CampaignResult) -> pd.DataFrame:
+def consistency_table(result: CampaignResult) -> "pd.DataFrame":
     """Run-averaged NEES per epoch over the runs that finished, with its 95 % chi-square band."""
     accumulator = NeesAccumulator(result.problem)
     for outcome in result.outcomes:
@@ -181,9 +224,10 @@ def consistency_table(result: CampaignResult) -> pd.DataFrame:
 
 
 def write_outcomes(problem: Problem, outcomes, n_runs: int, out_dir, scenario_text: str,
-                   float_dtype="float32", flush_rows: int = 200_000) -> pd.DataFrame:
+                   float_dtype="float32", flush_rows: int = 200_000) -> list[dict]:
     """Write every table of a campaign while its outcomes arrive (in run order), holding only the summary
-    rows, a running NEES sum and a buffer of up to `flush_rows` rows per table. Returns the summary table."""
+    rows, a running NEES sum and a buffer of up to `flush_rows` rows per table. Returns the summary rows (one
+    dict per run and spacecraft; summary.parquet holds them as summary_columns)."""
     out_dir = Path(out_dir)
     meta = provenance(problem, n_runs, scenario_text, {"float_dtype": float_dtype})
     streams = {name: ParquetStream(out_dir / f"{name}.parquet", meta, flush_rows, REPEATING_COLUMNS) for name in PER_RUN_TABLES}
@@ -203,24 +247,23 @@ def write_outcomes(problem: Problem, outcomes, n_runs: int, out_dir, scenario_te
         for stream in streams.values():
             stream.abort()
         raise
-    summary = _summary_frame(rows)
-    write_parquet_atomic(summary, out_dir / "summary.parquet", meta)
-    write_parquet_atomic(accumulator.table(), out_dir / "consistency.parquet", meta)
+    write_columns_atomic(summary_columns(rows), out_dir / "summary.parquet", meta)
+    write_columns_atomic(accumulator.columns(), out_dir / "consistency.parquet", meta)
     write_text_atomic(scenario_text, out_dir / "scenario.yaml")
-    return summary
+    return rows
 
 
-def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> pd.DataFrame:
+def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> list[dict]:
     """Write summary / timeseries / residuals / consistency / bias / clocks Parquet and the scenario text of
-    a campaign held in memory. Returns the summary table."""
+    a campaign held in memory. Returns the summary rows."""
     return write_outcomes(result.problem, result.outcomes, len(result.outcomes), out_dir, scenario_text,
                           float_dtype)
 
 
 def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int | None = None, jobs: int = 2,
-                    progress: bool = True, float_dtype="float32") -> tuple[Problem, pd.DataFrame]:
+                    progress: bool = True, float_dtype="float32") -> tuple[Problem, list[dict]]:
     """Run a campaign and write its tables as runs finish: memory does not grow with the run count.
-    Returns the problem and the summary table."""
+    Returns the problem and the summary rows."""
     problem = prepare_problem(scenario)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress), n_runs, out_dir,
@@ -230,7 +273,7 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
 
 def summarise_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
                        description: str | None = None, truth_cache: dict | None = None
-                       ) -> tuple[Problem, pd.DataFrame]:
+                       ) -> tuple[Problem, "pd.DataFrame"]:
     """Run a campaign and keep only its summary rows (for tables across scenarios: compare, Table 3)."""
     problem = prepare_problem(scenario, truth_cache)
     n_runs = scenario.monte_carlo.runs if runs is None else runs

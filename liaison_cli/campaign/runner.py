@@ -2,7 +2,6 @@
 
 from dataclasses import dataclass
 
-from joblib import Parallel, delayed
 from tqdm import tqdm
 
 from liaison_cli.scenario.setup import Problem, prepare_problem
@@ -53,6 +52,8 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
         chunk = max(1, min(8, n_runs // (4 * jobs)))
         batches = (tuple(RunTask(i) for i in range(start, min(start + chunk, n_runs)))
                    for start in range(1, n_runs, chunk))
+        from joblib import Parallel, delayed  # here: a run that stays in this process does not import it
+
         parallel = Parallel(n_jobs=jobs, return_as="generator", pre_dispatch="2*n_jobs")
         for batch in parallel(delayed(_execute_batch)(problem, b) for b in batches):
             yield from batch

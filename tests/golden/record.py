@@ -7,7 +7,10 @@ tests/test_golden.py. First recorded at 432c588 (before the engine restructuring
 1e-9); re-recorded when the truth moved from scipy DOP853 (rtol 1e-12) to the compiled RK4 of at most
 10 s (issue 13). Against the 432c588 record that change moved the summary RMS columns by at most
 6.8e-6 relative (2.5 cm on the 3.7 km EML1-EML2 RMS), per-epoch errors by 4e-5 of their column's largest
-value and NEES by 1.2e-4: the size of the 2 cm error of the old truth itself.
+value and NEES by 1.2e-4: the size of the 2 cm error of the old truth itself. Re-recorded at the second
+speed round of issue 13, when the EKF update stopped calling BLAS for P H^T and H P H^T (a loop of fixed
+order, no allocation): a different summation order, which moved the summary RMS columns by at most 3.9e-8
+relative, per-epoch errors by 1.5e-7 of their column's largest value and NEES by 2.1e-7.
 """
 
 import gzip
