@@ -72,7 +72,10 @@ def apply_burns(x, P, burns, k):
     """Impulsive manoeuvres after epoch k: each burn row (Delta-v block start, spacecraft block start, epoch
     index) adds the Delta-v states to the spacecraft's velocity, x <- J x and P <- J P J^T with
     J = I + (the Delta-v columns into the velocity rows)."""
-    apply_burn_rows(x.reshape((x.shape[0], 1)), burns, k)
+    for b in range(burns.shape[0]):  # x <- J x (element loops: a reshape compiles its error path)
+        if burns[b, 2] == k:
+            for i in range(3):
+                x[burns[b, 1] + 3 + i] += x[burns[b, 0] + i]
     apply_burn_covariance(P, burns, k)
 
 

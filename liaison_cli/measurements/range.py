@@ -31,7 +31,10 @@ def geometric_range(r_receiver, r_transponder):
 def geometric_range_gradient(r_receiver, r_transponder):
     """d(range)/d(r_receiver) (3,); the transponder's gradient is its negative. Velocity partials are 0."""
     rho = geometric_range(r_receiver, r_transponder)
-    return (r_receiver - r_transponder) / rho
+    out = np.empty(3)
+    for i in range(3):  # element loop, not an array expression (see range_rate)
+        out[i] = (r_receiver[i] - r_transponder[i]) / rho
+    return out
 
 
 @njit(cache=True, inline="always")
@@ -51,10 +54,16 @@ def predict_range(x_receiver, x_transponder, flags, g_receiver, g_transponder):
     with respect to each end's state into g_receiver, g_transponder (6,). With FLAG_LIGHT_TIME the value
     is rho - rho_dot * rho / c (Eq. 14-15 to first order); the partials stay geometric (they change by
     ~1e-6 relative)."""
-    predicted = geometric_range(x_receiver[0:3], x_transponder[0:3])
+    rho = geometric_range(x_receiver, x_transponder)  # reads the first three elements
+    predicted = rho
     if flags & FLAG_LIGHT_TIME:
         predicted -= range_rate(x_receiver, x_transponder) * predicted / SPEED_OF_LIGHT_LU_TU
-    write_position_partials(geometric_range_gradient(x_receiver[0:3], x_transponder[0:3]), g_receiver, g_transponder)
+    for i in range(3):  # geometric_range_gradient, written in place
+        g = (x_receiver[i] - x_transponder[i]) / rho
+        g_receiver[i] = g
+        g_transponder[i] = -g
+        g_receiver[3 + i] = 0.0
+        g_transponder[3 + i] = 0.0
     return predicted
 
 

@@ -11,27 +11,31 @@ from liaison_cli.measurements.observable import ChannelKind, Observable
 KIND_RANGE_RATE = 1
 
 
+# Scalar arithmetic, no array expressions: `a[0:3] - b[0:3]` allocates at every call and compiles numba's
+# broadcasting machinery (about 0.3 s of every first run per function).
 @njit(cache=True)
 def range_rate(x_receiver, x_transponder):
     """(6,), (6,) -> float (LU/TU)."""
-    r = x_receiver[0:3] - x_transponder[0:3]
-    v = x_receiver[3:6] - x_transponder[3:6]
-    return (r[0] * v[0] + r[1] * v[1] + r[2] * v[2]) / np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+    r0, r1, r2 = x_receiver[0] - x_transponder[0], x_receiver[1] - x_transponder[1], x_receiver[2] - x_transponder[2]
+    v0, v1, v2 = x_receiver[3] - x_transponder[3], x_receiver[4] - x_transponder[4], x_receiver[5] - x_transponder[5]
+    return (r0 * v0 + r1 * v1 + r2 * v2) / np.sqrt(r0**2 + r1**2 + r2**2)
 
 
 @njit(cache=True)
 def range_rate_gradient(x_receiver, x_transponder):
     """d(rho_dot)/d(x_receiver) (6,): [(v - rho_dot u) / rho, u] with u = r / rho. The transponder's
     gradient is its negative."""
-    r = x_receiver[0:3] - x_transponder[0:3]
-    v = x_receiver[3:6] - x_transponder[3:6]
+    r = np.empty(3)
+    v = np.empty(3)
+    for i in range(3):
+        r[i] = x_receiver[i] - x_transponder[i]
+        v[i] = x_receiver[3 + i] - x_transponder[3 + i]
     rho = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-    u = r / rho
-    rho_dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+    u0, u1, u2 = r[0] / rho, r[1] / rho, r[2] / rho
+    rho_dot = u0 * v[0] + u1 * v[1] + u2 * v[2]
     out = np.empty(6)
-    for i in range(3):  # element loops compile faster than slice assignment (no shape-error path)
-        out[i] = (v[i] - rho_dot * u[i]) / rho
-        out[3 + i] = u[i]
+    out[0], out[1], out[2] = (v[0] - rho_dot * u0) / rho, (v[1] - rho_dot * u1) / rho, (v[2] - rho_dot * u2) / rho
+    out[3], out[4], out[5] = u0, u1, u2
     return out
 
 
