@@ -113,18 +113,21 @@ def arrow_array(values):
 
     values = np.asarray(values)
     n = len(values)
-    if values.dtype == object:
-        missing = np.array([v is None for v in values], dtype=bool)
-        text = np.where(missing, "", values).astype(str)
-        labels, codes = np.unique(text, return_inverse=True)  # few distinct labels: encode them once
-        encoded = [label.encode("utf-8") for label in labels]
+    if values.dtype == object:  # labels: few distinct values, each encoded once, then expanded in C++
+        items = values.tolist()
+        labels = list(dict.fromkeys(items))
+        code_of = {label: code for code, label in enumerate(labels)}
+        codes = np.fromiter(map(code_of.__getitem__, items), dtype=np.int32, count=n)
+        encoded = [b"" if label is None else str(label).encode("utf-8") for label in labels]
         offsets = np.zeros(len(encoded) + 1, dtype=np.int32)
         offsets[1:] = np.cumsum([len(b) for b in encoded])
         dictionary = pa.Array.from_buffers(pa.string(), len(encoded),
                                            [None, pa.py_buffer(offsets), pa.py_buffer(b"".join(encoded))])
-        validity = pa.py_buffer(np.packbits(~missing, bitorder="little")) if missing.any() else None
-        indices = pa.Array.from_buffers(pa.int32(), n, [validity, pa.py_buffer(codes.astype(np.int32).ravel())],
-                                        null_count=int(missing.sum()))
+        validity, nulls = None, 0
+        if None in code_of:
+            present = codes != code_of[None]
+            validity, nulls = pa.py_buffer(np.packbits(present, bitorder="little")), int(n - present.sum())
+        indices = pa.Array.from_buffers(pa.int32(), n, [validity, pa.py_buffer(codes)], null_count=nulls)
         return pa.DictionaryArray.from_arrays(indices, dictionary).dictionary_decode()
     if values.dtype == bool:
         return pa.Array.from_buffers(pa.bool_(), n, [None, pa.py_buffer(np.packbits(values, bitorder="little"))])

@@ -51,6 +51,27 @@ def test_jobs_1_and_jobs_2_give_byte_identical_parquet(tmp_path):
         assert (tmp_path / "j1" / name).read_bytes() == (tmp_path / "j2" / name).read_bytes()
 
 
+def test_a_process_pool_gives_the_numbers_of_the_main_process(monkeypatch):
+    """Small campaigns stay in the CLI process (runner.POOL_MIN_STATE_EPOCHS); forced into the pool, the same
+    runs give bit-identical histories, though the workers import less (no pandas, no pyarrow)."""
+    from liaison_cli.campaign import runner
+
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    scenario = apply_overrides(scenario, {"duration_days": 0.3})
+    here = run_campaign(scenario, runs=5, jobs=1, progress=False)
+    monkeypatch.setattr(runner, "POOL_MIN_STATE_EPOCHS", 0)
+    pooled = run_campaign(scenario, runs=5, jobs=2, progress=False)
+    for a, b in zip(here.outcomes, pooled.outcomes, strict=True):
+        for row_a, row_b in zip(a.summary, b.summary, strict=True):
+            assert row_a.keys() == row_b.keys()
+            for key in row_a:
+                same_nan = isinstance(row_a[key], float) and np.isnan(row_a[key]) and np.isnan(row_b[key])
+                assert same_nan or row_a[key] == row_b[key], key
+        for key in a.norms:
+            assert np.array_equal(a.norms[key], b.norms[key], equal_nan=True), key
+        assert np.array_equal(a.nees, b.nees, equal_nan=True)
+
+
 def test_run_numbers_depend_on_run_index_not_on_run_count():
     scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
     two = run_campaign(scenario, runs=2, jobs=1, progress=False)

@@ -23,10 +23,12 @@ def _execute_batch(problem, tasks):
     return [execute_run(problem, task) for task in tasks]
 
 
-# A process pool costs about 1.5 s to start (spawn, imports, loading the compiled core); below about two
-# seconds of single-core filtering (0.45 us per state element and epoch, measured on eml2_lunar) the runs
-# go faster in this process. The numbers are the same either way.
-POOL_MIN_STATE_EPOCHS = 4_000_000
+# A process pool costs about 1.5 s to start (spawn, imports, loading the compiled core). A run costs about
+# 0.55 us per state element and epoch here, metrics and writing included (0.25 us of it the EKF). Measured on
+# eml2_lunar with --jobs 2, 2 cores: 100 runs (5.5 million state-epochs) took 3.9 s in this process and 5.0 s
+# with the pool; 150 runs (8.3 million) 5.4 s either way; 250 runs 6.8-7.8 s against 6.1-6.4 s. Below the
+# break-even the runs stay in this process. The numbers are the same either way.
+POOL_MIN_STATE_EPOCHS = 8_000_000
 
 
 def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool = True,
