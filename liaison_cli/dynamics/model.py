@@ -15,7 +15,7 @@ from numba.core.errors import TypingError
 from numba.extending import overload
 
 from liaison_cli.dynamics.constants import TU_S
-from liaison_cli.dynamics.crtbp import rk4_state_stm, rk4_state_stm_into, rk4_states
+from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states
 from liaison_cli.dynamics.ephemeris_model import MODEL_EPHEMERIS, ephemeris_state_stm_scaled
 from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
@@ -43,12 +43,13 @@ def propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
 def _propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
     if not isinstance(model, types.IntegerLiteral):
         raise TypingError("propagate_state_stm: the model code must be a compile-time constant (numba.literally)")
-    if model.literal_value == MODEL_CRTBP:
-        return lambda model, params, state, t_tu, dt_tu, substeps: rk4_state_stm(state, dt_tu, substeps, params[0])
-    if model.literal_value == MODEL_EPHEMERIS:
-        return lambda model, params, state, t_tu, dt_tu, substeps: ephemeris_state_stm_scaled(
-            params, state, t_tu, dt_tu, substeps)
-    raise TypingError(f"unknown dynamics model code {model.literal_value}")
+
+    def impl(model, params, state, t_tu, dt_tu, substeps):  # the models are told apart in one place: _into
+        y = np.empty(42)
+        propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, np.empty((5, 42)))
+        return y[0:6].copy(), y[6:].copy().reshape(6, 6)
+
+    return impl
 
 
 def propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):

@@ -116,17 +116,9 @@ def nees_into(e, P, work, z):
 
 
 @njit(cache=True, inline="always")
-def scalar_gain(h, hph, R, n_gain, underweight):
+def scalar_gain_into(h, hph, R, n_gain, underweight, K):
     """K (n,) = P H^T ((1 + beta) H P H^T + R)^-1 from h = P H^T and hph = H P H^T (Eq. 21; beta = underweight,
     see update_scalar), zero from n_gain on (consider states; n_gain < 0: none)."""
-    K = np.empty(h.shape[0])
-    scalar_gain_into(h, hph, R, n_gain, underweight, K)
-    return K
-
-
-@njit(cache=True, inline="always")
-def scalar_gain_into(h, hph, R, n_gain, underweight, K):
-    """scalar_gain written into K (n,)."""
     denominator = (1.0 + underweight) * hph + R
     for i in range(h.shape[0]):
         K[i] = 0.0 if (n_gain >= 0 and i >= n_gain) else h[i] / denominator
@@ -163,7 +155,8 @@ def update_scalar(dx, P, y, H, R, n_gain=-1, underweight=0.0):
 @njit(cache=True)
 def update_scalar_into(dx, P, y, H, R, n_gain, underweight, dx_out, P_out, h, K):
     """update_scalar written into dx_out (n,) and P_out (n, n) (neither may alias dx or P), with h, K (n,) the
-    caller's scratch; returns (innovation, S). No allocation: the filter loops call it at every channel."""
+    caller's scratch, left holding P H^T and the gain; returns (innovation, S). No allocation: the filter loops
+    call it at every channel."""
     n = dx.shape[0]
     S = R
     innovation = y

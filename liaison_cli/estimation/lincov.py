@@ -19,7 +19,7 @@ import numba
 import numpy as np
 from numba import njit
 
-from liaison_cli.estimation.ekf import predict_covariance_blocks, scalar_gain, update_scalar
+from liaison_cli.estimation.ekf import predict_covariance_blocks, predict_covariance_into, update_scalar_into
 from liaison_cli.estimation.filter_loop import (
     _time_update,
     apply_burn_covariance,
@@ -121,6 +121,12 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
     scratch = np.empty((n, n))
     y_stm = np.empty(42)
     work_stm = np.empty((5, 42))
+    work_block = np.empty((6, 6))
+    P_spare = np.empty((n, n))
+    dx = np.zeros(n)  # the filter's correction on noise-free data along the truth: stays zero
+    dx_spare = np.zeros(n)
+    h = np.empty(n)
+    K = np.empty(n)
     for k in range(m):
         if k > 0:
             # A manoeuvre after epoch k - 1: the truth takes its true Delta-v (the Delta-v columns of the
@@ -141,10 +147,10 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                         d_dyn[i] = d_dyn_extra[i]
                         if block_kind[b] == 2:  # constants: identity transition (_time_update leaves it out)
                             Phi[i, i] = 1.0
-            P = predict_covariance_blocks(P, Phi, Q, np.empty((n, n)), block_kind, block_start, block_size)
+            P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
+                                                 block_size), P
             _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size,
                              scratch)
-            dx = np.zeros(n)
             for c in range(n_channels):
                 if not np.isfinite(y_true[k, c]):
                     continue
@@ -156,13 +162,13 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
                     if channel_mod_index[c, j] >= 0:
                         H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
                 R = sigma[c] ** 2
-                h = P @ H
-                K = scalar_gain(h, H @ h, R, n_gain, underweight)  # the filter's own gain
+                # The filter's own update: its covariance, and its gain K (from the P before it) for the parts.
+                update_scalar_into(dx, P, 0.0, H, R, n_gain, underweight, dx_spare, P_spare, h, K)
+                P, P_spare = P_spare, P
                 _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
                 hm = H @ mu_dyn
                 for i in range(n):
                     mu_dyn[i] -= K[i] * hm
-                dx, P, _, _ = update_scalar(dx, P, 0.0, H, R, n_gain, underweight)
         for i in range(n):
             P_diag[k, i] = P[i, i]
             mu_meas_out[k, i] = mu_meas[i]
