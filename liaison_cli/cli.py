@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from liaison_cli import __version__
+from liaison_cli import __version__, interrupts
 from liaison_cli.errors import LiaisonError
 
 if TYPE_CHECKING:  # pandas costs ~0.6 s to import; `version` and `--help` need not pay for it
@@ -21,8 +21,32 @@ app = typer.Typer(
 )
 
 
+@app.callback()
+def _configure_process() -> None:
+    """Before every command: Ctrl-C is remembered as well as raised (liaison_cli.interrupts), and notes from
+    the library (the `liaison` logger: e.g. a date past the IERS tables) go to stderr as `note: ...`."""
+    interrupts.install()
+    _install_note_handler()
+
+
+def _install_note_handler() -> None:
+    import logging
+
+    logger = logging.getLogger("liaison")
+    if not any(getattr(h, "_liaison_notes", False) for h in logger.handlers):
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("note: %(message)s"))
+        handler._liaison_notes = True
+        logger.addHandler(handler)
+        logger.setLevel(logging.INFO)
+        logger.propagate = False
+
+
 EXIT_OS_ERROR = 4  # an operating-system fault while reading or writing files
 EXIT_ALL_DIVERGED = 5  # the campaign ran, but no run finished healthy
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT, as a shell reports it)
+INTERRUPTED_MESSAGE = ("interrupted: nothing was written and no earlier result was replaced; rerun the same "
+                       "command")
 
 
 def _fail(message: str, code: int) -> None:
@@ -38,7 +62,12 @@ def user_errors(func):
         try:
             return func(*args, **kwargs)
         except LiaisonError as exc:
+            if exc.exit_code == EXIT_INTERRUPTED:  # a sweep's own "interrupted: N of M tasks saved" line
+                interrupts.ignore_from_now_on()
             _fail(str(exc), exc.exit_code)
+        except KeyboardInterrupt:
+            interrupts.ignore_from_now_on()  # nothing may turn exit 130 into death by SIGINT now
+            _fail(INTERRUPTED_MESSAGE, EXIT_INTERRUPTED)
         except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
             where = exc.filename if exc.filename is not None else "file system"
             _fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)

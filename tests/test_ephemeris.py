@@ -54,7 +54,7 @@ def test_time_scales_agree_with_skyfield(sky, date):
     ts, _ = sky
     t = ts.utc(date.year, date.month, date.day, date.hour, date.minute, date.second)
     assert utc_to_tt_seconds(date) == pytest.approx((t.whole - J2000_JD + t.tt_fraction) * 86400.0, abs=1e-6)
-    assert utc_to_tdb_seconds(date) == pytest.approx((t.whole - J2000_JD + t.tdb_fraction) * 86400.0, abs=5e-5)
+    assert utc_to_tdb_seconds(date) == pytest.approx((t.whole - J2000_JD + t.tdb_fraction) * 86400.0, abs=1e-5)  # measured 4.4 us: skyfield uses a shorter TDB - TT series
 
 
 def test_dates_outside_de421_and_before_the_leap_table_are_refused():

@@ -1,6 +1,8 @@
 """Every scenario of scenarios/ gives the per-run numbers and printed output recorded at commit 432c588,
-before the engine restructuring (issue 11): Parquet values equal to 1e-9 relative (absolute floor 1e-9 of
-the column's largest value, for values near zero)."""
+before the engine restructuring (issue 11): Parquet values equal to 1e-7 relative (absolute floor 1e-7 of
+the column's largest value, for values near zero). 1e-7, not tighter: the same code under newer numpy /
+numba builds moves the mean NEES of the star scenarios by 1.5e-8 relative (a different summation order
+in a library), while a change of the models or of a draw moves them by 1e-6 or more."""
 
 import gzip
 import json
@@ -13,7 +15,7 @@ from tests.golden.record import GOLDEN, ROOT, run_scenario
 with gzip.open(GOLDEN, "rt", encoding="utf-8") as _handle:
     RECORDED = json.load(_handle)
 
-RTOL = 1e-9
+RTOL = 1e-7
 
 
 def _close(name, got, want):

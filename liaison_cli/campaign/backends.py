@@ -10,6 +10,7 @@ Order of completion is not defined; callers key results by task id, so numbers n
 from collections.abc import Callable, Iterator
 
 from liaison_cli.errors import LiaisonError
+from liaison_cli.interrupts import shield_pool_workers
 
 BACKENDS = ("joblib", "dask")
 
@@ -48,6 +49,7 @@ def map_batches(fn: Callable, shared: dict, batches: list, backend: str = "jobli
         return (fn(shared[key], tasks) for key, tasks in batches)
     from joblib import Parallel, delayed
 
+    shield_pool_workers()
     parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
     return parallel(delayed(fn)(shared[key], tasks) for key, tasks in batches)
 

@@ -7,6 +7,7 @@ from tqdm import tqdm
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
+from liaison_cli.interrupts import ignore_in_worker_process, shield_pool_workers
 
 
 @dataclass(frozen=True, eq=False)
@@ -20,6 +21,7 @@ class CampaignResult:
 
 
 def _execute_batch(problem, tasks):
+    ignore_in_worker_process()
     return [execute_run(problem, task) for task in tasks]
 
 
@@ -55,6 +57,8 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
         batches = (tuple(RunTask(i) for i in range(start, min(start + chunk, n_runs)))
                    for start in range(1, n_runs, chunk))
         from joblib import Parallel, delayed  # here: a run that stays in this process does not import it
+
+        shield_pool_workers()
 
         parallel = Parallel(n_jobs=jobs, return_as="generator", pre_dispatch="2*n_jobs")
         for batch in parallel(delayed(_execute_batch)(problem, b) for b in batches):

@@ -26,6 +26,7 @@ from liaison_cli.storage import naming, write_parquet_atomic, write_text_atomic
 from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.errors import LiaisonError
+from liaison_cli.interrupts import ignore_in_worker_process
 
 MANIFEST_FORMAT = 1
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
@@ -244,7 +245,7 @@ def _header_mismatch(path, old, new) -> str:
 
 def execute_batch(problem, tasks: list[SweepTask]) -> list[dict]:
     """Worker side: one JSON-ready record per task. Never raises (execute_run reports failures)."""
-    _ignore_sigint_in_worker_processes()
+    ignore_in_worker_process()
     records = []
     for task in tasks:
         outcome = execute_run(problem, RunTask(task.run))
@@ -271,17 +272,6 @@ def _batches(pending: list[SweepTask], batch_runs: int) -> list[tuple[int, list[
         group = list(group)
         batches += [(point, group[i : i + batch_runs]) for i in range(0, len(group), batch_runs)]
     return batches
-
-
-def _ignore_sigint_in_worker_processes() -> None:
-    """Ctrl-C reaches every process of the terminal's group; a worker process leaves it to the main process
-    (which saves what finished and stops the pool) instead of printing its own traceback."""
-    import multiprocessing
-    import signal
-    import threading
-
-    if multiprocessing.parent_process() is not None and threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _catch_sigint(flag: list):
@@ -358,6 +348,10 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
             _restore_sigint(previous)
         bar.close()
         _, records, _ = read_manifest(manifest.path)  # tables come from what is on disk, nothing else
+    except KeyboardInterrupt:  # before the batches started (setting up, first compilation, starting workers)
+        saved = sum(1 for t in plan.tasks if t.task_id in manifest.records)
+        raise SweepInterrupted(f"interrupted: {saved} of {len(plan.tasks)} tasks saved in {manifest.path}; rerun "
+                               "the same command to resume") from None
     finally:
         manifest.close()
     runs_table = build_runs_table(plan, records)

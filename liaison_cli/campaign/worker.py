@@ -10,6 +10,7 @@ from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
+from liaison_cli.interrupts import caused_by_interrupt
 from liaison_cli.scenario.setup import SPEED_OF_LIGHT_M_S, Problem
 
 
@@ -160,7 +161,9 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             clock_error_s=clock_error,
             clock_sigma_s=clock_sigma,
         )
-    except Exception as exc:  # noqa: BLE001 - a worker reports, never raises
+    except Exception as exc:  # noqa: BLE001 - a worker reports, never raises; but Ctrl-C is not a failed run
+        if caused_by_interrupt(exc):
+            raise KeyboardInterrupt from exc
         return RunOutcome(run=run, status="error", reason=f"{type(exc).__name__}: {exc}", fail_time_s=float("nan"))
 
 

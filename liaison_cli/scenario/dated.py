@@ -7,11 +7,14 @@
   the scenario and corrected by multiple shooting into the dated model (003's continuity criterion); its
   first node is the initial state. `orbit: icrf_state` takes `state_km` as given; `orbit: departure` puts
   the spacecraft on its hyperbola (orbits.departure, orbits.departure_missions).
-- Stations: WGS84 geodetic coordinates (true longitude) on the IAU 1976/1980 + UT1 Earth
-  (dynamics.earth_rotation), sampled at the scenario's epochs.
+- Stations: WGS84 geodetic coordinates (true longitude) on the IAU 2006/2000A Earth with UT1 and polar
+  motion from the IERS file (dynamics.earth_rotation), sampled at the scenario's epochs.
+- Time: a span past the IERS tables runs by the rule of dynamics.timescales / dynamics.iers_eop (held
+  values); `note_table_extrapolation` logs that once per process, as a note, on the `liaison` logger.
 States are in the estimators' scaled units (LU, LU/TU), geocentric ICRF.
 """
 
+import logging
 from datetime import timedelta
 
 import numpy as np
@@ -37,8 +40,25 @@ BODY_CODES = {"moon": 301, "sun": 10, "mercury": 1, "venus": 2, "mars": 4, "jupi
               "neptune": 8, "pluto": 9}
 
 
+_NOTED: set = set()
+
+
+def note_table_extrapolation(scenario) -> None:
+    """Log (once per process and sentence) that the scenario's span lies past the IERS leap-second file or
+    Earth orientation predictions, and by which rule it runs."""
+    from liaison_cli.dynamics.iers_eop import beyond_table_note
+    from liaison_cli.dynamics.timescales import beyond_leap_seconds_note
+
+    end = scenario.ephemeris.epoch() + timedelta(days=scenario.duration_days)
+    for note in (beyond_leap_seconds_note(end), beyond_table_note(end)):
+        if note is not None and note not in _NOTED:
+            _NOTED.add(note)
+            logging.getLogger("liaison").warning("%s: %s", scenario.name, note)
+
+
 def dated_model(scenario) -> EphemerisDynamicsModel:
     spec = scenario.ephemeris
+    note_table_extrapolation(scenario)
     epoch_s = utc_to_tdb_seconds(spec.epoch())
     window = load_window(epoch_s, epoch_s + scenario.duration_days * SECONDS_PER_DAY)
     bodies = np.array(THIRD_BODIES, dtype=np.int64)

@@ -572,7 +572,8 @@ ThirdBodyName = Literal["moon", "sun", "mercury", "venus", "mars", "jupiter", "s
 class EphemerisSpec(StrictModel):
     """Dated dynamics (003): the epoch (UTC, ISO 8601) and the SRP cannonball of every spacecraft."""
 
-    epoch_utc: str = Field(description="e.g. 2011-11-26T15:52:12.383")
+    epoch_utc: str = Field(description="ISO 8601, UTC (e.g. 2011-11-26T15:52:12.383); a UTC offset "
+                           "(2011-11-26T20:52:12+05:00) is converted to UTC")
     cr: float = Field(1.5, gt=0, description="coefficient of reflectivity (003: 1.5)")
     area_to_mass_m2_kg: float = Field(0.01, ge=0, description="area-to-mass ratio (003: 0.01 m^2/kg)")
     node_spacing_days: float = Field(1.0, gt=0, description="patch-point spacing for catalog orbits")
@@ -602,9 +603,12 @@ class EphemerisSpec(StrictModel):
         return value
 
     def epoch(self):
-        from datetime import datetime, timezone
+        """The epoch as a UTC datetime: without an offset the text is UTC; with one (+05:00, Z) it is converted."""
+        from datetime import datetime
 
-        return datetime.fromisoformat(self.epoch_utc).replace(tzinfo=timezone.utc)
+        from liaison_cli.dynamics.timescales import as_utc
+
+        return as_utc(datetime.fromisoformat(self.epoch_utc))
 
 
 class BatchSpec(StrictModel):

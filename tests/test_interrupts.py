@@ -1,0 +1,126 @@
+"""Ctrl-C means stop (issue 24): every command that runs filters exits 130 with one line, never reports "ok",
+and never replaces an earlier result; an interrupt that lands in compiled code (numba turns it into a
+SystemError) is not recorded as a failed run."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from liaison_cli import interrupts
+from tests.conftest import REPO, SCENARIOS, run_cli
+
+
+def test_an_interrupt_chained_into_a_system_error_is_recognised():
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as inner:
+            raise SystemError("<function> returned a result with an exception set") from inner
+    except SystemError as exc:
+        assert interrupts.caused_by_interrupt(exc)
+    assert not interrupts.caused_by_interrupt(ValueError("a real failure"))
+
+
+def test_a_worker_re_raises_an_interrupt_from_compiled_code_instead_of_reporting_an_error(monkeypatch):
+    """What numba does when Ctrl-C lands inside a compiled filter, replayed: the run must not become an
+    'error' outcome (the campaign would go on and print 'ok')."""
+    from liaison_cli.campaign import worker
+    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.setup import prepare_problem
+
+    problem = prepare_problem(load_scenario(SCENARIOS / "smoke.yaml")[0])
+
+    def compiled_code_interrupted(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as inner:
+            raise SystemError("run_ekf returned a result with an exception set") from inner
+
+    monkeypatch.setattr(worker, "estimate", compiled_code_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        worker.execute_run(problem, worker.RunTask(0))
+    # An ordinary failure is still an outcome, not an exception.
+    monkeypatch.setattr(worker, "estimate", lambda *a, **k: (_ for _ in ()).throw(FloatingPointError("nan")))
+    assert worker.execute_run(problem, worker.RunTask(0)).status == "error"
+
+
+def _start(args):
+    """The CLI in its own process group with SIGINT at its default, as a terminal starts it."""
+    return subprocess.Popen([sys.executable, "-m", "liaison_cli", *map(str, args)], cwd=REPO,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def _wait_for(predicate, proc, limit_s=120.0):
+    deadline = time.monotonic() + limit_s
+    while time.monotonic() < deadline and proc.poll() is None and not predicate():
+        time.sleep(0.005)
+
+
+def _assert_stopped(proc):
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and "Traceback" not in stderr, (proc.returncode, stderr)
+    lines = [line for line in stderr.strip().splitlines() if line.strip() and not line.startswith("liaison: compiling")]
+    assert len(lines) == 1 and lines[0].startswith("error: interrupted"), stderr
+    assert "runs ok" not in stdout and "results:" not in stdout, stdout
+
+
+@pytest.fixture(scope="module")
+def earlier_result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("interrupts") / "result"
+    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
+    return out, {p.name: p.read_bytes() for p in out.iterdir()}
+
+
+# Moments after the run's staging folder appears: while the problem is set up and run 0 compiles or loads,
+# inside the runs (almost all of a run's time is compiled code), and, with --jobs 2 and enough runs for
+# the process pool, while its workers start.
+@pytest.mark.parametrize("jobs, runs, delay_s", [(1, 400, 0.0), (1, 400, 1.2), (1, 400, 2.5), (2, 400, 0.4),
+                                                 (2, 400, 1.5)])
+def test_ctrl_c_in_run_exits_130_and_keeps_the_earlier_result(earlier_result, jobs, runs, delay_s):
+    out, before = earlier_result
+    proc = _start(["run", SCENARIOS / "eml2_lunar.yaml", "--runs", runs, "--jobs", jobs, "--output", out,
+                   "--overwrite", "--quiet"])
+    _wait_for(lambda: list(out.parent.glob(f".{out.name}.partial-*")), proc)
+    time.sleep(delay_s)
+    assert proc.poll() is None, "the run finished before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)
+    _assert_stopped(proc)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+@pytest.mark.parametrize("command", [
+    ["compare", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--runs", "300", "--jobs", "1"],
+    ["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400"],
+])
+def test_ctrl_c_in_compare_and_errors_exits_130(tmp_path, command):
+    out = tmp_path / "out"
+    proc = _start([*command, "--output", out])
+    _wait_for(lambda: list(tmp_path.glob(".out.partial-*")), proc)
+    time.sleep(1.5)
+    assert proc.poll() is None, "the command finished before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)
+    _assert_stopped(proc)
+    assert not out.exists()
+
+
+def test_pool_workers_start_with_sigint_ignored():
+    """joblib's workers inherit an ignored SIGINT (read from /proc), so Ctrl-C while they start or run
+    reaches only the main process, which stops the pool. In a fresh process: no pool started earlier."""
+    script = """
+import os, signal
+from joblib import Parallel, delayed
+from liaison_cli import interrupts
+assert interrupts.shield_pool_workers(), "joblib's process launcher moved: the shield no longer applies"
+for pid in set(Parallel(n_jobs=2)(delayed(os.getpid)() for _ in range(8))) - {os.getpid()}:
+    ignored = next(line for line in open(f"/proc/{pid}/status") if line.startswith("SigIgn")).split()[1]
+    print(pid, int(ignored, 16) >> (signal.SIGINT - 1) & 1)
+"""
+    proc = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    flags = [line.split()[1] for line in proc.stdout.splitlines()]
+    assert flags and all(flag == "1" for flag in flags), proc.stdout
