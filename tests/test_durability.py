@@ -47,3 +47,204 @@ def test_the_tableau_is_covered_by_the_compiled_cache_key(monkeypatch):
     monkeypatch.setattr(Path, "read_bytes", lambda self: real_read(self) + (b"#" if self.name == "dop853_tableau.py"
                                                                             else b""))
     assert core_source_hash() != before
+
+
+# --- result swaps and leftovers ---------------------------------------------------------------------------
+
+# A writer in its own process, killed (SIGKILL: no cleanup runs) at a chosen moment of staged_output.
+WRITER = r"""
+import os, signal, sys
+from pathlib import Path
+from liaison_cli import storage
+
+moment, out = sys.argv[1], Path(sys.argv[2])
+die = lambda *args, **kwargs: os.kill(os.getpid(), signal.SIGKILL)
+if moment == "between-renames":  # the old result is aside, the stage not yet in: NAME is missing
+    storage._renameat2 = lambda: None
+    real_replace = os.replace
+    os.replace = lambda src, dst: die() if Path(src).name.startswith(f".{out.name}.partial-") \
+        else real_replace(src, dst)
+if moment == "after-exchange":  # the names are exchanged; the old result not yet removed
+    storage.shutil.rmtree = die
+with storage.staged_output(out, overwrite=True) as stage:
+    (stage / "data.txt").write_text("new")
+    if moment == "mid-write":
+        die()
+    if moment == "wait":
+        print(stage, flush=True)
+        sys.stdin.readline()
+"""
+
+
+def _kill_writer_at(moment, out):
+    proc = subprocess.run([sys.executable, "-c", WRITER, moment, str(out)], capture_output=True, text=True)
+    assert proc.returncode == -9, proc.stderr  # it was killed where intended, not before
+
+
+def _old_result(out):
+    from liaison_cli.storage import staged_output
+
+    with staged_output(out, overwrite=False) as stage:
+        (stage / "data.txt").write_text("old")
+
+
+def _hidden(parent):
+    return sorted(p.name for p in parent.iterdir() if p.name.startswith("."))
+
+
+def _dead_pid():
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()  # reaped: the pid names no process
+    return proc.pid
+
+
+@pytest.fixture
+def exchange_supported(tmp_path):
+    from liaison_cli.storage import _exchange
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    if not _exchange(a, b):
+        pytest.skip("this kernel or file system cannot exchange names (renameat2); the fallback is tested")
+    a.rmdir(), b.rmdir()
+
+
+def test_a_kill_right_after_the_exchange_leaves_the_new_result_and_the_old_is_cleaned_next(
+        tmp_path, exchange_supported, capsys):
+    from liaison_cli.storage import recover_output
+
+    out = tmp_path / "out"
+    _old_result(out)
+    _kill_writer_at("after-exchange", out)
+    assert (out / "data.txt").read_text() == "new" and (out / ".liaison-result").exists()
+    [leftover] = _hidden(tmp_path)
+    assert leftover.startswith(".out.partial-") and (tmp_path / leftover / "data.txt").read_text() == "old"
+    recover_output(out)  # what the next command writing `out` does first
+    assert _hidden(tmp_path) == [] and (out / "data.txt").read_text() == "new"
+    assert capsys.readouterr().err == ""  # a plain cleanup says nothing
+
+
+def test_a_kill_between_the_two_renames_is_repaired_by_the_next_command(tmp_path):
+    from tests.conftest import SCENARIOS, run_cli
+
+    out = tmp_path / "out"
+    _old_result(out)
+    _kill_writer_at("between-renames", out)
+    assert not out.exists()  # the fault being repaired: NAME missing, the old result hidden
+    aside = [name for name in _hidden(tmp_path) if name.startswith(".out.old-")]
+    assert len(aside) == 1 and (tmp_path / aside[0] / "out" / "data.txt").read_text() == "old"
+    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    note, refusal = proc.stderr.strip().splitlines()
+    assert note.startswith(f"note: {out}: restored the previous result") and "already exists" in refusal
+    assert (out / "data.txt").read_text() == "old" and (out / ".liaison-result").exists()
+    assert _hidden(tmp_path) == []  # the set-aside folder and the killed run's stage are both gone
+
+
+def test_an_io_error_between_the_two_renames_puts_the_old_result_back_at_once(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    from liaison_cli import storage
+
+    out = tmp_path / "out"
+    _old_result(out)
+    monkeypatch.setattr(storage, "_renameat2", lambda: None)
+    real_replace = os.replace
+
+    def failing_second_rename(src, dst):
+        if os.path.basename(src).startswith(".out.partial-"):
+            raise OSError(errno.EIO, os.strerror(errno.EIO), str(dst))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", failing_second_rename)
+    with pytest.raises(OSError, match="Input/output error"):
+        with storage.staged_output(out, overwrite=True) as stage:
+            (stage / "data.txt").write_text("new")
+    assert (out / "data.txt").read_text() == "old" and _hidden(tmp_path) == []
+
+
+def test_an_io_error_in_the_exchange_keeps_the_old_result(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    from liaison_cli import storage
+
+    def failing_exchange(first, second):
+        raise OSError(errno.EIO, os.strerror(errno.EIO), str(second))
+
+    out = tmp_path / "out"
+    _old_result(out)
+    monkeypatch.setattr(storage, "_exchange", failing_exchange)
+    with pytest.raises(OSError, match="Input/output error"):
+        with storage.staged_output(out, overwrite=True) as stage:
+            (stage / "data.txt").write_text("new")
+    assert (out / "data.txt").read_text() == "old" and _hidden(tmp_path) == []
+
+
+@pytest.mark.parametrize("fallback", [False, True])
+def test_a_replacement_leaves_only_the_new_result(tmp_path, monkeypatch, fallback):
+    from liaison_cli import storage
+
+    if fallback:
+        monkeypatch.setattr(storage, "_renameat2", lambda: None)
+    out = tmp_path / "out"
+    _old_result(out)
+    with storage.staged_output(out, overwrite=True) as stage:
+        (stage / "data.txt").write_text("new")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert sorted(p.name for p in out.iterdir()) == [".liaison-result", "data.txt"]
+    assert (out / "data.txt").read_text() == "new"
+
+
+def test_stale_staging_folders_are_cleaned_and_nothing_else(tmp_path):
+    import fcntl
+    import os
+
+    from liaison_cli.storage import recover_output
+
+    out = tmp_path / "out"
+    _kill_writer_at("mid-write", out)  # a killed run: its stage, with our marker and a file
+    [killed] = _hidden(tmp_path)
+    dead = _dead_pid()
+    keep = {
+        f".out.partial-{dead}-notours1": "a file",  # not ours: no marker, not empty
+        f".out.old-{dead}-notours2": "a file",  # set aside by something else
+        f".other.partial-{dead}-abcdefgh": None,  # another output's
+        f".out.partial-{dead}-locked12": None,  # ours, but in use (its flock is held below)
+        ".out.partial-notes": None,  # not a name we make
+    }
+    for name, content in keep.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / ".liaison-result").write_text("written by liaison\n")
+        if content:
+            (tmp_path / name / ".liaison-result").unlink()
+            (tmp_path / name / "mine.txt").write_text(content)
+    (tmp_path / f".out.partial-{dead}-emptyxx1").mkdir()  # empty: removed
+    (tmp_path / f".out.old-{dead}-emptyxx2").mkdir()
+    (tmp_path / ".out.partial-12345678").write_text("a file with a staging-like name")
+    keep[".out.partial-12345678"] = None
+    fd = os.open(tmp_path / f".out.partial-{dead}-locked12", os.O_RDONLY)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        recover_output(out)
+    finally:
+        os.close(fd)
+    assert _hidden(tmp_path) == sorted(keep)  # the killed stage and the empty ones are gone, nothing else
+    assert not (tmp_path / killed).exists() and not out.exists()
+
+
+def test_a_stage_in_use_by_a_live_writer_is_left_alone(tmp_path):
+    from liaison_cli.storage import recover_output
+
+    out = tmp_path / "out"
+    writer = subprocess.Popen([sys.executable, "-c", WRITER, "wait", str(out)], stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        stage = writer.stdout.readline().strip()
+        assert stage, "the writer did not start"
+        recover_output(out)  # another command writing the same output starts now
+        assert (tmp_path / stage.rsplit("/", 1)[1] / "data.txt").read_text() == "new"
+    finally:
+        writer.communicate("go\n", timeout=30)
+    assert writer.returncode == 0 and (out / "data.txt").read_text() == "new" and _hidden(tmp_path) == []
