@@ -248,3 +248,102 @@ def test_a_stage_in_use_by_a_live_writer_is_left_alone(tmp_path):
     finally:
         writer.communicate("go\n", timeout=30)
     assert writer.returncode == 0 and (out / "data.txt").read_text() == "new" and _hidden(tmp_path) == []
+
+
+# --- sweeps: the lock, the manifest format, retried errors ------------------------------------------------
+
+
+def test_the_sweep_lock_holds_the_folder_whatever_the_path_spelling(tmp_path):
+    from liaison_cli.campaign.sweep import SweepError, sweep_lock
+
+    real = tmp_path / "results" / "sweep"
+    real.mkdir(parents=True)
+    (tmp_path / "link").symlink_to(real)
+    (tmp_path / "other").mkdir()
+    with sweep_lock(real):
+        for spelling in (tmp_path / "link", tmp_path / "other" / ".." / "results" / "sweep"):
+            with pytest.raises(SweepError, match="another liaison sweep"):
+                with sweep_lock(spelling):
+                    pass
+    with sweep_lock(tmp_path / "link"):  # free again, through the link too
+        pass
+
+
+def _written_sweep(tmp_path, runs=2):
+    import json
+
+    from liaison_cli.campaign.sweep import run_sweep
+    from tests.test_sweep import _smoke_plan
+
+    plan = _smoke_plan(runs=runs)
+    full = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)
+    manifest = tmp_path / "s" / "manifest.jsonl"
+    header, *records = [json.loads(line) for line in manifest.read_text().splitlines()]
+    return plan, full, manifest, header, records
+
+
+def _write_lines(path, entries):
+    import json
+
+    path.write_text("".join(json.dumps(e, sort_keys=True) + "\n" for e in entries))
+
+
+def test_failed_tasks_run_again_on_resume_and_diverged_ones_do_not(tmp_path):
+    import pandas as pd
+
+    from liaison_cli.campaign.sweep import read_manifest, run_sweep
+
+    plan, full, manifest, header, records = _written_sweep(tmp_path)
+    assert header["format"] == 2 and len(records) == 4
+    failed = {**records[0], "status": "error", "reason": "RuntimeError: injected", "rows": []}
+    diverged = {**records[1], "status": "diverged", "reason": "position error beyond 1 m"}
+    _write_lines(manifest, [header, failed, diverged, *records[2:]])
+    again = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)
+    assert (again.computed, again.reused) == (1, 3)  # the error only; a diverged run is a result
+    _, latest, _ = read_manifest(manifest)
+    assert latest[failed["task"]]["status"] == "ok" and latest[diverged["task"]]["status"] == "diverged"
+    assert len(manifest.read_text().splitlines()) == 1 + 4 + 1  # the retry appended; the error line kept
+    retried = again.runs_table.query(f"point == {failed['point']} and run == {failed['run']}")
+    pd.testing.assert_frame_equal(retried, full.runs_table.loc[retried.index])  # the same result as first time
+    assert set(again.runs_table.query(f"point == {diverged['point']} and run == {diverged['run']}").status) == \
+        {"diverged"}
+
+
+def test_a_format_1_manifest_is_resumed_in_place(tmp_path):
+    import json
+
+    import pandas as pd
+
+    from liaison_cli.campaign.sweep import run_sweep
+
+    plan, full, manifest, header, records = _written_sweep(tmp_path)
+    _write_lines(manifest, [{**header, "format": 1}, *records[:3]])
+    again = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)
+    assert (again.computed, again.reused) == (1, 3)
+    lines = manifest.read_text().splitlines()
+    assert json.loads(lines[0]) == {**header, "format": 1} and len(lines) == 1 + 4  # header kept, one appended
+    pd.testing.assert_frame_equal(again.runs_table, full.runs_table)
+
+
+def test_a_newer_manifest_format_is_one_line_exit_2_and_left_untouched(tmp_path):
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+
+    out = tmp_path / "s"
+    out.mkdir()
+    (out / ".liaison-result").write_text("written by liaison\n")
+    manifest = out / "manifest.jsonl"
+    _write_lines(manifest, [{"kind": "header", "format": 3, "sweep": "t", "points": []}])
+    before = manifest.read_bytes() + b'{"task": "torn'  # a torn last line too: not cut away either
+    manifest.write_bytes(before)
+    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--quiet", "--output", out)
+    assert_one_line_error(proc, manifest, ["manifest format 3 is newer", "up to 2", "--overwrite"])
+    assert manifest.read_bytes() == before
+
+
+def test_a_symlink_loop_as_the_sweep_folder_is_one_line_exit_4(tmp_path):
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--output", tmp_path / "a")
+    assert_one_line_error(proc, tmp_path / "a", ["Too many levels of symbolic links"], code=4)
