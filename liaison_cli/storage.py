@@ -363,7 +363,11 @@ def _swap_by_two_renames(stage: Path, path: Path) -> None:
     command writing `path` puts it back (recover_output)."""
     aside = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-{os.getpid()}-", dir=path.parent))
     with _claim(aside, wait=True):
-        os.replace(path, aside / path.name)
+        try:
+            os.replace(path, aside / path.name)
+        except BaseException:
+            aside.rmdir()
+            raise
         try:
             os.replace(stage, path)
         except BaseException:

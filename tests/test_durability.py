@@ -141,7 +141,8 @@ def test_a_kill_between_the_two_renames_is_repaired_by_the_next_command(tmp_path
     assert _hidden(tmp_path) == []  # the set-aside folder and the killed run's stage are both gone
 
 
-def test_an_io_error_between_the_two_renames_puts_the_old_result_back_at_once(tmp_path, monkeypatch):
+@pytest.mark.parametrize("failing", ["set-aside", "stage-in"])
+def test_an_io_error_in_either_rename_keeps_the_old_result_in_place(tmp_path, monkeypatch, failing):
     import errno
     import os
 
@@ -151,17 +152,18 @@ def test_an_io_error_between_the_two_renames_puts_the_old_result_back_at_once(tm
     _old_result(out)
     monkeypatch.setattr(storage, "_renameat2", lambda: None)
     real_replace = os.replace
+    source = ".out.partial-" if failing == "stage-in" else "out"
 
-    def failing_second_rename(src, dst):
-        if os.path.basename(src).startswith(".out.partial-"):
+    def failing_rename(src, dst):
+        if os.path.basename(src).startswith(source):
             raise OSError(errno.EIO, os.strerror(errno.EIO), str(dst))
         real_replace(src, dst)
 
-    monkeypatch.setattr(os, "replace", failing_second_rename)
+    monkeypatch.setattr(os, "replace", failing_rename)
     with pytest.raises(OSError, match="Input/output error"):
         with storage.staged_output(out, overwrite=True) as stage:
             (stage / "data.txt").write_text("new")
-    assert (out / "data.txt").read_text() == "old" and _hidden(tmp_path) == []
+    assert (out / "data.txt").read_text() == "old" and _hidden(tmp_path) == []  # put back at once
 
 
 def test_an_io_error_in_the_exchange_keeps_the_old_result(tmp_path, monkeypatch):
