@@ -245,7 +245,6 @@ class Manifest:
         with naming(self.path):
             self.handle.close()
 
-
     def done(self) -> set[str]:
         """Tasks with a result: every recorded task but those whose last line is an 'error' (run again)."""
         return {task for task, record in self.records.items() if record.get("status") != "error"}
