@@ -1,14 +1,22 @@
 """Atomic file I/O, the one place that writes files: Parquet tables with provenance, text, bytes.
 
 Every write goes to a temporary file in the destination folder, is fsynced, then renamed over the
-target, so a reader sees the old file or the new one, never a torn one. pyarrow is imported only by the
-functions that need it, so the numeric core can use the byte / text writers without loading it.
+target, and the folder is fsynced after the rename (so a power loss cannot undo it): a reader sees the old
+file or the new one, never a torn one. pyarrow is imported only by the functions that need it, so the
+numeric core can use the byte / text writers without loading it.
+
+Result folders are built in a hidden sibling `.NAME.partial-PID-*` (holding a flock on it and carrying our
+marker from the start) and swapped in whole; see staged_output and recover_output for what a kill at any
+moment leaves and how the next command that writes NAME settles it.
 """
 
 import errno
+import functools
 import json
 import os
+import re
 import shutil
+import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -27,6 +35,19 @@ def _temp_beside(path: Path) -> str:
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)
     return tmp
+
+
+def fsync_folder(folder) -> None:
+    """Make renames and new names in `folder` durable: the rename of a file is in the folder's own data, which
+    an fsync of the file does not write (ext4, xfs may otherwise lose it in a power cut)."""
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.fsync(fd)
+    except OSError as exc:
+        if exc.errno not in (errno.EINVAL, errno.ENOTSUP, errno.EBADF):  # cannot sync a folder: nothing to do
+            raise OSError(exc.errno, exc.strerror, str(folder)) from exc
+    finally:
+        os.close(fd)
 
 
 @contextmanager
@@ -62,6 +83,7 @@ def _write_atomic(path, write) -> None:
             with open(tmp, "rb") as handle:
                 os.fsync(handle.fileno())
             os.replace(tmp, path)
+            fsync_folder(path.parent)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -203,6 +225,7 @@ class ParquetStream:
             os.fsync(handle.fileno())
         os.replace(self._tmp, self.path)
         self._tmp = None
+        fsync_folder(self.path.parent)
 
     def abort(self) -> None:
         if self._writer is not None:
@@ -261,12 +284,17 @@ def _check_replaceable(path: Path, overwrite: bool) -> bool:
 def prepare_output_dir(path, overwrite: bool) -> Path:
     """An empty output folder at `path` (replacing a previous liaison result only with `overwrite`)."""
     path = Path(path)
+    recover_output(path)
     if _check_replaceable(path, overwrite):
         shutil.rmtree(path)
     _make_parent(path)
     path.mkdir(exist_ok=True)
-    (path / RESULT_MARKER).write_text("written by liaison\n", encoding="utf-8")
+    _mark_ours(path)
     return path
+
+
+def _mark_ours(folder: Path) -> None:
+    write_text_atomic("written by liaison\n", folder / RESULT_MARKER)
 
 
 def _make_parent(path: Path) -> None:
@@ -281,19 +309,23 @@ def _make_parent(path: Path) -> None:
 def staged_output(path, overwrite: bool):
     """Yield a sibling temporary folder to write a result into; when the block completes, it takes the
     place of `path` (a previous liaison result there is swapped out, then removed). A failed or killed
-    run leaves `path` as it was, and at most a hidden `.NAME.partial-*` folder beside it."""
+    run leaves `path` as it was, and at most a hidden `.NAME.partial-PID-*` folder beside it, which the next
+    command writing `path` removes (recover_output)."""
     path = Path(path)
+    recover_output(path)
     replace = _check_replaceable(path, overwrite)
     _make_parent(path)
     try:
-        stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+        # The pid in the name and the flock held on the folder tell a later command it is in use.
+        stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-{os.getpid()}-", dir=path.parent))
     except OSError as exc:  # read-only, no permission, full: say where the result was to go
         raise OSError(exc.errno, exc.strerror, str(path)) from exc
     try:
-        yield stage
-        (stage / RESULT_MARKER).write_text("written by liaison\n", encoding="utf-8")
-        os.chmod(stage, 0o777 & ~_umask())
-        _swap_in(stage, path, replace)
+        with _claim(stage, wait=True):
+            _mark_ours(stage)  # from the start, so a killed run's folder is known as ours and cleaned
+            yield stage
+            os.chmod(stage, 0o777 & ~_umask())
+            _swap_in(stage, path, replace)
     except OSError as exc:
         shutil.rmtree(stage, ignore_errors=True)
         if exc.filename is not None and str(exc.filename).startswith(str(stage)):
@@ -307,14 +339,164 @@ def staged_output(path, overwrite: bool):
 
 
 def _swap_in(stage: Path, path: Path, replace: bool) -> None:
-    """Put the complete folder `stage` at `path`; a previous result there is moved aside, then removed."""
-    if replace:
-        old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
-        os.replace(path, old / path.name)
+    """Put the complete folder `stage` at `path`. A previous result there is exchanged with it in one atomic
+    step where the system can (Linux renameat2), so `path` is never missing; it ends up at the stage's name
+    and is removed. Elsewhere it is moved aside first (_swap_by_two_renames)."""
+    if not replace:
         os.replace(stage, path)
-        shutil.rmtree(old)
+        fsync_folder(path.parent)
+        return
+    if not _exchange(stage, path):
+        _swap_by_two_renames(stage, path)
+        return
+    fsync_folder(path.parent)
+    # A kill or a failure here leaves the old result under the stage's hidden name: cleaned next time.
+    if stage.is_symlink():  # `path` was a symlink to a result: the link is what was replaced
+        stage.unlink()
     else:
-        os.replace(stage, path)
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _swap_by_two_renames(stage: Path, path: Path) -> None:
+    """The old result goes aside into `.NAME.old-PID-*/NAME`, then the stage takes its place. A failure
+    between the two renames puts the old result back at once; a kill there leaves it aside, and the next
+    command writing `path` puts it back (recover_output)."""
+    aside = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-{os.getpid()}-", dir=path.parent))
+    with _claim(aside, wait=True):
+        try:
+            os.replace(path, aside / path.name)
+        except BaseException:
+            aside.rmdir()
+            raise
+        try:
+            os.replace(stage, path)
+        except BaseException:
+            os.replace(aside / path.name, path)
+            fsync_folder(path.parent)
+            aside.rmdir()
+            raise
+        fsync_folder(path.parent)
+        shutil.rmtree(aside, ignore_errors=True)  # what a failure leaves here is cleaned next time
+
+
+_RENAME_EXCHANGE = 2  # linux/fs.h
+_AT_FDCWD = -100
+
+
+@functools.cache
+def _renameat2():
+    """libc's renameat2, or None (not Linux, or a libc older than glibc 2.28)."""
+    if not sys.platform.startswith("linux"):
+        return None
+    import ctypes
+
+    try:
+        function = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return None
+    function.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    function.restype = ctypes.c_int
+    return function
+
+
+def _exchange(first: Path, second: Path) -> bool:
+    """Swap two names atomically; False where the kernel or the file system cannot (the caller falls back)."""
+    import ctypes
+
+    renameat2 = _renameat2()
+    if renameat2 is None:
+        return False
+    if renameat2(_AT_FDCWD, os.fsencode(first), _AT_FDCWD, os.fsencode(second), _RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EPERM):
+        return False  # not supported here (old kernel, overlayfs on some kernels, FUSE, NFS ...)
+    raise OSError(code, os.strerror(code), str(second))
+
+
+@contextmanager
+def _claim(folder: Path, wait: bool = False):
+    """Hold an exclusive flock on `folder` (the folder itself: no lock file to move into the result).
+    Yields True if held; False if another process holds it, or if it cannot be known (gone, or a file system
+    without flock on folders, such as some NFS): a folder whose use cannot be ruled out is left alone."""
+    import fcntl
+
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
+    except OSError:
+        yield False
+        return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
+            held = True
+        except OSError:
+            held = False
+        yield held
+    finally:
+        os.close(fd)
+
+
+# mkdtemp's random tail is 8 characters; our staging names put the writer's pid before it.
+_STAGING_TAIL = re.compile(r"(?:(\d+)-)?[a-z0-9_]{8}")
+
+
+def _staging_leftovers(path: Path) -> list[tuple[str, Path, int | None]]:
+    """(kind, folder, writer pid or None) of each `.NAME.partial-*` / `.NAME.old-*` folder beside `path`."""
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:  # no parent yet, or unreadable: nothing to settle (writing will say what is wrong)
+        return []
+    found = []
+    for entry in entries:
+        for kind in ("partial", "old"):
+            prefix = f".{path.name}.{kind}-"
+            tail = _STAGING_TAIL.fullmatch(entry.name[len(prefix):]) if entry.name.startswith(prefix) else None
+            if tail and entry.is_dir(follow_symlinks=False):
+                found.append((kind, Path(entry.path), int(tail.group(1)) if tail.group(1) else None))
+    return found
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, someone else's
+        return True
+    return True
+
+
+def recover_output(path) -> None:
+    """Settle what killed commands left beside `path`, before a command writes it: a result set aside by an
+    interrupted swap (`.NAME.old-*/NAME`) goes back to `path` if `path` is missing (one note on stderr), and
+    is removed if `path` is there; a `.NAME.partial-*` staging folder is removed. Only folders that are ours
+    (our marker or provenance, or empty) and that no live process uses (its pid is gone and its flock can be
+    taken) are touched; nothing else is ever deleted."""
+    path = Path(path)
+    for kind, folder, pid in _staging_leftovers(path):
+        if pid is not None and _pid_alive(pid):
+            continue
+        with _claim(folder) as held:
+            if not held:
+                continue
+            if kind == "old":
+                _settle_set_aside(folder, path)
+            elif _is_ours(folder) or not any(folder.iterdir()):
+                shutil.rmtree(folder, ignore_errors=True)
+
+
+def _settle_set_aside(aside: Path, path: Path) -> None:
+    held = aside / path.name
+    contents = os.listdir(aside)
+    if contents not in ([], [path.name]) or (contents and not _is_ours(held)):
+        return  # not what _swap_by_two_renames leaves: not ours to touch
+    if contents and not os.path.lexists(path):
+        os.replace(held, path)
+        fsync_folder(path.parent)
+        print(f"note: {path}: restored the previous result from {aside.name} (a replacement was interrupted "
+              "between its two renames)", file=sys.stderr)
+    shutil.rmtree(aside, ignore_errors=True)
 
 
 @contextmanager
@@ -327,6 +509,7 @@ def resumable_output(path, overwrite: bool, key: str):
     same command (same `key`) resumes it while the old result stays in place until then.
     """
     path = Path(path)
+    recover_output(path)
     if not overwrite or not _check_replaceable(path, overwrite):
         if not (path / "manifest.jsonl").exists():
             prepare_output_dir(path, overwrite=False)
@@ -336,7 +519,7 @@ def resumable_output(path, overwrite: bool, key: str):
     if stage.exists() and not _is_ours(stage) and any(stage.iterdir()):
         raise OutputExistsError(f"{stage}: not a liaison folder; remove it yourself or choose --output")
     stage.mkdir(exist_ok=True)
-    (stage / RESULT_MARKER).write_text("written by liaison\n", encoding="utf-8")
+    _mark_ours(stage)
     yield stage
     _swap_in(stage, path, replace=True)
 

@@ -152,10 +152,10 @@ def test_a_killed_overwrite_keeps_the_old_result(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old result is intact
-    # The rerun replaces it; nothing of the killed run's is left but its hidden staging folder, and a
-    # successful run leaves no staging folder of its own.
+    # The rerun replaces it and removes the killed run's hidden staging folder (issue 24); a successful run
+    # leaves no staging folder of its own.
     assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--output", out, "--overwrite").returncode == 0
-    assert (out / ".liaison-result").exists() and len(list(tmp_path.glob(".result.old-*"))) == 0
+    assert (out / ".liaison-result").exists() and sorted(p.name for p in tmp_path.iterdir()) == ["result"]
 
 
 def test_a_corrupt_curve_given_to_plot_is_one_line_exit_4(tmp_path):

@@ -5,8 +5,21 @@ run index, so the id is stable across invocations. A JSON-lines manifest (one he
 per finished task) is the single source of truth: a killed sweep started again with the same command
 skips every task already in it, and the Parquet tables are always rebuilt from it in task order, so an
 interrupted-and-resumed sweep writes the same bytes as an uninterrupted one, whatever the backend.
+
+A task whose line says 'error' (an exception in the worker: no result) is run again on resume and its new
+line appended; the last line of a task wins. 'diverged' is a result (the filter's health check tripped) and
+is kept.
+
+Manifest format (the header's "format"), and the migration rule:
+- 2 (this version): a task may have several lines (a retried error); the last one counts.
+- 1 (liaison before issue 24): the same header and record fields, each task once. Read as is and resumed
+  in place: its header line is kept and new lines are appended as format 2, which a format-1 reader also
+  reads (it too keeps the last line of a task).
+A format newer than MANIFEST_FORMAT, or a header without one, is refused in one line (exit 2) naming the
+file, and the file is left untouched. A new format must state here how each older one is read.
 """
 
+import errno
 import hashlib
 import itertools
 import warnings
@@ -22,13 +35,14 @@ import pandas as pd
 from liaison_cli import __version__, core_source_hash
 from liaison_cli.campaign.backends import check_backend, map_batches
 from liaison_cli.scenario.setup import prepare_problem
-from liaison_cli.storage import naming, write_parquet_atomic, write_text_atomic
+from liaison_cli.storage import fsync_folder, naming, write_parquet_atomic, write_text_atomic
 from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.errors import LiaisonError
 from liaison_cli.interrupts import ignore_in_worker_process
 
-MANIFEST_FORMAT = 1
+MANIFEST_FORMAT = 2
+READABLE_MANIFEST_FORMATS = (1, 2)  # see the module docstring: older formats are read and resumed in place
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
 # Present only for some estimators / scenarios (a batch's prediction, clock synchronisation): summarised
 # in the curve when a grid point has them.
@@ -54,8 +68,13 @@ def sweep_lock(out_dir: Path):
     import fcntl
 
     out_dir = Path(out_dir)
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    handle = open(out_dir.parent / f".{out_dir.name}.lock", "a")
+    # Keyed on the folder, not on how its path is spelled: through a symlink or `..` it is the same lock.
+    try:
+        real = out_dir.resolve()
+    except RuntimeError:  # Python < 3.13 reports a symlink loop so, not as an OSError
+        raise OSError(errno.ELOOP, os.strerror(errno.ELOOP), str(out_dir)) from None
+    real.parent.mkdir(parents=True, exist_ok=True)
+    handle = open(real.parent / f".{real.name}.lock", "a")
     try:
         fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -204,12 +223,13 @@ class Manifest:
     def __init__(self, path: Path, header: dict):
         self.path = path
         existing, self.records, valid = read_manifest(path)
-        if existing is not None and existing != header:
-            raise SweepError(_header_mismatch(path, existing, header))
+        if existing is not None:
+            _check_header(path, existing, header)  # before the file is opened for writing: refused, untouched
         self.handle = open(path, "ab")
         self.handle.truncate(valid)
         if existing is None:
             self._write([header])
+            fsync_folder(path.parent)  # the new file's name, not only its bytes
 
     def _write(self, entries):
         with naming(self.path):  # a full disk here names the manifest; a torn last line is dropped on resume
@@ -226,9 +246,26 @@ class Manifest:
         with naming(self.path):
             self.handle.close()
 
+    def done(self) -> set[str]:
+        """Tasks with a result: every recorded task but those whose last line is an 'error' (run again)."""
+        return {task for task, record in self.records.items() if record.get("status") != "error"}
+
+
+def _check_header(path: Path, old, new: dict) -> None:
+    """The manifest at `path` can be resumed by the sweep whose header is `new` (see the format rule)."""
+    version = old.get("format") if isinstance(old, dict) else None
+    if isinstance(version, int) and not isinstance(version, bool) and version > MANIFEST_FORMAT:
+        raise SweepError(f"{path}: manifest format {version} is newer than this liaison ({__version__}) reads "
+                         f"(up to {MANIFEST_FORMAT}); resume it with the liaison that wrote it, or pass --overwrite "
+                         "to start again or --output to choose another folder")
+    if version not in READABLE_MANIFEST_FORMATS or old.get("kind") != "header":
+        raise SweepError(_header_mismatch(path, old, new))
+    if {**old, "format": new["format"]} != new:
+        raise SweepError(_header_mismatch(path, old, new))
+
 
 def _header_mismatch(path, old, new) -> str:
-    if old.get("format") != new["format"] or old.get("kind") != "header":
+    if not isinstance(old, dict) or old.get("format") not in READABLE_MANIFEST_FORMATS or old.get("kind") != "header":
         what = "a manifest this version cannot read"
     elif old.get("core_hash") != new["core_hash"]:
         what = "results of a different numeric core (liaison was changed or upgraded since)"
@@ -312,7 +349,8 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
     manifest = Manifest(out_dir / "manifest.jsonl", plan.header())
     try:
         tasks = plan.tasks
-        pending = [t for t in tasks if t.task_id not in manifest.records]
+        done = manifest.done()
+        pending = [t for t in tasks if t.task_id not in done]
         reused = len(tasks) - len(pending)
         truth_cache: dict = {}
         needed = sorted({t.point for t in pending})
@@ -341,7 +379,7 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
             with warnings.catch_warnings():  # joblib's note on cancelled tasks: they are simply not saved
                 warnings.simplefilter("ignore")
                 getattr(results, "close", lambda: None)()
-            saved = sum(1 for t in tasks if t.task_id in manifest.records)
+            saved = len(manifest.done() & {t.task_id for t in tasks})
             raise SweepInterrupted(f"interrupted: {saved} of {len(tasks)} tasks saved in {manifest.path}; rerun the "
                                    "same command to resume") from None
         finally:

@@ -7,31 +7,18 @@ Carlo run of a scenario reuse one schedule computed on the nominal trajectory. A
 rtol 1e-13 is tested in tests/test_batch.py.
 """
 
-import importlib.util
-import os
-
 import numpy as np
 from numba import njit
 
+from liaison_cli.dynamics import dop853_tableau as _dop853
 from liaison_cli.dynamics.crtbp import _state_stm_rhs
 
-
-def _dop853_tableau():
-    """scipy's DOP853 coefficient module, loaded from its file alone: importing it as
-    scipy.integrate._ivp.dop853_coefficients would run scipy.integrate's __init__ (~0.25 s at every start)."""
-    scipy_dir = os.path.dirname(importlib.util.find_spec("scipy").origin)
-    path = os.path.join(scipy_dir, "integrate", "_ivp", "dop853_coefficients.py")
-    spec = importlib.util.spec_from_file_location("_liaison_dop853_coefficients", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-_dop853 = _dop853_tableau()
-_STAGES = _dop853.N_STAGES
-RK8_A = np.ascontiguousarray(_dop853.A[:_STAGES, :_STAGES], dtype=np.float64)
+# The tableau is vendored as literal floats (tools/vendor_dop853_tableau.py copied it from scipy's private
+# dop853_coefficients module): reading that file at import tied every command to a scipy internal, and
+# importing it as a module would load scipy.integrate (~0.25 s at every start).
+RK8_A = np.ascontiguousarray(_dop853.A, dtype=np.float64)
 RK8_B = np.ascontiguousarray(_dop853.B, dtype=np.float64)
-RK8_C = np.ascontiguousarray(_dop853.C[:_STAGES], dtype=np.float64)
+RK8_C = np.ascontiguousarray(_dop853.C, dtype=np.float64)
 STEP_FRACTION = 0.08
 
 
