@@ -130,6 +130,41 @@ def _format_summary(summary: list[dict], spacecraft) -> str:
     return "\n".join(lines)
 
 
+def _campaign_ratio(summary: list[dict], spacecraft: str, kind: str, unit: str) -> float:
+    """Error RMS over the runs' settled epochs divided by the sigma RMS over the same epochs (runs 'ok')."""
+    errors = _ok_values(summary, spacecraft, f"rms_{kind}_settled_{unit}")
+    sigmas = _ok_values(summary, spacecraft, f"sigma_{kind}_settled_{unit}")
+    if not errors or not sigmas:
+        return math.nan
+    return math.sqrt(_mean([e * e for e in errors]) / _mean([s * s for s in sigmas]))
+
+
+def _format_consistency(summary: list[dict], spacecraft, settle_days: float) -> str:
+    """Per spacecraft after the settle time: error RMS / sigma RMS of position and velocity over the runs that
+    finished, the mean share of epochs with the NEES in its 95 % band; '!' marks a ratio above the limit."""
+    from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+
+    lines = [f"consistency after {settle_days:g} d (error RMS / filter sigma RMS over the runs; NEES in its 95 % "
+             "band, above it):", f"{'spacecraft':<12}{'pos err/σ':>11}{'vel err/σ':>12}{'NEES in band':>15}"
+             f"{'above':>9}"]
+    flagged = False
+    for name in spacecraft:
+        cells = []
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):
+            ratio = _campaign_ratio(summary, name, kind, unit)
+            mark = " !" if ratio > CONSISTENCY_RATIO_LIMIT else "  "
+            flagged |= ratio > CONSISTENCY_RATIO_LIMIT
+            cells.append(f"{ratio:.2f}{mark}")
+        band = _mean(_ok_values(summary, name, "frac_nees_in_band_settled", 100.0))
+        above = _mean(_ok_values(summary, name, "frac_nees_above_band_settled", 100.0))
+        lines.append(_left(name, 12) + _right(cells[0], 11) + _right(cells[1], 12) + _right(f"{band:.1f}", 14) + "%"
+                     + _right(f"{above:.1f}", 8) + "%")
+    if flagged:
+        lines.append(f"! inconsistent: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's sigma RMS "
+                     "(summary.parquet: consistent_settled)")
+    return "\n".join(lines)
+
+
 def _format_prediction(summary: list[dict], spacecraft) -> str:
     """For a batch scenario: the DRMS of the prediction after the span and the clock synchronisation RMS,
     mean [90th percentile] over the runs that finished; empty for an EKF scenario."""
@@ -193,6 +228,7 @@ def run(
         f"sigma {problem.sigma_m:.1f} m, {span}, seed {config.monte_carlo.seed}"
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
+    typer.echo(_format_consistency(summary, problem.spacecraft, config.filter.settle_days))
     prediction = _format_prediction(summary, problem.spacecraft)
     if prediction:
         typer.echo(prediction)

@@ -36,11 +36,57 @@ def fraction(mask):
     return float(np.mean(mask)) if mask.size else float("nan")
 
 
-def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_PER_DAY, data_end_step=-1):
+# A run whose error RMS after the settle time exceeds this many times its filter's sigma RMS is marked
+# inconsistent. For a consistent filter the ratio is 1 up to sampling: the errors of one run are strongly
+# correlated in time (a few independent samples per orbit), so single runs spread by tens of per cent and
+# a 10-run campaign by ~10-20 %; 1.5 is far outside that and still flags a filter whose sigma a navigator
+# would not trust (a 3-sigma bound that is really 2-sigma).
+CONSISTENCY_RATIO_LIMIT = 1.5
+NEES_BAND_PROBABILITY = 0.95
+
+
+def consistency_columns(times_s, norms, nees, n_nees: int, settle_s: float, spacecraft_index: int) -> dict:
+    """After the settle time: the error RMS and the filter's sigma RMS (sigma of the 3-D norm,
+    sqrt(sigma_x^2 + sigma_y^2 + sigma_z^2)) of position and velocity, their ratio, the share of epochs whose
+    whole-state NEES lies in its two-sided 95 % chi-square band of n_nees degrees of freedom (and above it:
+    the filter optimistic there; below it, pessimistic), and whether
+    both ratios are within CONSISTENCY_RATIO_LIMIT."""
+    settled = times_s >= settle_s
+    i = spacecraft_index
+    out = {}
+    for kind, unit in (("position", "m"), ("velocity", "m_s")):
+        error = rms(norms[f"{kind}_error_{unit}"][settled, i])
+        spread = rms(norms[f"{kind}_3sigma_{unit}"][settled, i] / 3.0)
+        out[f"rms_{kind}_settled_{unit}"] = error
+        out[f"sigma_{kind}_settled_{unit}"] = spread
+        out[f"{kind}_error_to_sigma_settled"] = error / spread if spread > 0 else float("nan")
+    low, high = nees_run_band(n_nees)
+    if nees is not None and n_nees > 0:
+        values = np.asarray(nees)[settled]
+        values = values[np.isfinite(values)]
+        out["frac_nees_in_band_settled"] = fraction((values >= low) & (values <= high))
+        out["frac_nees_above_band_settled"] = fraction(values > high)  # optimistic epochs (the rest: pessimistic)
+    else:
+        out["frac_nees_in_band_settled"] = out["frac_nees_above_band_settled"] = float("nan")
+    out["consistent_settled"] = bool(out["position_error_to_sigma_settled"] <= CONSISTENCY_RATIO_LIMIT
+                                     and out["velocity_error_to_sigma_settled"] <= CONSISTENCY_RATIO_LIMIT)
+    return out
+
+
+def nees_run_band(n_nees: int, probability: float = NEES_BAND_PROBABILITY) -> tuple[float, float]:
+    """The two-sided band a single run's NEES of n_nees states lies in with `probability` (chi-square)."""
+    if n_nees <= 0:
+        return float("nan"), float("nan")
+    tail = (1.0 - probability) / 2.0
+    return chi2_quantile(tail, n_nees), chi2_quantile(1.0 - tail, n_nees)
+
+
+def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_PER_DAY, data_end_step=-1,
+                 settle_s=SECONDS_PER_DAY, nees=None, n_nees: int = 0):
     """One dict per spacecraft: RMS of the 3-D errors (all epochs after t0, and after `after_s`) and the
-    fraction of (epoch, axis) samples whose error lies within 2 and 3 sigma of that axis. When the
-    estimator's data end before the last epoch (a batch span), also the RMS over the epochs after it:
-    002's DRMS of the prediction, sqrt(mean |e|^2)."""
+    fraction of (epoch, axis) samples whose error lies within 2 and 3 sigma of that axis; the consistency
+    columns after `settle_s` (consistency_columns). When the estimator's data end before the last epoch (a
+    batch span), also the RMS over the epochs after it: 002's DRMS of the prediction, sqrt(mean |e|^2)."""
     norms = error_norms(err, sigma, to_m, to_m_s)
     after_t0 = times_s > 0.0
     late = times_s >= after_s
@@ -60,6 +106,7 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
                 "frac_in_3sigma": fraction(r[after_t0] <= 3.0),
                 "frac_in_2sigma_after_day1": fraction(r[late] <= 2.0),
                 "frac_in_3sigma_after_day1": fraction(r[late] <= 3.0),
+                **consistency_columns(times_s, norms, nees, n_nees, settle_s, i),
             }
         )
         if 0 <= data_end_step < len(times_s) - 1:

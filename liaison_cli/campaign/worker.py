@@ -131,7 +131,9 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         n_dyn = 6 * problem.n_spacecraft
         err, sigma = history.err, history.sigma
         summary, norms = summary_rows(problem.times_s, err[:, :n_dyn], sigma[:, :n_dyn], problem.spacecraft,
-                                      M_PER_LU, M_S_PER_VU, data_end_step=history.data_end_step)
+                                      M_PER_LU, M_S_PER_VU, data_end_step=history.data_end_step,
+                                      settle_s=problem.scenario.filter.settle_days * SECONDS_PER_DAY,
+                                      nees=history.nees, n_nees=problem.filter.n_nees)
         _add_estimator_extras(summary, history.extras)
         _add_clock_sync(problem, inputs, history.data_end_step, summary)
         last = history.fail_step - 1 if not history.ok else -1
