@@ -541,7 +541,12 @@ class MeasurementSpec(StrictModel):
 class FilterSpec(StrictModel):
     initial_sigma_position_m: float = Field(1000.0, gt=0)
     initial_sigma_velocity_m_s: float = Field(0.01, gt=0)
-    process_noise_accel_m_s2: float = Field(1e-7, ge=0)
+    process_noise_accel_m_s2: float = Field(1e-7, ge=0, description="SNC white acceleration sigma_a (m/s^2) of "
+                                            "every spacecraft (a spacecraft's own key overrides it)")
+    process_noise_model: Literal["continuous_white_acceleration", "velocity_only"] = Field(
+        "continuous_white_acceleration", description="how sigma_a becomes Q per step dt: continuous white "
+        "acceleration (q = sigma_a^2 dt; Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis) or (sigma_a dt)^2 on "
+        "the velocities only (the form before issue 26)")
     divergence_position_km: float = Field(1e4, gt=0)
     divergence_nees_factor: float = Field(
         100.0, ge=1, description="a run whose NEES stays above this many times its 99.9 % chi-square quantile "

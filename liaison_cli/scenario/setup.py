@@ -13,9 +13,10 @@ from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.dynamics.ground_station import GroundStationTrajectory
 from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
-from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
 from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
 from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
+from liaison_cli.estimation.process_noise import spacecraft_process_noise
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
 from liaison_cli.scenario.reference_states import initial_state_lu
@@ -375,10 +376,10 @@ def _matrices(scenario: Scenario, layout: StateLayout):
             sigma_r, sigma_v = _apriori_sigmas(by_name[block.owner], flt.initial_sigma_position_m,
                                                flt.initial_sigma_velocity_m_s)
             P0[s, s] = per_axis_block_diagonal(1, (sigma_r / M_PER_LU) ** 2, (sigma_v / M_S_PER_VU) ** 2)
-            # State-noise compensation: white acceleration sigma_a on each velocity axis, q = (sigma_a dt)^2.
+            # State-noise compensation (estimation.process_noise): white acceleration sigma_a.
             own = by_name[block.owner].process_noise_accel_m_s2
             sigma_a = flt.process_noise_accel_m_s2 if own is None else own
-            Q[s, s] = np.diag([0.0] * 3 + [(sigma_a * interval_s / M_S_PER_VU) ** 2] * 3)
+            Q[s, s] = spacecraft_process_noise(sigma_a, interval_s, flt.process_noise_model, M_PER_LU, M_S_PER_VU)
         elif block.kind == BLOCK_CLOCK:
             clock = by_name[block.owner].clock
             scale = _clock_scale()
