@@ -132,11 +132,10 @@ def _format_summary(summary: list[dict], spacecraft) -> str:
 
 def _campaign_ratio(summary: list[dict], spacecraft: str, kind: str, unit: str) -> float:
     """Error RMS over the runs' settled epochs divided by the sigma RMS over the same epochs (runs 'ok')."""
-    errors = _ok_values(summary, spacecraft, f"rms_{kind}_settled_{unit}")
-    sigmas = _ok_values(summary, spacecraft, f"sigma_{kind}_settled_{unit}")
-    if not errors or not sigmas:
-        return math.nan
-    return math.sqrt(_mean([e * e for e in errors]) / _mean([s * s for s in sigmas]))
+    from liaison_cli.analysis.metrics import campaign_error_to_sigma
+
+    return campaign_error_to_sigma(_ok_values(summary, spacecraft, f"rms_{kind}_settled_{unit}"),
+                                   _ok_values(summary, spacecraft, f"sigma_{kind}_settled_{unit}"))
 
 
 def _format_consistency(summary: list[dict], spacecraft, settle_days: float) -> str:

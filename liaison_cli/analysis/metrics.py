@@ -73,6 +73,15 @@ def consistency_columns(times_s, norms, nees, n_nees: int, settle_s: float, spac
     return out
 
 
+def campaign_error_to_sigma(error_rms, sigma_rms) -> float:
+    """A campaign's ratio from its runs' settled error RMS and sigma RMS: sqrt(mean e^2 / mean s^2), the RMS
+    over every run's settled epochs of the error divided by that of the sigma (NaN without runs)."""
+    error_rms, sigma_rms = np.asarray(error_rms, dtype=float), np.asarray(sigma_rms, dtype=float)
+    if error_rms.size == 0 or sigma_rms.size == 0:
+        return float("nan")
+    return float(np.sqrt(np.mean(error_rms**2) / np.mean(sigma_rms**2)))
+
+
 def nees_run_band(n_nees: int, probability: float = NEES_BAND_PROBABILITY) -> tuple[float, float]:
     """The two-sided band a single run's NEES of n_nees states lies in with `probability` (chi-square)."""
     if n_nees <= 0:

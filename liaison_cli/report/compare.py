@@ -5,6 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from liaison_cli import __version__
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
@@ -21,17 +22,43 @@ def compare_rows(scenario, summary: pd.DataFrame) -> dict:
            "runs": len(runs), "runs_ok": int((runs.status == "ok").sum())}
     for metric in METRICS:
         row[metric] = float(per_sc[metric].mean()) if len(per_sc) else float("nan")
+    row.update(consistency_of(ok))
     return row
 
 
+def consistency_of(ok: pd.DataFrame) -> dict:
+    """The worst spacecraft's error/sigma ratio after the settle time (position and velocity, each the
+    campaign ratio of analysis.metrics), the mean share of epochs with the NEES in its 95 % band, and whether
+    every ratio is within the limit."""
+    ratios = {"position": [], "velocity": []}
+    for _, group in ok.groupby("spacecraft"):
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):
+            ratios[kind].append(campaign_error_to_sigma(group[f"rms_{kind}_settled_{unit}"],
+                                                        group[f"sigma_{kind}_settled_{unit}"]))
+    worst = {kind: max(values) if values else float("nan") for kind, values in ratios.items()}
+    return {"position_error_to_sigma_settled": worst["position"],
+            "velocity_error_to_sigma_settled": worst["velocity"],
+            "frac_nees_in_band_settled": float(ok.frac_nees_in_band_settled.mean()) if len(ok) else float("nan"),
+            "consistent_settled": bool(worst["position"] <= CONSISTENCY_RATIO_LIMIT
+                                       and worst["velocity"] <= CONSISTENCY_RATIO_LIMIT)}
+
+
 def to_markdown(table: pd.DataFrame) -> str:
-    lines = ["| scenario | S/C | links | runs ok | pos RMS m | [> 1 d] | vel RMS mm/s | [> 1 d] |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| scenario | S/C | links | runs ok | pos RMS m | [> 1 d] | vel RMS mm/s | [> 1 d] | pos err/σ | "
+             "vel err/σ | NEES in band |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in table.itertuples():
-        lines.append(f"| {row.scenario} | {row.spacecraft} | {row.links} | {row.runs_ok}/{row.runs} | "
+        mark = "" if row.consistent_settled else " !"
+        lines.append(f"| {row.scenario}{mark} | {row.spacecraft} | {row.links} | {row.runs_ok}/{row.runs} | "
                      f"{row.rms_position_m:.1f} | {row.rms_position_after_day1_m:.1f} | "
-                     f"{1e3 * row.rms_velocity_m_s:.2f} | {1e3 * row.rms_velocity_after_day1_m_s:.2f} |")
-    return "\n".join(lines) + "\n\nRMS per spacecraft averaged over runs, then averaged over the scenario's spacecraft.\n"
+                     f"{1e3 * row.rms_velocity_m_s:.2f} | {1e3 * row.rms_velocity_after_day1_m_s:.2f} | "
+                     f"{row.position_error_to_sigma_settled:.2f} | {row.velocity_error_to_sigma_settled:.2f} | "
+                     f"{100 * row.frac_nees_in_band_settled:.0f} % |")
+    return "\n".join(lines) + (
+        "\n\nRMS per spacecraft averaged over runs, then averaged over the scenario's spacecraft. err/σ: after each "
+        "scenario's filter.settle_days, the worst spacecraft's error RMS over its filter sigma RMS; NEES in band: "
+        "share of those epochs whose NEES lies in its 95 % chi-square band. ! marks a scenario with a ratio above "
+        f"{CONSISTENCY_RATIO_LIMIT:g} (inconsistent).\n")
 
 
 def write_compare(rows, summaries, texts, out_dir) -> tuple[pd.DataFrame, str]:
