@@ -220,12 +220,15 @@ def dynamics_model(scenario: Scenario):
 
 
 def _station_priority(scenario: Scenario, visibility: list) -> list:
-    """One ground observation per epoch and spacecraft (003): of the prioritised stations that see a
-    spacecraft, only the first keeps its link's epoch; links without such a station are untouched."""
+    """One ground observation per epoch and spacecraft (003): of the stations that see a spacecraft, only the
+    first in priority keeps its link's epoch. The priority is station_priority, then the stations it does not
+    name in ground_stations order (a partial list does not exempt the others). Without station_priority,
+    and for links without a station, nothing changes."""
     if scenario.station_priority is None:
         return visibility
     out = list(visibility)
-    rank = {name: r for r, name in enumerate(scenario.station_priority)}
+    unnamed = [st.name for st in scenario.ground_stations if st.name not in scenario.station_priority]
+    rank = {name: r for r, name in enumerate([*scenario.station_priority, *unnamed])}
     by_target = {}
     for i, link in enumerate(scenario.links):
         station = next((end for end in (link.receiver, link.transponder) if end in rank), None)
