@@ -103,6 +103,22 @@ def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
 # --- no traceback, no hang ----------------------------------------------------------------------------
 
 
+def test_a_damaged_family_cache_is_rebuilt(tmp_path, monkeypatch, capsys):
+    """A truncated .npz (BadZipFile) used to break every command needing the family."""
+    from liaison_cli.orbits.family_store import family_path, load_or_generate
+
+    monkeypatch.setenv("LIAISON_ORBIT_CACHE_DIR", str(tmp_path))
+    good, cached = load_or_generate("l1_halo_north", 3)
+    path = family_path("l1_halo_north", 3)
+    assert not cached and path.exists()
+    path.write_bytes(path.read_bytes()[:200])
+    rebuilt, cached = load_or_generate("l1_halo_north", 3)
+    assert not cached and np.array_equal(rebuilt.x0, good.x0)
+    note = capsys.readouterr().err.strip().splitlines()
+    assert len(note) == 1 and str(path) in note[0] and "damaged" in note[0] and "--regenerate" in note[0]
+    assert load_or_generate("l1_halo_north", 3)[1]  # the rebuilt file is read back
+
+
 def _loopback_server(kind: str) -> int:
     """A server on 127.0.0.1 that is not dask: 'silent' accepts and says nothing; 'http' answers HTTP."""
     if kind == "http":
