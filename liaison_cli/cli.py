@@ -276,12 +276,16 @@ def sweep(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
-    from liaison_cli.campaign.grid import parse_grid, parse_range
+    from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
     from liaison_cli.storage import resumable_output
     from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.campaign.backends import check_backend, probe_scheduler
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
     _check_runs(runs)
+    check_backend(backend, scheduler)
+    if scheduler:  # before the lock and any work: a bad scheduler is one line within --scheduler-timeout
+        probe_scheduler(scheduler, scheduler_timeout)
     paths = list(scenario_args or []) + list(scenario_opts or [])
     default_formations = not paths
     if default_formations:
@@ -291,6 +295,7 @@ def sweep(
         axes.insert(0, (SIGMA_KEY, parse_range(sigma, "--sigma")))
     if not axes:
         raise LiaisonError("sweep: nothing to sweep; give --sigma and/or --grid KEY=V1,V2")
+    check_grid_size(axes, len(paths), runs)
     bases = [(*load_scenario(path), str(path)) for path in paths]
     if name is None:
         name = "fig15" if default_formations else "+".join(b[0].name for b in bases)

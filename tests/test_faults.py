@@ -137,6 +137,26 @@ def _loopback_server(kind: str) -> int:
     return listener.getsockname()[1]
 
 
+@pytest.mark.parametrize("kind", ["silent", "http"])
+def test_a_scheduler_that_is_not_dask_fails_within_the_timeout(tmp_path, kind):
+    """It used to hang forever (distributed's handshake read has no timeout) holding the sweep lock."""
+    pytest.importorskip("distributed")
+    address = f"tcp://127.0.0.1:{_loopback_server(kind)}"
+    start = time.monotonic()
+    proc = cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--backend", "dask",
+               "--scheduler", address, "--scheduler-timeout", "1", "--quiet", "--output", tmp_path / "o")
+    assert time.monotonic() - start < 5.0
+    assert_one_line_error(proc, address, ["cannot connect", "within 1 s", "--scheduler-timeout"], code=3)
+    assert not (tmp_path / "o").exists() and not (tmp_path / ".o.lock").exists()  # refused before the lock
+
+
+def test_a_malformed_scheduler_address_is_one_line_exit_2(tmp_path):
+    pytest.importorskip("distributed")
+    proc = cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--backend", "dask",
+               "--scheduler", "tcp://127.0.0.1:notaport", "--output", tmp_path / "o")
+    assert_one_line_error(proc, "tcp://127.0.0.1:notaport", ["not a scheduler address", "allowed: [tcp|tls]://HOST:PORT"])
+
+
 @pytest.mark.parametrize("state,fragments", [
     ("[0, 0, 0, 0, 0, 0]", ["0.0 km from the Earth's centre", "allowed: a geocentric position above 6378.137 km"]),
     ("[3000, 0, 4000, 0, 7, 0]", ["5000.0 km from the Earth's centre", "inside the Earth"]),
@@ -158,6 +178,22 @@ def test_too_many_epochs_per_run_are_refused_before_any_work(tmp_path):
     assert time.monotonic() - start < 2.0
     assert_one_line_error(proc, path, ["measurement.interval_s = 0.001", "duration_days = 10",
                                        "864,000,001 epochs", "allowed: at most 500,000"])
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("grid,runs,fragments", [
+    # two 5,000-value axes grew to 1.4 GB while planning
+    ([f"--grid=noise.sigma_m={','.join(str(v) for v in range(1, 5001))}",
+      f"--grid=filter.process_noise_accel_m_s2={','.join(f'{v}e-9' for v in range(1, 5001))}"], "1",
+     ["25,000,000 grid points", "allowed: at most 10,000"]),
+    (["--sigma", "50:700"], "100000", ["14 grid points x 100,000 runs", "allowed: at most 1,000,000"]),
+])
+def test_a_sweep_grid_above_the_cap_is_refused_before_planning(tmp_path, grid, runs, fragments):
+    start = time.monotonic()
+    proc = cli("sweep", SCENARIOS / "smoke.yaml", *grid, "--runs", runs, "--output", tmp_path / "o")
+    assert time.monotonic() - start < 2.0
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert all(f in proc.stderr for f in fragments), proc.stderr
     assert not (tmp_path / "o").exists()
 
 
