@@ -80,6 +80,26 @@ def test_repeated_links_receivers_stations_and_spacecraft_are_refused(tmp_path, 
     refused(edited_scenario(tmp_path, source, old, new), fragments)
 
 
+def test_two_study_scenarios_with_one_stem_are_refused(tmp_path):
+    """study003/004 label rows, metadata and figures by file stem: two files would merge into one label."""
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "msl.yaml").write_text((SCENARIOS / "003" / "msl.yaml").read_text())
+    for command in ("study003", "study004"):
+        proc = cli(command, tmp_path / "a" / "msl.yaml", tmp_path / "b" / "msl.yaml", "--output", tmp_path / "o")
+        assert_one_line_error(proc, tmp_path / "b" / "msl.yaml", ["file stem 'msl'", str(tmp_path / "a" / "msl.yaml")])
+    assert not (tmp_path / "o").exists()
+
+
+def test_two_compared_scenarios_with_one_name_are_refused(tmp_path):
+    """compare keys its table and metadata by `name`."""
+    copy = tmp_path / "smoke_copy.yaml"
+    copy.write_text((SCENARIOS / "smoke.yaml").read_text())
+    proc = cli("compare", SCENARIOS / "smoke.yaml", copy, "--output", tmp_path / "o")
+    assert_one_line_error(proc, copy, ["name 'smoke'", "distinct names"])
+    assert not (tmp_path / "o").exists()
+
+
 def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
     """A partial list used to exempt the unnamed stations from the one-observation rule. Now the priority
     is Madrid (named), then Goldstone and Canberra (file order): one station per epoch, the first that sees."""
@@ -168,6 +188,17 @@ def test_an_icrf_state_inside_the_earth_is_refused(tmp_path, state, fragments):
 
 
 # --- bounded work -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("args,option", [
+    (["study003", "--runs", "1000001"], "--runs 1000001"),
+    (["study004", "--runs", "1000001"], "--runs 1000001"),
+    (["errors", SCENARIOS / "smoke.yaml", "--check-runs", "1000001"], "--check-runs 1000001"),
+])
+def test_every_command_that_runs_filters_has_the_runs_cap(tmp_path, args, option):
+    proc = cli(*args, "--output", tmp_path / "o")
+    assert_one_line_error(proc, option, ["at most 1,000,000 runs"])
+    assert not (tmp_path / "o").exists()
 
 
 def test_too_many_epochs_per_run_are_refused_before_any_work(tmp_path):
