@@ -711,9 +711,10 @@ def observability(
     """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
     from liaison_cli.storage import staged_output
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.report.observability_report import observability_report
+    from liaison_cli.report.observability_report import check_supported, observability_report
 
     config, text = load_scenario(scenario)
+    check_supported(config, str(scenario))
     if range_rate_sigma_m_s is None:
         range_rate_sigma_m_s = config.noise.resolved_range_rate_sigma_m_s() or 1e-3
     out_dir = output or Path("results") / f"observability-{config.name}"

@@ -42,6 +42,20 @@ def refused(path, fragments):
 # --- no silent wrong answers --------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("edit,fragments", [
+    (None, ["'dynamics' = 'ephemeris'", "CRTBP scenarios only", "allowed: dynamics: crtbp"]),
+    (("    orbit: eml2_halo\n", "    orbit: eml2_halo\n    manoeuvre: {epoch_days: 0.5, delta_v_m_s: [0.1, 0, 0], "
+      "apriori_sigma_m_s: 0.1}\n"), ["spacecraft[0].manoeuvre", "ballistic arcs"]),
+])
+def test_observability_refuses_what_it_cannot_honour(tmp_path, edit, fragments):
+    """It maps partials with the CRTBP's STM along ballistic arcs: a dated scenario used to be analysed as
+    the CRTBP, a manoeuvre would be left out."""
+    path = SCENARIOS / "eph_eml1_eml2_dsn.yaml" if edit is None else edited_scenario(tmp_path, "smoke.yaml", *edit)
+    proc = cli("observability", path, "--output", tmp_path / "o")
+    assert_one_line_error(proc, path, fragments)
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize("old,new,fragments", [
     # a year after MSL's injection: the two-body hyperbola puts it ~10^8 km out (it reported "2/2 runs ok")
     ('epoch_utc: "2011-11-26T15:52:12.383"', 'epoch_utc: "2012-11-26T15:52:12.383"',
@@ -121,6 +135,38 @@ def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
 
 
 # --- no traceback, no hang ----------------------------------------------------------------------------
+
+
+def test_observability_on_every_shipped_scenario_works_or_is_one_line():
+    """It used to raise KeyError on stations, known spacecraft, departures. CRTBP scenarios get their inputs
+    (known participants as given trajectories); dated ones are refused in one line."""
+    from liaison_cli.report.observability_report import check_supported, known_inputs, scenario_inputs
+
+    paths = sorted(p for p in SCENARIOS.rglob("*.yaml") if "links" not in p.parts)
+    refusals = 0
+    for path in paths:
+        scenario, _ = load_scenario(path)
+        if scenario.dynamics == "ephemeris":
+            with pytest.raises(ScenarioError, match="observability supports CRTBP scenarios only"):
+                check_supported(scenario, str(path))
+            refusals += 1
+            continue
+        check_supported(scenario, str(path))
+        names, states0, times_s, links = scenario_inputs(scenario)
+        known, visible = known_inputs(scenario, times_s)
+        assert states0.shape == (len(names), 6) and visible.shape == (len(links), len(times_s))
+    assert len(paths) == 38 and refusals == 7
+
+
+def test_observability_of_a_ground_station_scenario_counts_only_visible_epochs(tmp_path):
+    """ground_eml2: the station's link adds information only above its 10 deg mask."""
+    import pandas as pd
+
+    proc = cli("observability", SCENARIOS / "ground_eml2.yaml", "--no-taylor", "--output", tmp_path / "o")
+    assert proc.returncode == 0, proc.stderr
+    table = pd.read_parquet(tmp_path / "o" / "effectiveness.parquet")
+    rng = table[table.observable == "range"].position_effectiveness.to_numpy()[1:]
+    assert 0.2 < np.mean(rng == 0.0) < 0.8 and np.all(rng >= 0.0)  # hidden part of each day: no information
 
 
 def test_a_damaged_family_cache_is_rebuilt(tmp_path, monkeypatch, capsys):

@@ -282,10 +282,20 @@ def _truth_and_measurements(scenario: Scenario, model: DynamicsModel, cache: dic
     return _measured(scenario, model, times_s, _trajectories(scenario, model, times_s))
 
 
+def link_visibility(scenario: Scenario, model: DynamicsModel, times_s, trajectories) -> list:
+    """Per link, (m,) True where it measures: elevation masks, occultation, then station_priority."""
+    return _station_priority(scenario, [_visible(scenario, link, trajectories, model, times_s)
+                                        for link in scenario.links])
+
+
+def participant_trajectories(scenario: Scenario, model: DynamicsModel, times_s) -> dict:
+    """{participant name: trajectory (.states (m, 6), stations also .up)}: the truth of every participant."""
+    return _trajectories(scenario, model, times_s)
+
+
 def _measured(scenario: Scenario, model: DynamicsModel, times_s, trajectories):
     """(times_s, trajectories, noise-free measurements (m, C) with row 0 NaN) for the scenario's links."""
-    visibility = _station_priority(scenario, [_visible(scenario, link, trajectories, model, times_s)
-                                              for link in scenario.links])
+    visibility = link_visibility(scenario, model, times_s, trajectories)
     columns = []
     for link, visible in zip(scenario.links, visibility):
         receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
