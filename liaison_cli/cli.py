@@ -259,13 +259,13 @@ def table3(
     typer.echo(f"results: {output}")
 
 
-def _check_runs(runs) -> None:
-    """--runs obeys the same cap as the scenario's monte_carlo.runs. Every command that runs filters calls
-    this first, so it is also where the first-compilation notice is armed."""
+def _check_runs(runs, option: str = "--runs") -> None:
+    """--runs (errors: --check-runs) obeys the same cap as the scenario's monte_carlo.runs. Every command that
+    runs filters calls this first, so it is also where the first-compilation notice is armed."""
     from liaison_cli.scenario.schema import MAX_RUNS
 
     if runs is not None and runs > MAX_RUNS:
-        raise LiaisonError(f"--runs {runs}: at most {MAX_RUNS:,} runs (the cap of monte_carlo.runs)")
+        raise LiaisonError(f"{option} {runs}: at most {MAX_RUNS:,} runs (the cap of monte_carlo.runs)")
     _announce_compilation()
 
 
@@ -340,12 +340,16 @@ def sweep(
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
-    from liaison_cli.campaign.grid import parse_grid, parse_range
+    from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
     from liaison_cli.storage import resumable_output
     from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.campaign.backends import check_backend, probe_scheduler
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
     _check_runs(runs)
+    check_backend(backend, scheduler)
+    if scheduler:  # before the lock and any work: a bad scheduler is one line within --scheduler-timeout
+        probe_scheduler(scheduler, scheduler_timeout)
     paths = list(scenario_args or []) + list(scenario_opts or [])
     default_formations = not paths
     if default_formations:
@@ -355,6 +359,7 @@ def sweep(
         axes.insert(0, (SIGMA_KEY, parse_range(sigma, "--sigma")))
     if not axes:
         raise LiaisonError("sweep: nothing to sweep; give --sigma and/or --grid KEY=V1,V2")
+    check_grid_size(axes, len(paths), runs)
     bases = [(*load_scenario(path), str(path)) for path in paths]
     if name is None:
         name = "fig15" if default_formations else "+".join(b[0].name for b in bases)
@@ -402,6 +407,7 @@ def errors(
     from liaison_cli.scenario.setup import prepare_problem
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
+    _check_runs(check_runs, "--check-runs")
     chosen = select_sources(sources)
     data, text = read_scenario_text(scenario_path)
     if isinstance(data, dict) and "filter" not in data:
@@ -435,10 +441,22 @@ def errors(
 
 
 def _load_study(paths: list[Path]) -> list:
-    """[(name = file stem, scenario, text)] of a study's scenario files."""
+    """[(name = file stem, scenario, text)] of a study's scenario files. The stem labels the study's rows,
+    metadata and figures, so two files with one stem would be merged into one label: refused."""
     from liaison_cli.scenario.schema import load_scenario
 
+    _refuse_repeated_labels([(Path(path), Path(path).stem) for path in paths], "file stem")
     return [(Path(path).stem, *load_scenario(path)) for path in paths]
+
+
+def _refuse_repeated_labels(labelled: list, what: str) -> None:
+    """labelled: [(path, label)]; a label given twice is one line naming the second file."""
+    first: dict = {}
+    for path, label in labelled:
+        if label in first:
+            raise LiaisonError(f"{path}: {what} {label!r} is also that of {first[label]}; allowed: scenarios with "
+                               f"distinct {what}s (each labels its own rows, metadata and figures)")
+        first[label] = path
 
 
 def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, history, table: str, draw) -> None:
@@ -476,6 +494,7 @@ def study003(
     from liaison_cli.campaign.study003 import run_study
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
 
+    _check_runs(runs)
     loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
     summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet)
     typer.echo(f"003 study, {runs} runs per case: 3D RMS over the 9 days after t0 (σ: the filter's; "
@@ -509,6 +528,7 @@ def study004(
     from liaison_cli.campaign.study004 import run_study
     from liaison_cli.report.study004 import draw_histories, format_table
 
+    _check_runs(runs)
     loaded = _load_study(scenarios or [Path(p) for p in STUDY004_TRANSMITTERS])
     summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet)
     typer.echo(f"004 study, {runs} runs per case: steady state = median 3σ over the last quarter; converged = "
@@ -755,9 +775,10 @@ def observability(
     """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
     from liaison_cli.storage import staged_output
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.report.observability_report import observability_report
+    from liaison_cli.report.observability_report import check_supported, observability_report
 
     config, text = load_scenario(scenario)
+    check_supported(config, str(scenario))
     if range_rate_sigma_m_s is None:
         range_rate_sigma_m_s = config.noise.resolved_range_rate_sigma_m_s() or 1e-3
     out_dir = output or Path("results") / f"observability-{config.name}"
@@ -822,6 +843,7 @@ def compare(
 
     _check_runs(runs)
     loaded = [(path, *load_scenario(path)) for path in scenarios]
+    _refuse_repeated_labels([(path, config.name) for path, config, _ in loaded], "name")
     rows, summaries, texts = [], [], {}
     with staged_output(output, overwrite) as stage:
         for path, config, text in loaded:

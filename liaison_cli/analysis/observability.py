@@ -64,19 +64,26 @@ def stm_from_t0(states0, times_tu, mu=MU):
     return np.stack([p[0] for p in pairs], axis=1), np.stack([p[1] for p in pairs], axis=1)
 
 
-def _link_partials(states, receiver, transponder, observable):
+def _partials(receiver_states, transponder_states, observable):
     """d(observable)/d(state) of the receiver and of the transponder at every epoch: (m, 6) each."""
     kind = get_observable(observable).channels[0].code
-    receiver_states = np.ascontiguousarray(states[:, receiver])
-    transponder_states = np.ascontiguousarray(states[:, transponder])
-    _, g_receiver, g_transponder = predict_along(kind, receiver_states, transponder_states, 0)
+    _, g_receiver, g_transponder = predict_along(kind, np.ascontiguousarray(receiver_states),
+                                                 np.ascontiguousarray(transponder_states), 0)
     return g_receiver, g_transponder
 
 
+def _link_partials(states, receiver, transponder, observable):
+    """As _partials, for two spacecraft of states (m, n_sc, 6)."""
+    return _partials(states[:, receiver], states[:, transponder], observable)
+
+
 def analyse(states0, times_tu, links, sigma, observable: str = "range", names=None, mu=MU,
-            skip_first: bool = True, propagated=None) -> ObservabilityResult:
+            skip_first: bool = True, propagated=None, known_states=None, visible=None) -> ObservabilityResult:
     """states0 (n_sc, 6) at t0; times_tu (m,); links: (receiver, transponder) index pairs; sigma (LU or
-    LU/TU) of the observable. `propagated`: optional (states (m, n_sc, 6), phis (m, n_sc, 6, 6)) to reuse."""
+    LU/TU) of the observable. `propagated`: optional (states (m, n_sc, 6), phis (m, n_sc, 6, 6)) to reuse.
+    Known participants (ground stations, known spacecraft): an index n_sc + j is known_states[:, j] (m, k, 6),
+    a given trajectory with no state of its own to estimate. visible: optional (n_links, m) bool, epochs a
+    link measures (elevation masks, occultation); other epochs add no information."""
     if observable not in OBSERVABLES:
         raise ValueError(f"observable {observable!r}; allowed: {', '.join(OBSERVABLES)}")
     states0 = np.asarray(states0, dtype=float)
@@ -92,11 +99,15 @@ def analyse(states0, times_tu, links, sigma, observable: str = "range", names=No
     gramian = np.zeros((n, n))
     block_pos = np.zeros((m, n_sc, 3, 3))
     block_vel = np.zeros((m, n_sc, 3, 3))
-    for receiver, transponder in links:
-        g_r, g_t = _link_partials(states, receiver, transponder, observable)
+    known = None if known_states is None else np.asarray(known_states)[first:]
+    for index, (receiver, transponder) in enumerate(links):
+        ends = [states[:, e] if e < n_sc else known[:, e - n_sc] for e in (receiver, transponder)]
         H = np.zeros((m, n))  # rows H_k = H~_k Phi(t_k, t0), spacecraft block by block (Eq. 25)
-        H[:, 6 * receiver : 6 * receiver + 6] = np.einsum("mi,mij->mj", g_r, phis[:, receiver])
-        H[:, 6 * transponder : 6 * transponder + 6] = np.einsum("mi,mij->mj", g_t, phis[:, transponder])
+        for end, g in zip((receiver, transponder), _partials(*ends, observable)):
+            if end < n_sc:  # a known end has no state to map
+                H[:, 6 * end : 6 * end + 6] = np.einsum("mi,mij->mj", g, phis[:, end])
+        if visible is not None:
+            H[~np.asarray(visible[index], dtype=bool)[first:]] = 0.0
         gramian += H.T @ H
         information += weight * (H.T @ H)
         for s in range(n_sc):

@@ -100,12 +100,43 @@ def _load(path: Path) -> FamilyTable:
         return FamilyTable({name: data[name] for name in data.files})
 
 
+def _required_columns() -> list[str]:
+    fields = [f.name for f in dataclasses.fields(PeriodicOrbit) if f.name != "state"]
+    return ["family", "member", *(f"{a}0" for a in AXES), *fields, "period_days", "amplitude_km"]
+
+
+def _load_intact(path: Path, name: str, count: int) -> FamilyTable | None:
+    """The cached table, or None (with a note on stderr) when the file is damaged: not a readable .npz
+    (truncated, overwritten: BadZipFile, EOFError, ValueError, ...), or columns missing, of unequal
+    lengths or not numbers. The cache is derived data, so the caller rebuilds it."""
+    import sys
+
+    try:
+        table = _load(path)
+        columns = _required_columns()
+        present = all(c in table.columns for c in columns)
+        lengths = {len(table.columns[c]) for c in columns} if present else set()
+        intact = len(lengths) == 1 and lengths != {0} and all(table.columns[c].dtype.kind == "f" for c in columns[2:])
+        problem = None if intact else "missing or malformed columns"
+    except Exception as exc:  # noqa: BLE001 - a damaged zip fails in many ways (BadZipFile, EOFError, ...)
+        if isinstance(exc, PermissionError):
+            raise
+        problem = type(exc).__name__
+    if problem is None:
+        return table
+    print(f"liaison: {path}: damaged orbit-family cache ({problem}); rebuilding it (as 'liaison orbits generate "
+          f"{name} --count {count} --regenerate' does)", file=sys.stderr)
+    return None
+
+
 def load_or_generate(name: str, count: int = DEFAULT_COUNT, regenerate: bool = False) -> tuple[FamilyTable, bool]:
-    """(family table, read_from_cache)."""
+    """(family table, read_from_cache). A damaged cache file is rebuilt (one note on stderr)."""
     spec = get_spec(name)
     path = family_path(name, count)
     if path.exists() and not regenerate:
-        return _load(path), True
+        table = _load_intact(path, name, count)
+        if table is not None:
+            return table, True
     if spec.mirror_of:  # z -> -z of the other class: no need to continue the family again
         base, _ = load_or_generate(spec.mirror_of, count, regenerate)
         table = base.with_columns(family=np.array([name] * len(base)), z0=-base.z0, vz0=-base.vz0)

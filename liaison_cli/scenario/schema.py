@@ -11,11 +11,12 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from liaison_cli.dynamics.clock_presets import CLOCK_PRESETS, clock_preset_names
-from liaison_cli.dynamics.constants import MOON_RADIUS_KM, SECONDS_PER_DAY
+from liaison_cli.dynamics.constants import MOON_RADIUS_KM, SECONDS_PER_DAY, WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.errors import ScenarioError
 from liaison_cli.estimation.estimators import estimator_names
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.orbits.catalog import catalog_names
+from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
 from liaison_cli.orbits.family_ranges import member_range
 from liaison_cli.orbits.families import FAMILIES, family_names
 from liaison_cli.radio.carrier import TURNAROUND_S_BAND
@@ -28,6 +29,11 @@ DEPARTURE_ORBIT = "departure"
 GEOSTATIONARY_ORBIT = "geostationary"
 DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT, GEOSTATIONARY_ORBIT)
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
+# Epochs per run (t0 included): a run holds ~1.0-1.5 kB per epoch (measured peak RSS, 2-3 spacecraft: truth,
+# measurements, the filter's histories), so 500,000 epochs stay under ~0.75 GB per worker process; 100x the
+# largest shipped scenario (4,609 epochs: 10 d at 187.5 s).
+MAX_EPOCHS = 500_000
+MAX_SCENARIO_BYTES = 1 << 20  # a scenario or link file (the shipped ones are < 5 kB)
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 
 
@@ -123,7 +129,9 @@ class DepartureSpec(StrictModel):
     dla_deg: float | None = Field(None, ge=-90.0, le=90.0, description="declination of the outgoing asymptote")
     rla_deg: float | None = Field(None, ge=-360.0, le=360.0, description="right ascension of the asymptote")
     periapsis_altitude_km: float = Field(185.0, gt=0, description="parking orbit altitude (injection at periapsis)")
-    time_from_periapsis_s: float = Field(0.0, ge=0, description="at the scenario epoch")
+    time_from_periapsis_s: float = Field(0.0, ge=0, le=MAX_TIME_FROM_PERIAPSIS_S, description="at the scenario "
+                                         "epoch; the two-body hyperbola holds for 3 h after periapsis "
+                                         "(orbits.departure.MAX_TIME_FROM_PERIAPSIS_S)")
     parking_inclination_deg: float | None = Field(None, gt=0, lt=180, description="default max(28.5, |DLA|)")
     branch: Literal[1, -1] = Field(1, description="which of the two planes of that inclination")
 
@@ -228,6 +236,11 @@ class SpacecraftSpec(StrictModel):
             raise ValueError(f"'phase' advances a periodic orbit (catalog or family), not orbit {self.orbit!r}")
         if self.state_km is not None and len(self.state_km) != 6:
             raise ValueError(f"'state_km' needs 6 numbers (x, y, z km, vx, vy, vz km/s), got {len(self.state_km)}")
+        if self.state_km is not None:
+            radius_km = sum(x * x for x in self.state_km[:3]) ** 0.5
+            if radius_km <= WGS84_EQUATORIAL_RADIUS_KM:
+                raise ValueError(f"'state_km' puts the spacecraft {radius_km:.1f} km from the Earth's centre, inside "
+                                 f"the Earth; allowed: a geocentric position above {WGS84_EQUATORIAL_RADIUS_KM} km")
         if self.role == "known" and self.clock is not None:
             raise ValueError("a known spacecraft's clock is not estimated; remove 'clock' or make it role: estimated")
         return self
@@ -681,8 +694,9 @@ class Scenario(StrictModel):
     ground_stations: list[GroundStationSpec] = Field(default_factory=list)
     links: list[LinkSpec] = Field(min_length=1)
     station_priority: list[str] | None = Field(
-        None, description="one ground observation per epoch and spacecraft: of the listed stations that see it, "
-        "only the first measures (003: Goldstone, Madrid, Canberra)")
+        None, description="one ground observation per epoch and spacecraft: of the stations that see it, only the "
+        "first measures (003: Goldstone, Madrid, Canberra). Stations not listed rank after the listed ones, in "
+        "ground_stations order (a partial list orders the first few; every station still obeys the rule)")
     dynamics: Literal["crtbp", "ephemeris"] = "crtbp"
     ephemeris: EphemerisSpec | None = None
     estimator: Literal[tuple(estimator_names())] = "ekf"
@@ -708,6 +722,7 @@ class Scenario(StrictModel):
             raise ValueError(f"participant names must be unique; repeated: {', '.join(dupes)}")
         if not any(sc.role == "estimated" for sc in self.spacecraft):
             raise ValueError("no spacecraft to estimate: give at least one spacecraft with role: estimated")
+        self._check_repeated_links()
         known = {sc.name for sc in self.spacecraft if sc.role == "known"} | {st.name for st in self.ground_stations}
         for i, link in enumerate(self.links):
             for role in ("receiver", "transponder", "second_receiver"):
@@ -740,7 +755,19 @@ class Scenario(StrictModel):
         if self.filter.settle_days >= self.epochs_end_days():
             raise ValueError(f"filter.settle_days = {self.filter.settle_days:g} leaves no epoch to judge: it must be "
                              f"shorter than the scenario's {self.epochs_end_days():g} d")
+        self._check_epoch_count()
         return self
+
+    def _check_epoch_count(self):
+        """Bounded work: refused before anything is allocated (see MAX_EPOCHS)."""
+        span_s = self.epochs_end_days() * SECONDS_PER_DAY
+        epochs = int(span_s / self.measurement.interval_s + 1e-9) + 1
+        if epochs > MAX_EPOCHS:
+            raise ValueError(
+                f"measurement.interval_s = {self.measurement.interval_s:g} over duration_days = "
+                f"{self.duration_days:g} is {epochs:,} epochs per run; allowed: at most {MAX_EPOCHS:,} (about "
+                f"1.5 kB of memory each): measurement.interval_s >= {span_s / (MAX_EPOCHS - 1):.4g} s for this "
+                "duration, or a shorter duration_days")
 
     def _check_batch(self):
         if (self.estimator == "batch") != (self.batch is not None):
@@ -803,6 +830,24 @@ class Scenario(StrictModel):
             if not sc.manoeuvre.epoch_days <= last + 1e-9:
                 raise ValueError(f"spacecraft[{i}].manoeuvre.epoch_days = {sc.manoeuvre.epoch_days:g} is outside the "
                                  f"scenario: allowed after 0 and up to {last:g} d (one interval before its end)")
+
+    def _check_repeated_links(self):
+        """The same measurement listed twice would be counted twice (as if its noise were halved). A link is
+        its ends in their roles; a difference of arrival is the same with its two receivers swapped (the
+        negated value). The reverse direction (B receiving from A beside A from B) is another link."""
+        seen = {}
+        for i, link in enumerate(self.links):
+            if link.second_receiver is None:
+                ends = (link.receiver, link.transponder)
+            else:
+                ends = (link.transponder, frozenset((link.receiver, link.second_receiver)))
+            if ends in seen:
+                j = seen[ends]
+                second = f", second_receiver {link.second_receiver}" if link.second_receiver else ""
+                raise ValueError(f"links[{i}] repeats links[{j}] (receiver {link.receiver}, transponder "
+                                 f"{link.transponder}{second}): it would count the same measurement twice; "
+                                 f"allowed: one link per set of ends, with all its observables in links[{j}]")
+            seen[ends] = i
 
     def _check_station_priority(self):
         if self.station_priority is None:
@@ -872,6 +917,13 @@ class Scenario(StrictModel):
                 raise ValueError(f"spacecraft[{i}].departure.mission = {sc.departure.mission!r}: the scenario epoch "
                                  f"{self.ephemeris.epoch_utc} is before its injection "
                                  f"({injection.strftime('%Y-%m-%dT%H:%M:%S')} UTC)")
+            last = injection + timedelta(seconds=MAX_TIME_FROM_PERIAPSIS_S)
+            if self.ephemeris.epoch() > last:
+                raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} is "
+                                 f"{(self.ephemeris.epoch() - injection).total_seconds() / 3600:.5g} h after the "
+                                 f"injection of spacecraft[{i}].departure.mission = {sc.departure.mission!r}; allowed: "
+                                 f"{injection.strftime('%Y-%m-%dT%H:%M:%S')} to {last.strftime('%Y-%m-%dT%H:%M:%S')} "
+                                 "UTC (the two-body departure hyperbola holds for 3 h after periapsis)")
 
     def _check_clock_sync(self):
         if self.clock_sync is None:
@@ -972,14 +1024,39 @@ def _check_family_periods(scenario: Scenario, source: str) -> None:
             )
 
 
-def read_scenario_text(path) -> tuple[dict, str]:
-    path = Path(path)
+def _read_bounded(path: Path) -> str:
+    """The file's text, refused before reading anything that is not a regular file (a FIFO would block,
+    /dev/zero never ends, a directory has no text) or is larger than MAX_SCENARIO_BYTES; at most that many
+    bytes are read even if the file grows meanwhile."""
+    import os
+    import stat
+
     try:
-        text = path.read_text(encoding="utf-8")
+        info = os.stat(path)
     except FileNotFoundError:
         raise ScenarioError(f"{path}: no such scenario file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read the scenario ({exc.__class__.__name__}: {exc})") from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise ScenarioError(f"{path}: {kind}; allowed: a regular YAML file")
+    if info.st_size > MAX_SCENARIO_BYTES:
+        raise ScenarioError(f"{path}: {info.st_size:,} bytes; allowed: a YAML file of at most "
+                            f"{MAX_SCENARIO_BYTES:,} bytes (1 MiB)")
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_SCENARIO_BYTES + 1)
+        if len(data) > MAX_SCENARIO_BYTES:
+            raise ScenarioError(f"{path}: grew past {MAX_SCENARIO_BYTES:,} bytes while being read; allowed: a YAML "
+                                "file of at most 1 MiB")
+        return data.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read the scenario ({exc.__class__.__name__}: {exc})") from None
+
+
+def read_scenario_text(path) -> tuple[dict, str]:
+    path = Path(path)
+    text = _read_bounded(path)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

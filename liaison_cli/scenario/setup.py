@@ -221,12 +221,15 @@ def dynamics_model(scenario: Scenario):
 
 
 def _station_priority(scenario: Scenario, visibility: list) -> list:
-    """One ground observation per epoch and spacecraft (003): of the prioritised stations that see a
-    spacecraft, only the first keeps its link's epoch; links without such a station are untouched."""
+    """One ground observation per epoch and spacecraft (003): of the stations that see a spacecraft, only the
+    first in priority keeps its link's epoch. The priority is station_priority, then the stations it does not
+    name in ground_stations order (a partial list does not exempt the others). Without station_priority,
+    and for links without a station, nothing changes."""
     if scenario.station_priority is None:
         return visibility
     out = list(visibility)
-    rank = {name: r for r, name in enumerate(scenario.station_priority)}
+    unnamed = [st.name for st in scenario.ground_stations if st.name not in scenario.station_priority]
+    rank = {name: r for r, name in enumerate([*scenario.station_priority, *unnamed])}
     by_target = {}
     for i, link in enumerate(scenario.links):
         station = next((end for end in (link.receiver, link.transponder) if end in rank), None)
@@ -280,10 +283,20 @@ def _truth_and_measurements(scenario: Scenario, model: DynamicsModel, cache: dic
     return _measured(scenario, model, times_s, _trajectories(scenario, model, times_s))
 
 
+def link_visibility(scenario: Scenario, model: DynamicsModel, times_s, trajectories) -> list:
+    """Per link, (m,) True where it measures: elevation masks, occultation, then station_priority."""
+    return _station_priority(scenario, [_visible(scenario, link, trajectories, model, times_s)
+                                        for link in scenario.links])
+
+
+def participant_trajectories(scenario: Scenario, model: DynamicsModel, times_s) -> dict:
+    """{participant name: trajectory (.states (m, 6), stations also .up)}: the truth of every participant."""
+    return _trajectories(scenario, model, times_s)
+
+
 def _measured(scenario: Scenario, model: DynamicsModel, times_s, trajectories):
     """(times_s, trajectories, noise-free measurements (m, C) with row 0 NaN) for the scenario's links."""
-    visibility = _station_priority(scenario, [_visible(scenario, link, trajectories, model, times_s)
-                                              for link in scenario.links])
+    visibility = link_visibility(scenario, model, times_s, trajectories)
     columns = []
     for link, visible in zip(scenario.links, visibility):
         receiver, transponder = trajectories[link.receiver], trajectories[link.transponder]
