@@ -125,3 +125,34 @@ def test_an_epoch_with_a_utc_offset_is_converted():
     assert local == datetime(2026, 12, 1, tzinfo=timezone.utc)
     assert EphemerisSpec(epoch_utc="2026-12-01T00:00:00Z").epoch() == local
     assert EphemerisSpec(epoch_utc="2026-12-01T00:00:00").epoch() == local
+
+
+DATED_2035 = """
+name: late_epoch
+duration_days: 2
+dynamics: ephemeris
+ephemeris: {epoch_utc: "2035-03-01T06:00:00+01:00"}
+spacecraft:
+  - {name: Cislunar, orbit: icrf_state, state_km: [20596.04161, 201898.7866, 87521.69929, -0.1714039415, 1.559312361, 0.6759113513]}
+ground_stations:
+  - {name: Goldstone, latitude_deg: 35.4267, longitude_deg: -116.89, altitude_m: 1000, elevation_mask_deg: 10}
+links:
+  - {receiver: Goldstone, transponder: Cislunar, observables: [range, range_rate]}
+measurement: {interval_s: 1000, light_time: false}
+noise: {sigma_m: 10.0, range_rate_sigma_m_s: 0.0005}
+monte_carlo: {runs: 1, seed: 2035}
+"""
+
+
+def test_a_dated_scenario_in_2035_runs_end_to_end_with_one_note_per_rule(tmp_path):
+    """The bug of issue 24: a dated scenario past the IERS tables ended in a traceback. Now it runs, and the
+    rule it runs by is printed once per table, as a note (the epoch's +01:00 converted: ends 2035-03-03)."""
+    from tests.conftest import run_cli
+
+    path = tmp_path / "late.yaml"
+    path.write_text(DATED_2035)
+    proc = run_cli("run", path, "--output", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if line.startswith("note:")]
+    assert len(notes) == 2 and "leap-second" in notes[0] and "Earth orientation predictions" in notes[1], notes
+    assert "2035-03-03" in notes[0] and "1/1 runs ok" in proc.stdout
