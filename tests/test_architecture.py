@@ -30,7 +30,10 @@ LAYERS = [
     {"report"},
     {"cli", "__main__"},
 ]
-OBSERVABLE_WORDS = {"range", "range_rate", "los", "pseudorange", "azimuth", "elevation"}
+# Every registered observable's name (so a new kind is guarded from the day it is registered), and the LOS
+# angles' names.
+OBSERVABLE_WORDS = set(__import__("liaison_cli.measurements.registry", fromlist=["OBSERVABLES"]).OBSERVABLES) | {
+    "azimuth", "elevation"}
 
 
 def _imported_roots(path: Path) -> set[str]:
