@@ -143,8 +143,9 @@ def gated(innovation, S, gate_sigma, gate_after, accepted):
     filter has accepted gate_after measurements. The spread includes the state's uncertainty H P H^T, so the
     gate widens by itself while the filter is uncertain (a consistent filter rejects a fraction
     2 (1 - Phi(gate_sigma)) of clean data: 5.7e-7 at 5 sigma). gate_sigma = 0: no gate. The rule of Orekit's
-    DynamicOutlierFilter (warm-up, then k sqrt(H P H^T + R)) and nyx's residual rejection (k sigma of the
-    pre-fit residual, after a minimum number of accepted measurements)."""
+    DynamicOutlierFilter for its Kalman filter (a warm-up of processed measurements, then k times
+    sqrt(diag(H P H^T + R))); nyx's ResidRejectCrit is the same k-sigma pre-fit test (num_sigmas, with a
+    min_accepted count in its earlier versions)."""
     return gate_sigma > 0.0 and accepted >= gate_after and abs(innovation) > gate_sigma * np.sqrt(S)
 
 
