@@ -184,6 +184,22 @@ def _format_prediction(summary: list[dict], spacecraft) -> str:
     return "after the data span, mean [90th percentile] over runs:\n" + "\n".join(lines)
 
 
+def _rejection_line(summary: list[dict], spec) -> str:
+    """With the residual gate on (`spec`: the scenario's filter section): the measurements it rejected over
+    all runs (ok or diverged) and the mean share per run; empty without a gate."""
+    if spec.residual_gate_sigma is None:
+        return ""
+    first_rows: dict = {}
+    for row in summary:
+        if "rejected_measurements" in row:
+            first_rows.setdefault(row["run"], row)
+    counts = [row["rejected_measurements"] for row in first_rows.values()]
+    shares = [row["rejected_share"] for row in first_rows.values() if math.isfinite(row["rejected_share"])]
+    return (f"residual gate {spec.residual_gate_sigma:g} sigma after {spec.residual_gate_after} accepted: "
+            f"{sum(counts)} measurements rejected in {len(counts)} runs ({100.0 * _mean(shares):.3g} % per run); "
+            "per link: residuals.parquet, column rejected")
+
+
 def _status_line(summary: list[dict]) -> str:
     first_rows: dict = {}
     for row in summary:
@@ -232,6 +248,9 @@ def run(
     if prediction:
         typer.echo(prediction)
     typer.echo(_status_line(summary))
+    rejections = _rejection_line(summary, config.filter)
+    if rejections:
+        typer.echo(rejections)
     typer.echo(f"results: {out_dir}")
     if not any(row["status"] == "ok" for row in summary):
         _fail(f"no run of {config.name} finished healthy (see the status line above); results kept in {out_dir}",

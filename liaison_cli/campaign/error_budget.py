@@ -13,6 +13,8 @@ Sources (names a user may select):
   the change of the dynamics-model mean when the filter's C_R is off by one sigma (linear in it).
 Random parts add in variance; deterministic parts add as mean errors, whose square (cross terms included)
 enters the second moment once. Units out: m^2 and (m/s)^2 per spacecraft, summed over the three axes.
+The budget is the ungated EKF's: LinCov ignores filter.residual_gate_sigma (estimation.lincov says why);
+the Monte Carlo check runs the scenario's EKF, gate included.
 """
 
 from dataclasses import dataclass

@@ -98,7 +98,11 @@ def _timeseries_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> C
 
 def _residuals_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
     """One row per (epoch, measurement channel) of one run: innovation (observed minus predicted) and its
-    predicted standard deviation, in the channel's unit (m for range, m/s for range-rate, rad for angles)."""
+    predicted standard deviation, in the channel's unit (m for range, m/s for range-rate, rad for angles);
+    for the EKF both pre-fit, before the channel's own update. rejected: True where the residual gate
+    (filter.residual_gate_sigma) refused the measurement, |innovation| > k innovation_std, so the filter did
+    not update with it; its innovation is still recorded. Counting rejected per run and link gives the
+    rejections per link (the summary's rejected_measurements is the run's total)."""
     if outcome.innovation_m is None:
         return None
     channels = problem.channel_labels
@@ -111,7 +115,15 @@ def _residuals_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Co
         "unit": np.tile(np.array([c[2] for c in channels], dtype=object), m),
         "innovation": outcome.innovation_m[1:].reshape(-1).astype(float_dtype),
         "innovation_std": outcome.innovation_std_m[1:].reshape(-1).astype(float_dtype),
+        "rejected": _rejected(outcome, m, n_channels),
     }
+
+
+def _rejected(outcome: RunOutcome, m: int, n_channels: int) -> np.ndarray:
+    """The rejected flags of epochs 1.. as a column (all False for an outcome without them)."""
+    if outcome.rejected is None:
+        return np.zeros(m * n_channels, dtype=bool)
+    return outcome.rejected[1:].reshape(-1)
 
 
 def _bias_columns(problem: Problem, outcome: RunOutcome, float_dtype=None) -> Columns | None:

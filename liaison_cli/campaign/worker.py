@@ -24,7 +24,8 @@ class RunOutcome:
     """status: 'ok', 'diverged' (filter health check tripped) or 'error' (exception in the worker).
 
     Arrays: norms[...] (m, n_sc) in m and m/s; nees (m,); innovation_m / innovation_std_m (m, C) per
-    measurement channel in SI units (m, m/s or rad; see Problem.channel_labels).
+    measurement channel in SI units (m, m/s or rad; see Problem.channel_labels); rejected (m, C): True where
+    the EKF's residual gate refused the measurement (all False without a gate).
     """
 
     run: int
@@ -41,6 +42,7 @@ class RunOutcome:
     bias_sigma_m: np.ndarray | None = None  # (L,) final 1-sigma (NaN if the filter has no bias state)
     clock_error_s: np.ndarray | None = None  # (m, n_clocks, 2) phase (s) and frequency (s/s) errors
     clock_sigma_s: np.ndarray | None = None  # (m, n_clocks, 2) their 1-sigma
+    rejected: np.ndarray | None = None  # (m, C) bool, see above
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,12 +149,15 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             bias_sigma = np.full_like(bias, np.nan)
         scale = problem.channel_scale_si
         clock_error, clock_sigma = _clock_histories(problem, err, sigma)
+        rejected = np.zeros(history.innovation.shape, dtype=bool) if history.rejected is None else history.rejected
+        summary = summary if history.ok else _nan_summary(summary)
+        _add_rejections(problem, history.innovation, rejected, summary)  # kept for a diverged run: why it failed
         return RunOutcome(
             run=run,
             status="ok" if history.ok else "diverged",
             reason=history.reason,
             fail_time_s=float("nan") if history.ok else float(problem.times_s[history.fail_step]),
-            summary=summary if history.ok else _nan_summary(summary),
+            summary=summary,
             norms=norms,
             nees=history.nees,
             innovation_m=history.innovation * scale,
@@ -162,6 +167,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             bias_sigma_m=bias_sigma,
             clock_error_s=clock_error,
             clock_sigma_s=clock_sigma,
+            rejected=rejected,
         )
     except Exception as exc:  # noqa: BLE001 - a worker reports, never raises; but Ctrl-C is not a failed run
         if caused_by_interrupt(exc):
@@ -198,6 +204,20 @@ def _add_estimator_extras(summary, extras) -> None:
         if len(windows) > 1:  # every window's prediction, pooled (the row's own prediction is the last window's)
             values = np.array([w["prediction_rms_lu"][i] for w in windows])
             row["rms_position_prediction_all_windows_m"] = float(np.sqrt(np.mean(values**2))) * M_PER_LU
+
+
+def _add_rejections(problem: Problem, innovation, rejected, summary) -> None:
+    """With the residual gate on (filter.residual_gate_sigma), every spacecraft's row gets the run's totals
+    over all links: rejected_measurements, the measurements the gate refused, and rejected_share, their
+    share of the measurements the filter processed (a share far above 2 (1 - Phi(k)) says the filter has
+    lost track and edits good data: a gate locked out). Per link: residuals.parquet, column rejected."""
+    if problem.filter.residual_gate_sigma <= 0.0:
+        return
+    count = int(rejected.sum())
+    processed = int(np.isfinite(innovation).sum())
+    for row in summary:
+        row["rejected_measurements"] = count
+        row["rejected_share"] = count / processed if processed else float("nan")
 
 
 def _add_clock_sync(problem: Problem, inputs: RunInputs, data_end_step: int, summary) -> None:

@@ -18,6 +18,11 @@ and scaling removes that part of the conditioning. The equilibrated condition nu
 every solve; Cholesky loses about log10(cond) of 16 digits, so a solve with cond above
 CONDITION_LIMIT is recorded as ill-conditioned (QR / SRIF on the weighted design would then be the
 remedy; no scenario shipped comes near it).
+
+No residual editing here: the EKF's gate (filter.residual_gate_sigma) judges each measurement by its
+pre-fit innovation against the filter's current covariance, which a batch does not have; a batch edits by
+post-fit residuals between iterations against their RMS (e.g. GMAT's OLSE initial and multiplicative
+sigmas), a different rule not implemented. The scenario schema refuses the gate with estimator: batch.
 """
 
 from dataclasses import dataclass

@@ -156,7 +156,18 @@ def update_scalar(dx, P, y, H, R, n_gain=-1, underweight=0.0):
 def update_scalar_into(dx, P, y, H, R, n_gain, underweight, dx_out, P_out, h, K):
     """update_scalar written into dx_out (n,) and P_out (n, n) (neither may alias dx or P), with h, K (n,) the
     caller's scratch, left holding P H^T and the gain; returns (innovation, S). No allocation: the filter loops
-    call it at every channel."""
+    call it at every channel. The same two steps as prefit_into then apply_update_into (a residual gate
+    calls them apart, deciding between them)."""
+    innovation, S = prefit_into(dx, P, y, H, R, h)
+    apply_update_into(dx, P, innovation, S, R, n_gain, underweight, dx_out, P_out, h, K)
+    return innovation, S
+
+
+@njit(cache=True, inline="always")
+def prefit_into(dx, P, y, H, R, h):
+    """The pre-fit innovation of one scalar measurement and its variance, before any update with it:
+    innovation = y - H dx and S = H P H^T + R (the innovation covariance: the denominator of the gain, Eq. 21;
+    Tapley, Schutz & Born 2004 §4.7), h (n,) <- P H^T for apply_update_into. Returns (innovation, S)."""
     n = dx.shape[0]
     S = R
     innovation = y
@@ -167,6 +178,14 @@ def update_scalar_into(dx, P, y, H, R, n_gain, underweight, dx_out, P_out, h, K)
         h[i] = acc
         S += H[i] * acc
         innovation -= H[i] * dx[i]
+    return innovation, S
+
+
+@njit(cache=True, inline="always")
+def apply_update_into(dx, P, innovation, S, R, n_gain, underweight, dx_out, P_out, h, K):
+    """The update with one scalar measurement from prefit_into's innovation, S and h = P H^T: gain (Eq. 21)
+    into K, dx_out = dx + K innovation (Eq. 22) and the Joseph-form P_out (update_scalar)."""
+    n = dx.shape[0]
     hs = S - R
     scalar_gain_into(h, hs, R, n_gain, underweight, K)  # Eq. 21
     for i in range(n):
@@ -179,4 +198,3 @@ def update_scalar_into(dx, P, y, H, R, n_gain, underweight, dx_out, P_out, h, K)
             sym = 0.5 * (P_out[i, j] + P_out[j, i])
             P_out[i, j] = sym
             P_out[j, i] = sym
-    return innovation, S

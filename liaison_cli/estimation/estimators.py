@@ -17,7 +17,7 @@ from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
 from liaison_cli.measurements.registry import kinds_mask
 
 MODEL_ARG = 15  # position of the model code among run_ekf's arguments
-KINDS_ARG = 24  # ... and of its kind set (measurements.registry.kinds_mask)
+KINDS_ARG = 26  # ... and of its kind set (measurements.registry.kinds_mask)
 
 @dataclass(frozen=True, eq=False)
 class BatchArrays:
@@ -62,6 +62,8 @@ class FilterArrays:
     divergence_position_lu: float
     batch: BatchArrays | None = None
     underweight: float = 0.0  # Lear's gain underweighting (ekf.update_scalar)
+    residual_gate_sigma: float = 0.0  # the EKF's residual gate, k (filter_loop.gated); 0: no gate
+    residual_gate_after: int = 0  # ... applied once this many measurements have been accepted
     burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
 
     @property
@@ -78,7 +80,8 @@ class EstimateHistory:
     """err, sigma (m, n); nees (m,); innovation, innovation_std (m, C); status 'ok' or 'diverged' with
     its reason; fail_step (-1 if ok); data_end_step: the last epoch whose measurements the estimator used
     (later epochs are a prediction; -1: all); extras: estimator-specific scalars (a batch's iterations,
-    condition number, post-fit residual RMS per channel)."""
+    condition number, post-fit residual RMS per channel); rejected (m, C): measurements the EKF's residual
+    gate refused (None: an estimator without a gate, nothing rejected)."""
 
     err: np.ndarray
     sigma: np.ndarray
@@ -90,6 +93,7 @@ class EstimateHistory:
     fail_step: int
     data_end_step: int = -1
     extras: dict | None = None
+    rejected: np.ndarray | None = None
 
 
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
@@ -97,11 +101,13 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
             arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
             arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
-            arrays.divergence_position_lu, arrays.underweight, arrays.burns, kinds_mask(arrays.channel_kind))
-    err, sigma, nees, innovation, innovation_std, status, fail_step = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))(*args)
+            arrays.divergence_position_lu, arrays.underweight, float(arrays.residual_gate_sigma),
+            int(arrays.residual_gate_after), arrays.burns, kinds_mask(arrays.channel_kind))
+    entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))
+    err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = entry(*args)
     ok = status == STATUS_OK
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
-                           int(fail_step))
+                           int(fail_step), rejected=rejected)
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:

@@ -13,7 +13,7 @@ from numba import njit
 
 from liaison_cli.dynamics.model import propagate_state_stm_into
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_SPACECRAFT
-from liaison_cli.estimation.ekf import nees_into, predict_covariance_into, update_scalar_into
+from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
 from liaison_cli.measurements.registry import predict_for, residual
 
 STATUS_OK = 0
@@ -136,10 +136,23 @@ def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, 
                 x_bar[a + i] = x_hat[a + i]  # constant parameters
 
 
+@njit(cache=True, inline="always")
+def gated(innovation, S, gate_sigma, gate_after, accepted):
+    """The residual gate: True (reject the measurement) when the pre-fit innovation lies beyond gate_sigma
+    standard deviations of its own predicted spread, |y - H dx| > gate_sigma sqrt(H P H^T + R), once the
+    filter has accepted gate_after measurements. The spread includes the state's uncertainty H P H^T, so the
+    gate widens by itself while the filter is uncertain (a consistent filter rejects a fraction
+    2 (1 - Phi(gate_sigma)) of clean data: 5.7e-7 at 5 sigma). gate_sigma = 0: no gate. The rule of Orekit's
+    DynamicOutlierFilter for its Kalman filter (a warm-up of processed measurements, then k times
+    sqrt(diag(H P H^T + R))); nyx's ResidRejectCrit is the same k-sigma pre-fit test (num_sigmas, with a
+    min_accepted count in its earlier versions)."""
+    return gate_sigma > 0.0 and accepted >= gate_after and abs(innovation) > gate_sigma * np.sqrt(S)
+
+
 @njit(cache=True)
 def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
             channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
-            n_gain, n_nees, divergence_position_lu, underweight, burns, kinds):
+            n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after, burns, kinds):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
@@ -151,13 +164,15 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     block_kind / block_start / block_size (B,): the state layout. model, model_params: the dynamics.
     n_gain: states from this index on are consider parameters with zero gain (-1: none); n_nees: the NEES
     covers the first n_nees states. A spacecraft whose position error exceeds divergence_position_lu stops
-    the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none). burns
-    (N, 3): impulsive manoeuvres (apply_burns), applied after the update of their epoch. kinds: the bit set
-    of channel_kind's codes (registry.kinds_mask), a compile-time constant like model.
+    the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none).
+    gate_sigma, gate_after: the residual gate (gated); gate_sigma = 0: no gate. burns (N, 3): impulsive
+    manoeuvres (apply_burns), applied after the update of their epoch. kinds: the bit set of channel_kind's
+    codes (registry.kinds_mask), a compile-time constant like model.
 
-    Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), status,
-    fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch.
-    Rows after a failure stay NaN.
+    Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), rejected (m, C),
+    status, fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch;
+    innovation and its std are pre-fit (before the channel's own update), recorded for rejected
+    measurements too; rejected: True where the gate refused the measurement. Rows after a failure stay NaN.
     """
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
@@ -169,6 +184,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     nees = np.full(m, np.nan)
     innovations = np.full((m, n_channels), np.nan)
     innov_std = np.full((m, n_channels), np.nan)
+    rejected = np.zeros((m, n_channels), dtype=np.bool_)
+    accepted = 0  # measurements the filter has updated with, all channels (the gate's warm-up count)
 
     # Every buffer of the loop is allocated here, once per run: in the loop, allocation had cost as much
     # as the arithmetic. P and P_spare swap roles at each covariance step (no step writes in place).
@@ -222,14 +239,19 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
                     predicted += channel_mod_coeff[c, j] * x_bar[index]
                     H[index] += channel_mod_coeff[c, j]
             y = residual(channel_kind[c], y_meas, predicted)
-            innovation, S = update_scalar_into(dx, P, y, H, sigma[c] ** 2, n_gain, underweight, dx_spare, P_spare, h,
-                                               K)
-            dx, dx_spare = dx_spare, dx
-            P, P_spare = P_spare, P
+            R = sigma[c] ** 2
+            innovation, S = prefit_into(dx, P, y, H, R, h)
             if not np.isfinite(innovation):  # a run with a non-finite innovation is never "ok"
-                return err, sig, nees, innovations, innov_std, STATUS_NONFINITE, k
+                return err, sig, nees, innovations, innov_std, rejected, STATUS_NONFINITE, k
             innovations[k, c] = innovation
             innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
+            if gated(innovation, S, gate_sigma, gate_after, accepted):
+                rejected[k, c] = True  # edited: no update, dx and P stay as they are
+                continue
+            apply_update_into(dx, P, innovation, S, R, n_gain, underweight, dx_spare, P_spare, h, K)
+            dx, dx_spare = dx_spare, dx
+            P, P_spare = P_spare, P
+            accepted += 1
         for i in range(n):
             x_hat[i] = x_bar[i] + dx[i]
 
@@ -239,10 +261,10 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             if not (np.isfinite(x_hat[i]) and np.isfinite(P[i, i])):
                 finite = False
         if not finite:
-            return err, sig, nees, innovations, innov_std, STATUS_NONFINITE, k
+            return err, sig, nees, innovations, innov_std, rejected, STATUS_NONFINITE, k
         for i in range(n):
             if P[i, i] <= 0.0:
-                return err, sig, nees, innovations, innov_std, STATUS_COVARIANCE_NOT_POSITIVE, k
+                return err, sig, nees, innovations, innov_std, rejected, STATUS_COVARIANCE_NOT_POSITIVE, k
         for i in range(n):
             e[i] = x_hat[i] - truth[k, i]
             err[k, i] = e[i]
@@ -253,5 +275,5 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             if block_kind[b] == BLOCK_SPACECRAFT:
                 a = block_start[b]
                 if np.sqrt(e[a] ** 2 + e[a + 1] ** 2 + e[a + 2] ** 2) > divergence_position_lu:
-                    return err, sig, nees, innovations, innov_std, STATUS_ERROR_BEYOND_BOUND, k
-    return err, sig, nees, innovations, innov_std, STATUS_OK, -1
+                    return err, sig, nees, innovations, innov_std, rejected, STATUS_ERROR_BEYOND_BOUND, k
+    return err, sig, nees, innovations, innov_std, rejected, STATUS_OK, -1
