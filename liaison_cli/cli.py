@@ -164,6 +164,27 @@ def _format_consistency(summary: list[dict], spacecraft, settle_days: float) -> 
     return "\n".join(lines)
 
 
+def _format_smoothed(summary: list[dict], spacecraft) -> str:
+    """With filter.smoother: rts, per spacecraft the smoothed error RMS (mean over runs) and its error / sigma
+    ratio (campaign ratio) over all epochs after t0; empty without the smoother."""
+    from liaison_cli.analysis.metrics import campaign_error_to_sigma
+
+    if not any("rms_position_smoothed_m" in row for row in summary):
+        return ""
+    lines = ["RTS-smoothed, all epochs after t0:",
+             f"{'spacecraft':<12}{'pos RMS m':>11}{'err/σ':>8}{'vel RMS mm/s':>14}{'err/σ':>8}"]
+    for name in spacecraft:
+        cells = []
+        for kind, unit, scale, digits in (("position", "m", 1.0, 1), ("velocity", "m_s", 1e3, 3)):
+            cells.append(_right(f"{_mean(_ok_values(summary, name, f'rms_{kind}_smoothed_{unit}', scale)):.{digits}f}",
+                                11 if kind == "position" else 14))
+            ratio = campaign_error_to_sigma(_ok_values(summary, name, f"rms_{kind}_smoothed_{unit}"),
+                                            _ok_values(summary, name, f"sigma_{kind}_smoothed_{unit}"))
+            cells.append(_right(f"{ratio:.2f}", 8))
+        lines.append(_left(name, 12) + "".join(cells))
+    return "\n".join(lines)
+
+
 def _format_prediction(summary: list[dict], spacecraft) -> str:
     """For a batch scenario: the DRMS of the prediction after the span and the clock synchronisation RMS,
     mean [90th percentile] over the runs that finished; empty for an EKF scenario."""
@@ -244,6 +265,9 @@ def run(
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_format_consistency(summary, problem.spacecraft, config.filter.settle_days))
+    smoothed = _format_smoothed(summary, problem.spacecraft)
+    if smoothed:
+        typer.echo(smoothed)
     prediction = _format_prediction(summary, problem.spacecraft)
     if prediction:
         typer.echo(prediction)

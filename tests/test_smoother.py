@@ -87,3 +87,38 @@ def test_with_process_noise_the_smoother_is_between_filter_and_truth_on_average(
     ratio = (sq_s / runs).mean(axis=0) / var_s.mean(axis=0)
     assert np.all((ratio > 0.8) & (ratio < 1.2)), ratio
     assert (sq_s.sum() < 0.8 * sq_f.sum())
+
+
+def test_the_smoother_in_a_campaign_is_consistent_and_better_than_the_filter():
+    """smoke with matched models and the RTS pass: over 20 runs the smoothed error RMS matches the smoothed
+    sigma RMS, and it is below the filter's; at the last epoch smoothing changes nothing."""
+    import math
+
+    from liaison_cli.campaign import results as results_module
+    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.scenario.schema import apply_overrides, load_scenario
+    from tests.conftest import SCENARIOS
+
+    scenario = apply_overrides(load_scenario(SCENARIOS / "smoke.yaml")[0], {
+        "initial_error.draw": "from_covariance", "measurement.light_time": False,
+        "spacecraft.1.process_noise_accel_m_s2": 1e-7, "filter.smoother": "rts"})
+    result = run_campaign(scenario, runs=20, jobs=1, progress=False)
+    table = results_module.summary_table(result)
+    for _, group in table.groupby("spacecraft"):
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):
+            ratio = math.sqrt((group[f"rms_{kind}_smoothed_{unit}"] ** 2).mean()
+                              / (group[f"sigma_{kind}_smoothed_{unit}"] ** 2).mean())
+            assert 0.75 <= ratio <= 1.3, (kind, ratio)
+            assert group[f"rms_{kind}_smoothed_{unit}"].mean() < group[f"rms_{kind}_{unit}"].mean()
+    norms = result.outcomes[0].norms
+    assert norms["position_error_smoothed_m"][-1].tolist() == norms["position_error_m"][-1].tolist()
+    assert "position_error_smoothed_m" not in run_campaign(
+        apply_overrides(scenario, {"filter.smoother": "none"}), runs=1, jobs=1, progress=False).outcomes[0].norms
+
+
+def test_the_smoother_is_refused_where_it_does_not_apply(tmp_path):
+    from tests.conftest import assert_one_line_error, edited_scenario, run_cli
+
+    path = edited_scenario(tmp_path, "bias_eml2_lunar.yaml", "  bias: consider", "  bias: consider\n  smoother: rts")
+    assert_one_line_error(run_cli("run", path, "--output", tmp_path / "o"), path,
+                          ["filter.smoother = 'rts' with filter.bias = 'consider'"])

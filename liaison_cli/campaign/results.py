@@ -80,6 +80,10 @@ def summary_columns(rows: list[dict]) -> dict:
 Columns = dict
 
 
+SMOOTHED_NORMS = ("position_error_smoothed_m", "velocity_error_smoothed_m_s", "position_3sigma_smoothed_m",
+                  "velocity_3sigma_smoothed_m_s")
+
+
 def _timeseries_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
     """One row per (epoch, spacecraft) of one run: error norms, 3-sigma bounds, whole-state NEES."""
     if not outcome.norms:
@@ -90,8 +94,9 @@ def _timeseries_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> C
         "t_s": np.repeat(problem.times_s, n_sc),
         "spacecraft": np.tile(np.array(problem.spacecraft, dtype=object), m),
     }
-    for key in ("position_error_m", "velocity_error_m_s", "position_3sigma_m", "velocity_3sigma_m_s"):
-        columns[key] = outcome.norms[key].reshape(-1).astype(float_dtype)
+    for key in ("position_error_m", "velocity_error_m_s", "position_3sigma_m", "velocity_3sigma_m_s", *SMOOTHED_NORMS):
+        if key in outcome.norms:  # the smoothed ones only with filter.smoother: rts
+            columns[key] = outcome.norms[key].reshape(-1).astype(float_dtype)
     columns["nees"] = np.repeat(outcome.nees, n_sc).astype(float_dtype)
     return columns
 

@@ -4,7 +4,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from liaison_cli.analysis.metrics import nees_divergence_limit, summary_rows, sustained_excess_step
+from liaison_cli.analysis.metrics import error_norms, nees_divergence_limit, rms, summary_rows, sustained_excess_step
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
@@ -137,6 +137,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
                                       settle_s=problem.scenario.filter.settle_days * SECONDS_PER_DAY,
                                       nees=history.nees, n_nees=problem.filter.n_nees)
         _add_estimator_extras(summary, history.extras)
+        _add_smoothed(problem, history, summary, norms, n_dyn)
         _add_clock_sync(problem, inputs, history.data_end_step, summary)
         last = history.fail_step - 1 if not history.ok else -1
         bias = inputs.bias_lu
@@ -191,6 +192,26 @@ def _check_consistency(problem: Problem, history):
     reason = (f"diverged: NEES above {limit:.4g} ({spec.divergence_nees_factor:g} x the 99.9 % chi-square "
               f"quantile of {problem.filter.n_nees} states) for {spec.divergence_window_days:g} d")
     return replace(history, ok=False, reason=reason, fail_step=step)
+
+
+def _add_smoothed(problem: Problem, history, summary, norms, n_dyn: int) -> None:
+    """filter.smoother: rts. The smoothed history's error norms and 3-sigma bounds per epoch go beside the
+    filter's (timeseries.parquet: *_smoothed_*), and each spacecraft's row gets the smoothed error RMS and
+    sigma RMS over all epochs after t0 with their ratio (smoothing has no transient to settle)."""
+    if history.smoothed_err is None:
+        return
+    smoothed = error_norms(history.smoothed_err[:, :n_dyn], history.smoothed_sigma[:, :n_dyn], M_PER_LU, M_S_PER_VU)
+    for kind, unit in (("position", "m"), ("velocity", "m_s")):
+        for what in ("error", "3sigma"):
+            norms[f"{kind}_{what}_smoothed_{unit}"] = smoothed[f"{kind}_{what}_{unit}"]
+    after_t0 = problem.times_s > 0.0
+    for i, row in enumerate(summary):
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):
+            error = rms(smoothed[f"{kind}_error_{unit}"][after_t0, i])
+            spread = rms(smoothed[f"{kind}_3sigma_{unit}"][after_t0, i] / 3.0)
+            row[f"rms_{kind}_smoothed_{unit}"] = error
+            row[f"sigma_{kind}_smoothed_{unit}"] = spread
+            row[f"{kind}_error_to_sigma_smoothed"] = error / spread if spread > 0 else float("nan")
 
 
 def _add_estimator_extras(summary, extras) -> None:

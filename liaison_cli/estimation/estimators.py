@@ -14,6 +14,7 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
+from liaison_cli.estimation.smoother import rts_smooth
 from liaison_cli.measurements.registry import kinds_mask
 
 MODEL_ARG = 15  # position of the model code among run_ekf's arguments
@@ -64,6 +65,7 @@ class FilterArrays:
     underweight: float = 0.0  # Lear's gain underweighting (ekf.update_scalar)
     residual_gate_sigma: float = 0.0  # the EKF's residual gate, k (filter_loop.gated); 0: no gate
     residual_gate_after: int = 0  # ... applied once this many measurements have been accepted
+    smoother: bool = False  # the EKF also returns its RTS-smoothed history (estimation.smoother)
     burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
 
     @property
@@ -94,20 +96,32 @@ class EstimateHistory:
     data_end_step: int = -1
     extras: dict | None = None
     rejected: np.ndarray | None = None
+    smoothed_err: np.ndarray | None = None  # (m, n) with filter.smoother: rts (NaN for a run that failed)
+    smoothed_sigma: np.ndarray | None = None
 
 
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     kind, start, size = arrays.layout.arrays()
+    m, n = truth.shape
+    stored = m if arrays.smoother else 0  # the smoother's forward record: 3 (n, n) matrices per epoch
+    states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
     args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
             arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
             arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
             arrays.divergence_position_lu, arrays.underweight, float(arrays.residual_gate_sigma),
-            int(arrays.residual_gate_after), arrays.burns, kinds_mask(arrays.channel_kind))
+            int(arrays.residual_gate_after), arrays.burns, kinds_mask(arrays.channel_kind), states, matrices)
     entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))
     err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = entry(*args)
     ok = status == STATUS_OK
+    smoothed_err = smoothed_sigma = None
+    if arrays.smoother:
+        x_s, smoothed_sigma, _ = rts_smooth(np.ascontiguousarray(states[:, 0]), np.ascontiguousarray(states[:, 1]),
+                                            np.ascontiguousarray(matrices[:, 1]), np.ascontiguousarray(matrices[:, 0]),
+                                            np.ascontiguousarray(matrices[:, 2]), m - 1 if ok else -1)
+        smoothed_err = x_s - truth
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
-                           int(fail_step), rejected=rejected)
+                           int(fail_step), rejected=rejected, smoothed_err=smoothed_err,
+                           smoothed_sigma=smoothed_sigma)
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:

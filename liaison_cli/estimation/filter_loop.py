@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.model import propagate_state_stm_into
-from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_SPACECRAFT
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
 from liaison_cli.measurements.registry import predict_for, residual
 
@@ -149,10 +149,37 @@ def gated(innovation, S, gate_sigma, gate_after, accepted):
     return gate_sigma > 0.0 and accepted >= gate_after and abs(innovation) > gate_sigma * np.sqrt(S)
 
 
+@njit(cache=True, inline="always")
+def _store_prediction(states, matrices, k, x_bar, P_bar, Phi, block_kind, block_start, block_size):
+    """Keep epoch k's x_bar, P_bar and the transition from k-1 (identity on constant blocks, whose Phi the
+    covariance step never reads) for the smoother."""
+    n = x_bar.shape[0]
+    for i in range(n):
+        states[k, 1, i] = x_bar[i]
+        for j in range(n):
+            matrices[k, 0, i, j] = P_bar[i, j]
+            matrices[k, 2, i, j] = Phi[i, j]
+    for b in range(block_kind.shape[0]):
+        if block_kind[b] == BLOCK_CONSTANT:
+            a = block_start[b]
+            for i in range(block_size[b]):
+                matrices[k, 2, a + i, a + i] = 1.0
+
+
+@njit(cache=True, inline="always")
+def _store_update(states, matrices, k, x_hat, P):
+    n = x_hat.shape[0]
+    for i in range(n):
+        states[k, 0, i] = x_hat[i]
+        for j in range(n):
+            matrices[k, 1, i, j] = P[i, j]
+
+
 @njit(cache=True)
 def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
             channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
-            n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after, burns, kinds):
+            n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after, burns, kinds,
+            store_states, store_matrices):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
@@ -168,6 +195,10 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     gate_sigma, gate_after: the residual gate (gated); gate_sigma = 0: no gate. burns (N, 3): impulsive
     manoeuvres (apply_burns), applied after the update of their epoch. kinds: the bit set of channel_kind's
     codes (registry.kinds_mask), a compile-time constant like model.
+
+    store_states (m, 2, n) / store_matrices (m, 3, n, n): for the RTS smoother (estimation.smoother), each
+    epoch's [x_hat, x_bar] and [P_bar, P, Phi] (Phi from the epoch before; constant blocks as identity); pass
+    arrays of length 0 to store nothing.
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), rejected (m, C),
     status, fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch;
@@ -213,6 +244,9 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
     nees[0] = nees_into(err[0, :n_nees], P[:n_nees, :n_nees], work_nees, z_nees)
+    storing = store_states.shape[0] > 0
+    if storing:
+        _store_update(store_states, store_matrices, 0, x_hat, P)
 
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
@@ -220,6 +254,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
         _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
                      (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
+        if storing:
+            _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)
 
         # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24).
         for i in range(n):
@@ -254,6 +290,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
             accepted += 1
         for i in range(n):
             x_hat[i] = x_bar[i] + dx[i]
+        if storing:
+            _store_update(store_states, store_matrices, k, x_hat, P)
 
         # Health checks: a diverged run stops here and reports why.
         finite = True

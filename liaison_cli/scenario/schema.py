@@ -601,6 +601,10 @@ class FilterSpec(StrictModel):
         GATE_AFTER_DEFAULT, ge=0, le=10**9, description="the gate applies once the filter has accepted this many "
         "measurements (unit: scalar measurements, all links together); default 0: from the first, the a-priori "
         "spread being part of the gate's; raise it only for a P0 that understates the initial error")
+    smoother: Literal["none", "rts"] = Field(
+        "none", description="rts: also run the Rauch-Tung-Striebel fixed-interval smoother over each EKF pass "
+        "(smoothed errors and sigma in the outputs: 003's reconstructed trajectory); keeps three n x n matrices "
+        "per epoch in memory while a run is smoothed")
 
     @model_validator(mode="after")
     def _bias_needs_apriori(self):
@@ -766,6 +770,7 @@ class Scenario(StrictModel):
         self._check_station_priority()
         self._check_manoeuvres()
         self._check_batch()
+        self._check_smoother()
         self._check_clock_sync()
         self._check_dynamics()
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
@@ -789,6 +794,22 @@ class Scenario(StrictModel):
                 f"{self.duration_days:g} is {epochs:,} epochs per run; allowed: at most {MAX_EPOCHS:,} (about "
                 f"1.5 kB of memory each): measurement.interval_s >= {span_s / (MAX_EPOCHS - 1):.4g} s for this "
                 "duration, or a shorter duration_days")
+
+    def _check_smoother(self):
+        """The RTS pass smooths the EKF's own forward record: no batch, no consider parameters (their zero-gain
+        covariance is not the record of an optimal filter) and no manoeuvre (its jump is not in the stored
+        transitions)."""
+        if self.filter.smoother == "none":
+            return
+        if self.estimator == "batch":
+            raise ValueError("filter.smoother = 'rts' smooths an EKF pass; estimator: batch is already a "
+                             "smoothing solution (use one or the other)")
+        if self.filter.bias == "consider":
+            raise ValueError("filter.smoother = 'rts' with filter.bias = 'consider': not supported (estimate or "
+                             "ignore the bias)")
+        moving = [sc.name for sc in self.spacecraft if sc.manoeuvre is not None]
+        if moving:
+            raise ValueError(f"filter.smoother = 'rts' with a manoeuvre ({moving[0]!r}): not supported")
 
     def _check_batch(self):
         if (self.estimator == "batch") != (self.batch is not None):

@@ -514,6 +514,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
         divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting, burns=burns,
         residual_gate_sigma=flt.residual_gate_sigma or 0.0, residual_gate_after=flt.residual_gate_after,
+        smoother=flt.smoother == "rts",
         batch=_batch_arrays(scenario, model, times_s, trajectories),
     )
     sc_index = {name: i for i, name in enumerate(names)}
