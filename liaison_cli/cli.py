@@ -531,24 +531,42 @@ def study003(
     jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
     output: Path = typer.Option(Path("results/study003"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
+    grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
+                                   "(e.g. filter.underweighting=0,0.2); repeatable"),
+    dsn_noise: str = typer.Option("table2", "--dsn-noise", help="003's DSN noise: table2 (10 m, 0.5 mm/s) or "
+                                  "text (1 m, 0.1 mm/s)"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures."""
-    from liaison_cli.campaign.study003 import run_study
+    from liaison_cli.campaign.grid import check_grid_size, parse_grid
+    from liaison_cli.campaign.study003 import DSN_NOISE_READINGS, run_study, tuning
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
 
     _check_runs(runs)
+    if dsn_noise not in DSN_NOISE_READINGS:
+        raise LiaisonError(f"--dsn-noise {dsn_noise!r}: allowed: {', '.join(DSN_NOISE_READINGS)}")
+    axes = [parse_grid(text) for text in grid or []]
+    check_grid_size(axes, 1, runs)
     loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
-    summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet)
-    typer.echo(f"003 study, {runs} runs per case: 3D RMS over the 9 days after t0 (σ: the filter's; "
-               "003: its stated full-set values)")
+    summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
+                                    grid=axes, dsn_noise=dsn_noise)
+    first = loaded[0][1]
+    typer.echo(f"003 study, {runs} runs per case, DSN noise: 003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}; "
+               f"3D RMS after t0 (σ: the filter's; 003: its stated full-set values). Filter ({first.name}): "
+               f"{tuning(first)}" + (f"; grid over {', '.join(k for k, _ in axes)}" if axes else ""))
 
     def draw(history_, stage):
+        if axes:  # the figures show the first grid point; every point's numbers are in the tables
+            first_point = history_
+            for key, values in axes:
+                first_point = first_point[first_point[key] == values[0]]
+            history_ = first_point
         for name, _, _ in loaded:
             draw_mission(history_, name, stage)
         draw_comparison(history_, stage)
 
-    _write_study(output, overwrite, loaded, runs, summary, history, format_table(summary), draw)
+    table = format_table(summary, [k for k, _ in axes], first.filter.settle_days)
+    _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
 
 
 STUDY004_TRANSMITTERS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml",

@@ -1,5 +1,7 @@
 """003 item 5: the three cases of a mission, and `liaison study003` end to end on a shortened mission."""
 
+import re
+
 import pandas as pd
 
 from conftest import SCENARIOS, run_cli
@@ -26,13 +28,34 @@ def test_study003_runs_and_more_data_means_smaller_covariance(tmp_path):
     short = tmp_path / "cassini.yaml"
     short.write_text(CASSINI.read_text().replace("duration_days: 9", "duration_days: 2"))
     out = tmp_path / "study"
-    proc = run_cli("study003", short, "--runs", "3", "--jobs", "1", "--output", out, "--quiet")
+    proc = run_cli("study003", short, "--runs", "3", "--jobs", "1", "--output", out, "--quiet",
+                   "--grid", "filter.underweighting=0,0.2")
     assert proc.returncode == 0, proc.stderr
-    assert "| cassini | DSN + LiAISON | Cassini |" in proc.stdout
+    assert re.search(r"\| cassini \| DSN \+ LiAISON \| Cassini( !)? \|", proc.stdout)
+    # The tuning the numbers depend on is in the header, and each grid point has its own table.
+    assert "underweighting beta" in proc.stdout and "SNC sigma_a" in proc.stdout
+    assert "**filter.underweighting = 0.0**" in proc.stdout and "**filter.underweighting = 0.2**" in proc.stdout
     for name in ("summary.parquet", "histories.parquet", "table.md", "cassini_histories.png",
                  "departures_position_error.png"):
         assert (out / name).exists(), name
     summary = pd.read_parquet(out / "summary.parquet")
-    departure = summary[summary.role == "departure"].set_index("case").sigma3d_rms_position_m
-    assert departure["full"] < departure["dsn_only"] and departure["full"] < departure["liaison_only"]
+    for _, point in summary.groupby("filter.underweighting"):
+        departure = point[point.role == "departure"].set_index("case").sigma3d_rms_position_m
+        assert departure["full"] < departure["dsn_only"] and departure["full"] < departure["liaison_only"]
     assert (summary.runs_ok == 3).all()
+    assert {"error_to_sigma_position_settled", "frac_nees_in_band_settled", "consistent_settled"} <= set(summary)
+
+
+def test_both_readings_of_003s_dsn_noise_set_every_ground_link():
+    from liaison_cli.campaign.study003 import DSN_NOISE_READINGS, with_dsn_noise
+    from liaison_cli.scenario.schema import load_scenario
+
+    scenario, _ = load_scenario(CASSINI)
+    text = with_dsn_noise(scenario, "text")
+    stations = {st.name for st in scenario.ground_stations}
+    ground = [link for link in text.links if {link.receiver, link.transponder} & stations]
+    assert ground and all((link.noise.sigma_m, link.noise.range_rate_sigma_m_s) == DSN_NOISE_READINGS["text"]
+                          for link in ground)
+    crosslinks = [link for link in text.links if not {link.receiver, link.transponder} & stations]
+    assert [link.noise for link in crosslinks] == [link.noise for link in scenario.links
+                                                   if not {link.receiver, link.transponder} & stations]

@@ -13,19 +13,39 @@ def _fmt(value: float, scale: float, digits: int) -> str:
     return "—" if not np.isfinite(value) else f"{value * scale:.{digits}f}"
 
 
-def format_table(summary: pd.DataFrame) -> str:
-    """Markdown: per mission, case and spacecraft the 3D RMS of the formal sigma and of the error."""
-    lines = ["| mission | case | spacecraft | σ 3D RMS pos m | 003 | error 3D RMS pos m | σ 3D RMS vel mm/s | 003 | "
-             "error 3D RMS vel mm/s | inside 3σ pos | runs ok |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in summary.itertuples():
-        lines.append(
-            f"| {r.mission} | {CASE_TITLES[r.case]} | {r.spacecraft} | {_fmt(r.sigma3d_rms_position_m, 1, 1)} | "
-            f"{_fmt(r.paper_sigma3d_rms_position_m, 1, 0)} | {_fmt(r.error3d_rms_position_m, 1, 1)} | "
-            f"{_fmt(r.sigma3d_rms_velocity_m_s, 1e3, 2)} | {_fmt(r.paper_sigma3d_rms_velocity_m_s, 1e3, 2)} | "
-            f"{_fmt(r.error3d_rms_velocity_m_s, 1e3, 2)} | {100 * r.inside_3sigma_position:.1f} % | "
-            f"{r.runs_ok}/{r.runs} |")
-    return "\n".join(lines) + "\n"
+def format_table(summary: pd.DataFrame, grid_keys=(), settle_days: float = 1.0) -> str:
+    """Markdown: per grid point (if any), mission, case and spacecraft the 3D RMS of the formal sigma (RSS
+    over the axes, and per axis: 003's "3D RMS" read both ways) and of the error, over the 9 days and after
+    the settle time, their ratio and the NEES share in band; '!' marks an error/sigma ratio after the settle
+    time above the consistency limit."""
+    import math
+
+    from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+
+    out = []
+    groups = summary.groupby(list(grid_keys), sort=False) if grid_keys else [((), summary)]
+    for values, part in groups:
+        if grid_keys:
+            values = values if isinstance(values, tuple) else (values,)
+            out.append("**" + ", ".join(f"{k} = {v}" for k, v in zip(grid_keys, values)) + "**\n")
+        out += [f"| mission | case | spacecraft | σ pos m: 9 d RSS [per axis] | 003 | σ > {settle_days:g} d | "
+                f"error 9 d | error > {settle_days:g} d | err/σ > {settle_days:g} d | NEES in band | σ vel mm/s 9 d | "
+                "003 | err/σ vel | inside 3σ | runs ok |",
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        for r in part.itertuples():
+            mark = "" if r.consistent_settled else " !"
+            out.append(
+                f"| {r.mission} | {CASE_TITLES[r.case]} | {r.spacecraft}{mark} | "
+                f"{_fmt(r.sigma3d_rms_position_m, 1, 1)} [{_fmt(r.sigma3d_rms_position_m / math.sqrt(3), 1, 1)}] | "
+                f"{_fmt(r.paper_sigma3d_rms_position_m, 1, 0)} | {_fmt(r.sigma3d_rms_position_m_settled, 1, 1)} | "
+                f"{_fmt(r.error3d_rms_position_m, 1, 1)} | {_fmt(r.error3d_rms_position_m_settled, 1, 1)} | "
+                f"{r.error_to_sigma_position_settled:.2f} | {100 * r.frac_nees_in_band_settled:.0f} % | "
+                f"{_fmt(r.sigma3d_rms_velocity_m_s, 1e3, 2)} | {_fmt(r.paper_sigma3d_rms_velocity_m_s, 1e3, 2)} | "
+                f"{r.error_to_sigma_velocity_settled:.2f} | {100 * r.inside_3sigma_position:.1f} % | "
+                f"{r.runs_ok}/{r.runs} |")
+        out.append("")
+    out.append(f"! marks an error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's sigma RMS after the settle time.")
+    return "\n".join(out) + "\n"
 
 
 def save_png(fig, path: Path) -> Path:
