@@ -31,8 +31,17 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(__version__)
+        raise typer.Exit()
+
+
 @app.callback()
-def _configure_process() -> None:
+def _configure_process(
+    _version: bool = typer.Option(False, "--version", is_eager=True, callback=_print_version,
+                                  help="Print the package version and exit."),
+) -> None:
     """Before every command: Ctrl-C is remembered as well as raised (liaison_cli.interrupts), and notes from
     the library (the `liaison` logger: e.g. a date past the IERS tables) go to stderr as `note: ...`."""
     interrupts.install()
@@ -773,6 +782,44 @@ def compare(
 def version():
     """Print the package version."""
     typer.echo(__version__)
+
+
+@app.command()
+@user_errors
+def schema(
+    output: Path = typer.Option(None, "--output", help="write it to this file (atomically) instead of printing"),
+):
+    """Print the scenario JSON Schema (every key's description, unit and allowed values) for editors."""
+    from liaison_cli.scenario.json_schema import scenario_json_schema_text
+
+    text = scenario_json_schema_text()
+    if output is None:
+        typer.echo(text, nl=False)
+        return
+    from liaison_cli.storage import write_text_atomic
+
+    if output.is_dir():
+        raise LiaisonError(f"{output}: a directory; allowed: a file path for the schema")
+    write_text_atomic(text, output)
+    typer.echo(f"wrote {output}")
+
+
+@app.command()
+@user_errors
+def validate(files: list[Path] = typer.Argument(..., metavar="FILE...", help="scenario or link YAML files")):
+    """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each."""
+    from liaison_cli.scenario.schema import check_file
+
+    bad = 0
+    for path in files:
+        try:
+            check_file(path)
+            typer.echo(f"ok: {path}")
+        except LiaisonError as exc:  # one line per bad file, and on to the next
+            typer.echo(f"error: {exc}", err=True)
+            bad += 1
+    if bad:
+        raise typer.Exit(2)
 
 
 def main():  # pragma: no cover - console entry point

@@ -30,7 +30,6 @@ from liaison_cli.dynamics.constants import WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.dynamics.ephemeris import BODY_SUN, GM_KM3_S2, geocentric_state, load_window
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
 from liaison_cli.orbits.departure import asymptote_angles_deg
-from liaison_cli.orbits.lambert import lambert
 
 OBLIQUITY_J2000_DEG = 23.4392911  # IAU 1976: the ecliptic pole in ICRF axes sets "prograde"
 CAPE_LATITUDE_DEG = 28.5
@@ -82,6 +81,8 @@ def _heliocentric(body: int, t_tdb_s: float) -> np.ndarray:
 
 def derived_launch_targets(mission: DepartureMission) -> tuple[float, float, float]:
     """(C3 km^2/s^2, DLA deg, RLA deg) of the Lambert arc from the Earth at injection to the first target."""
+    from liaison_cli.orbits.lambert import lambert  # scipy.optimize: ~0.9 s that reading a mission's dates need not pay
+
     t0 = utc_to_tdb_seconds(_utc(mission.start_utc) - timedelta(seconds=mission.time_from_periapsis_s()))
     t1 = utc_to_tdb_seconds(_utc(mission.encounter_utc))
     earth = _heliocentric(399, t0)

@@ -4,6 +4,7 @@ Every problem is reported as one line naming the file, the key, the bad value an
 """
 
 import copy
+import re
 from pathlib import Path
 from typing import Literal
 
@@ -22,6 +23,8 @@ from liaison_cli.orbits.families import FAMILIES, family_names
 from liaison_cli.radio.carrier import TURNAROUND_S_BAND
 from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
+from liaison_cli.scenario.schema_rules import (
+    all_of, any_of, at_least, each, equals, given, negate, not_given, one_of, schema_rules, together, when)
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
 ICRF_STATE_ORBIT = "icrf_state"
@@ -35,6 +38,17 @@ MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML an
 MAX_EPOCHS = 500_000
 MAX_SCENARIO_BYTES = 1 << 20  # a scenario or link file (the shipped ones are < 5 kB)
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
+UNIQUE = {"uniqueItems": True}  # the JSON Schema word for a list the loader refuses repeats in
+
+
+def _allowed_names(schema: dict, what: str) -> None:
+    """The JSON Schema's `enum` of a name a validator checks, for editors to offer; imported when the schema is
+    generated, as the validators import them when they check (a scenario without them need not)."""
+    if what == "mission":
+        from liaison_cli.orbits.departure_missions import departure_mission_names as names
+    else:
+        from liaison_cli.dynamics.dsn_sites import dsn_site_names as names
+    schema["enum"] = [*names(), None]
 
 
 class StrictModel(BaseModel):
@@ -57,12 +71,13 @@ class StrictModel(BaseModel):
 class KeplerianElements(StrictModel):
     """Moon-centred elements in inertial axes aligned with the rotating frame at t0."""
 
-    a_km: float = Field(gt=MOON_RADIUS_KM, description="semi-major axis, above the lunar radius")
-    e: float = Field(ge=0.0, lt=1.0)
-    i_deg: float = Field(ge=0.0, le=180.0)
-    raan_deg: float = 0.0
-    argp_deg: float = 0.0
-    ta_deg: float = 0.0
+    a_km: float = Field(gt=MOON_RADIUS_KM, description="semi-major axis, above the lunar radius (km)")
+    e: float = Field(ge=0.0, lt=1.0, description="eccentricity; the perilune a_km (1 - e) must clear the lunar "
+                     "radius (dimensionless)")
+    i_deg: float = Field(ge=0.0, le=180.0, description="inclination (deg)")
+    raan_deg: float = Field(0.0, description="right ascension of the ascending node (deg)")
+    argp_deg: float = Field(0.0, description="argument of perilune (deg)")
+    ta_deg: float = Field(0.0, description="true anomaly at t0 (deg)")
 
     @model_validator(mode="after")
     def _perilune_above_surface(self):
@@ -81,13 +96,20 @@ class ClockSpec(StrictModel):
     of its initial offset and frequency (the truth draws from it, the filter starts at zero with that
     covariance)."""
 
-    preset: str | None = Field(None, description="a named oscillator: " + ", ".join(clock_preset_names()))
-    sigma1_s_per_sqrt_s: float | None = Field(None, gt=0, description="white-frequency diffusion (phase random walk)")
-    sigma2_per_sqrt_s: float | None = Field(None, ge=0, description="random-walk-frequency diffusion")
-    mu1: float = Field(0.0, description="deterministic frequency offset (s/s) added to the truth")
-    mu2_per_s: float | None = Field(None, description="deterministic aging (1/s); default the preset's, else 0")
-    initial_offset_sigma_s: float = Field(gt=0)
-    initial_frequency_sigma: float = Field(gt=0, description="initial fractional frequency offset 1-sigma")
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        any_of(given("preset"), all_of(given("sigma1_s_per_sqrt_s"), given("sigma2_per_sqrt_s")))))
+
+    preset: str | None = Field(None, description="a named oscillator: " + ", ".join(clock_preset_names()),
+                               json_schema_extra={"enum": [*clock_preset_names(), None]})
+    sigma1_s_per_sqrt_s: float | None = Field(None, gt=0, description="white-frequency diffusion (phase random "
+                                              "walk); default the preset's (s/sqrt s)")
+    sigma2_per_sqrt_s: float | None = Field(None, ge=0, description="random-walk-frequency diffusion; default the "
+                                            "preset's (1/sqrt s)")
+    mu1: float = Field(0.0, description="deterministic fractional frequency offset added to the truth (s/s)")
+    mu2_per_s: float | None = Field(None, description="deterministic aging; default the preset's, else 0 (1/s)")
+    initial_offset_sigma_s: float = Field(gt=0, description="a-priori 1-sigma of the initial clock offset (s)")
+    initial_frequency_sigma: float = Field(gt=0, description="a-priori 1-sigma of the initial fractional frequency "
+                                           "offset (s/s)")
 
     @field_validator("preset")
     @classmethod
@@ -120,20 +142,34 @@ class ClockSpec(StrictModel):
         return CLOCK_PRESETS[self.preset].mu2_per_s if self.preset is not None else 0.0
 
 
+_TARGETS = ("c3_km2_s2", "dla_deg", "rla_deg")
+
+
 class DepartureSpec(StrictModel):
     """A hyperbolic Earth departure (orbit: departure, dynamics: ephemeris): one of 003's missions, whose
     launch targets are derived on DE421 (orbits.departure_missions), or C3 / DLA / RLA given directly."""
 
-    mission: str | None = Field(None, description="cassini | mer_a | msl (003)")
-    c3_km2_s2: float | None = Field(None, description="launch energy, > 0")
-    dla_deg: float | None = Field(None, ge=-90.0, le=90.0, description="declination of the outgoing asymptote")
-    rla_deg: float | None = Field(None, ge=-360.0, le=360.0, description="right ascension of the asymptote")
-    periapsis_altitude_km: float = Field(185.0, gt=0, description="parking orbit altitude (injection at periapsis)")
-    time_from_periapsis_s: float = Field(0.0, ge=0, le=MAX_TIME_FROM_PERIAPSIS_S, description="at the scenario "
-                                         "epoch; the two-body hyperbola holds for 3 h after periapsis "
-                                         "(orbits.departure.MAX_TIME_FROM_PERIAPSIS_S)")
-    parking_inclination_deg: float | None = Field(None, gt=0, lt=180, description="default max(28.5, |DLA|)")
-    branch: Literal[1, -1] = Field(1, description="which of the two planes of that inclination")
+    model_config = ConfigDict(json_schema_extra=schema_rules(when(
+        given("mission"), all_of(*map(not_given, _TARGETS)), all_of(*map(given, _TARGETS)))))
+
+    mission: str | None = Field(None, description="one of 003's missions, whose C3, DLA, RLA, parking altitude and "
+                                "injection time are derived on DE421 (instead of c3_km2_s2, dla_deg, rla_deg, "
+                                "periapsis_altitude_km and time_from_periapsis_s)",
+                                json_schema_extra=lambda schema: _allowed_names(schema, "mission"))
+    c3_km2_s2: float | None = Field(None, description="launch energy C3, > 0 (km^2/s^2)",
+                                    json_schema_extra={"exclusiveMinimum": 0})
+    dla_deg: float | None = Field(None, ge=-90.0, le=90.0, description="declination of the outgoing asymptote, "
+                                  "ICRF (deg)")
+    rla_deg: float | None = Field(None, ge=-360.0, le=360.0, description="right ascension of the outgoing "
+                                  "asymptote, ICRF (deg)")
+    periapsis_altitude_km: float = Field(185.0, gt=0, description="parking-orbit altitude above the WGS84 equatorial "
+                                         "radius, injection at periapsis; without a mission (km)")
+    time_from_periapsis_s: float = Field(0.0, ge=0, le=MAX_TIME_FROM_PERIAPSIS_S, description="time since "
+                                         "periapsis at the scenario epoch, without a mission; the two-body "
+                                         "hyperbola holds for 3 h after periapsis (s)")
+    parking_inclination_deg: float | None = Field(None, gt=0, lt=180, description="parking-orbit inclination, at "
+                                                  "least |DLA|; default max(28.5, |DLA|) (deg)")
+    branch: Literal[1, -1] = Field(1, description="which of the two parking planes of that inclination (1 or -1)")
 
     @field_validator("mission")
     @classmethod
@@ -170,37 +206,62 @@ class ManoeuvreSpec(StrictModel):
     (ICRF axes in dated scenarios, rotating axes in the CRTBP) just after the measurement epoch nearest
     epoch_days; the filter estimates it as a Delta-v block starting apriori_sigma_m_s (per axis) off."""
 
-    epoch_days: float = Field(gt=0, description="days after the start; rounded to the nearest measurement epoch")
-    delta_v_m_s: list[float] = Field(min_length=3, max_length=3)
-    apriori_sigma_m_s: float = Field(gt=0, description="the filter's a-priori 1-sigma of each component")
+    epoch_days: float = Field(gt=0, description="time after t0, rounded to the nearest measurement epoch (days)")
+    delta_v_m_s: list[float] = Field(min_length=3, max_length=3, description="the true impulse x, y, z: ICRF axes "
+                                     "in dated scenarios, rotating axes in the CRTBP (m/s)")
+    apriori_sigma_m_s: float = Field(gt=0, description="the filter's a-priori 1-sigma of each component (m/s)")
 
 
 class SpacecraftSpec(StrictModel):
-    name: str = Field(pattern=NAME_PATTERN)
+    """A spacecraft: its orbit (where it starts and how it flies) and what the filter knows of it."""
+
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        together(equals("orbit", KEPLERIAN_ORBIT), "elements"),
+        together(equals("orbit", ICRF_STATE_ORBIT), "state_km"),
+        together(equals("orbit", DEPARTURE_ORBIT), "departure"),
+        together(equals("orbit", GEOSTATIONARY_ORBIT), "longitude_deg"),
+        when(equals("orbit", GEOSTATIONARY_ORBIT), equals("role", "known")),
+        when(equals("orbit", *family_names()), one_of(given("period_days"), given("amplitude_km")),
+             all_of(not_given("period_days"), not_given("amplitude_km"))),
+        when(equals("orbit", KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS), {"properties": {"phase": {"const": 0}}}),
+        when(equals("role", "known"), all_of(not_given("clock"), not_given("manoeuvre")))))
+
+    name: str = Field(pattern=NAME_PATTERN, description="unique among spacecraft and ground stations; letters, "
+                      "digits, '_', '.', '-'")
     role: Literal["estimated", "known"] = Field(
         "estimated", description="estimated by the filter, or known (its true trajectory is given to the filter)")
-    orbit: str
-    elements: KeplerianElements | None = None
-    period_days: float | None = Field(None, gt=0, description="member of an orbit family (orbit: <family>)")
-    amplitude_km: float | None = Field(None, gt=0, description="family member by amplitude: Az (spatial), Ay (planar)")
-    antenna_baseline_m: float | None = Field(None, gt=0, description="interferometer baseline for LOS angles")
+    orbit: str = Field(description="a catalog orbit; an orbit family (with period_days or amplitude_km); "
+                       f"{KEPLERIAN_ORBIT} (with elements); with dynamics: ephemeris also {ICRF_STATE_ORBIT} "
+                       f"(with state_km), {DEPARTURE_ORBIT} (with departure), {GEOSTATIONARY_ORBIT} (with "
+                       "longitude_deg)",
+                       json_schema_extra={"enum": [*catalog_names(), KEPLERIAN_ORBIT, *family_names(),
+                                                   *DATED_ONLY_ORBITS]})
+    elements: KeplerianElements | None = Field(None, description=f"orbit: {KEPLERIAN_ORBIT}: its elements")
+    period_days: float | None = Field(None, gt=0, description="orbit: <family>: the member of this period (days)")
+    amplitude_km: float | None = Field(None, gt=0, description="orbit: <family>: the member of this amplitude, Az "
+                                       "(spatial families) or Ay (planar) (km)")
+    antenna_baseline_m: float | None = Field(None, gt=0, description="interferometer baseline of the receiver, "
+                                             "needed to measure LOS angles (m)")
     process_noise_accel_m_s2: float | None = Field(
-        None, ge=0, description="this spacecraft's SNC white acceleration; default filter.process_noise_accel_m_s2"
+        None, ge=0, description="this spacecraft's SNC white acceleration sigma_a; default "
+        "filter.process_noise_accel_m_s2 (m/s^2)"
     )
-    state_km: list[float] | None = Field(None, description="orbit: icrf_state: geocentric ICRF state at the epoch "
-                                         "(km, km/s; dynamics: ephemeris)")
+    state_km: list[float] | None = Field(None, description=f"orbit: {ICRF_STATE_ORBIT}: geocentric ICRF state at "
+                                         "the epoch x, y, z, vx, vy, vz (km, km/s)",
+                                         json_schema_extra={"minItems": 6, "maxItems": 6})
     clock: ClockSpec | None = Field(None, description="an onboard clock (estimated by the EKF; simulated, and "
                                     "synchronised by a clock fit, with the batch estimator)")
-    departure: DepartureSpec | None = Field(None, description="orbit: departure: the hyperbola (dynamics: ephemeris)")
+    departure: DepartureSpec | None = Field(None, description=f"orbit: {DEPARTURE_ORBIT}: the hyperbola")
     apriori_sigma_position_m: float | None = Field(
-        None, gt=0, description="this spacecraft's filter a-priori sigma and (initial_error draw fixed_sigma) its "
-        "initial-error sigma; default: the filter's and initial_error's")
-    apriori_sigma_velocity_m_s: float | None = Field(None, gt=0, description="as apriori_sigma_position_m")
+        None, gt=0, description="this spacecraft's filter a-priori 1-sigma per axis and (initial_error.draw: "
+        "fixed_sigma) its initial-error 1-sigma; default: filter's and initial_error's (m)")
+    apriori_sigma_velocity_m_s: float | None = Field(None, gt=0, description="as apriori_sigma_position_m, for the "
+                                                     "velocity (m/s)")
     manoeuvre: ManoeuvreSpec | None = Field(None, description="an impulsive manoeuvre the filter solves for (ekf)")
     phase: float = Field(0.0, ge=0.0, lt=1.0, description="advance a catalog or family orbit by this fraction of "
-                         "its period (e.g. 0.5: the second of a pair half a period apart)")
-    longitude_deg: float | None = Field(None, ge=-180.0, le=360.0, description="orbit: geostationary: the "
-                                        "station-kept longitude (east; 004: 130 W = -130)")
+                         "its period (e.g. 0.5: the second of a pair half a period apart) (periods)")
+    longitude_deg: float | None = Field(None, ge=-180.0, le=360.0, description=f"orbit: {GEOSTATIONARY_ORBIT}: the "
+                                        "station-kept longitude, east (004: 130 W = -130) (deg)")
 
     @field_validator("orbit")
     @classmethod
@@ -247,16 +308,25 @@ class SpacecraftSpec(StrictModel):
 
 
 class GroundStationSpec(StrictModel):
-    """A station on the rotating Earth (dynamics.ground_station): WGS84 geodetic coordinates, longitude east
-    of the Earth-Moon line at t0; it sees spacecraft above its elevation mask."""
+    """A station on the rotating Earth (dynamics.ground_station): WGS84 geodetic coordinates, the longitude east
+    of the Earth-Moon line at t0 in the CRTBP, the true longitude with dynamics: ephemeris; it sees spacecraft
+    above its elevation mask. Give either `site` or latitude_deg and longitude_deg."""
 
-    name: str = Field(pattern=NAME_PATTERN)
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        any_of(given("site"), all_of(given("latitude_deg"), given("longitude_deg"))),
+        optional=("latitude_deg", "longitude_deg")))
+
+    name: str = Field(pattern=NAME_PATTERN, description="unique among spacecraft and ground stations; letters, "
+                      "digits, '_', '.', '-'")
     site: str | None = Field(None, description="a named site (dynamics: ephemeris), a DSN 70 m antenna or a VLBA "
-                             "dish: its coordinates instead of latitude_deg / longitude_deg / altitude_m")
-    latitude_deg: float = Field(ge=-90.0, le=90.0)
-    longitude_deg: float = Field(ge=-180.0, le=360.0)
-    altitude_m: float = Field(0.0, ge=-500.0, le=9000.0)
-    elevation_mask_deg: float = Field(10.0, ge=0.0, lt=90.0)
+                             "dish: its coordinates instead of latitude_deg / longitude_deg / altitude_m",
+                             json_schema_extra=lambda schema: _allowed_names(schema, "site"))
+    latitude_deg: float = Field(ge=-90.0, le=90.0, description="geodetic latitude, WGS84 (deg)")
+    longitude_deg: float = Field(ge=-180.0, le=360.0, description="longitude east: of the Earth-Moon line at t0 in "
+                                 "the CRTBP, true with dynamics: ephemeris (deg)")
+    altitude_m: float = Field(0.0, ge=-500.0, le=9000.0, description="height above the WGS84 ellipsoid (m)")
+    elevation_mask_deg: float = Field(10.0, ge=0.0, lt=90.0, description="the station measures spacecraft above "
+                                      "this elevation (deg)")
 
     @model_validator(mode="before")
     @classmethod
@@ -277,15 +347,18 @@ class GroundStationSpec(StrictModel):
 
 
 ObservableName = Literal[tuple(OBSERVABLES)]
+_DIFFERENCES = [name for name, spec in OBSERVABLES.items() if spec.needs_second_receiver]  # tdoa, fdoa
 
 
 class LinkNoiseSpec(StrictModel):
     """This link's own sigmas, overriding the scenario's noise section for its channels (e.g. 003: DSN range
     10 m and range-rate 0.5 mm/s beside crosslinks at 1 m and 1 mm/s)."""
 
-    sigma_m: float | None = Field(None, gt=0, description="range-like channels (pseudoranges: per one-way)")
-    range_rate_sigma_m_s: float | None = Field(None, gt=0)
-    los_path_sigma_m: float | None = Field(None, gt=0)
+    sigma_m: float | None = Field(None, gt=0, description="1-sigma of range-like channels (pseudoranges: per "
+                                  "one-way) (m)")
+    range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels (m/s)")
+    los_path_sigma_m: float | None = Field(None, gt=0, description="1-sigma of the LOS path difference across the "
+                                           "receiver's baseline (m)")
 
     def applied_to(self, noise):
         """The scenario's noise spec with this link's values in force."""
@@ -303,12 +376,20 @@ class LinkSpec(StrictModel):
     epochs at which the Earth or the Moon blocks the line of sight; links to a ground station always obey
     the station's elevation mask."""
 
-    receiver: str
-    transponder: str
+    model_config = ConfigDict(json_schema_extra=schema_rules(when(
+        given("second_receiver"), {"required": ["observables"], **each("observables", {"enum": _DIFFERENCES})},
+        {"properties": {"observables": negate({"contains": {"enum": _DIFFERENCES}})}})))
+
+    receiver: str = Field(description="the measuring end: a spacecraft or ground station name")
+    transponder: str = Field(description="the other end (the transmitter of one-way observables): a spacecraft "
+                             "or ground station name")
     second_receiver: str | None = Field(None, description="the other receiver of a difference of arrival (tdoa, "
                                         "fdoa): value = second minus first")
-    observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1)
-    occultation: bool = False
+    observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1,
+                                              description="what the link measures, each at most once",
+                                              json_schema_extra=UNIQUE)
+    occultation: bool = Field(False, description="blank the epochs at which the Earth or the Moon blocks the line "
+                              "of sight")
     noise: LinkNoiseSpec | None = Field(None, description="this link's sigmas (default: the noise section's)")
 
     @field_validator("observables")
@@ -323,9 +404,15 @@ class TopologySpec(StrictModel):
     """`star`: the hub (mothercraft) receives from every other spacecraft; `mesh`: every pair is linked,
     the spacecraft listed first receiving. Expanded into `links` when the scenario is read."""
 
-    kind: Literal["star", "mesh"]
-    hub: str | None = None
-    observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1)
+    model_config = ConfigDict(json_schema_extra=schema_rules(when(equals("kind", "star"), given("hub"),
+                                                                  not_given("hub"))))
+
+    kind: Literal["star", "mesh"] = Field(description="star: the hub receives from every other spacecraft; mesh: "
+                                          "every pair is linked")
+    hub: str | None = Field(None, description="star: the receiving spacecraft (mothercraft)")
+    observables: list[ObservableName] = Field(default_factory=lambda: ["range"], min_length=1,
+                                              description="what every link measures, each at most once",
+                                              json_schema_extra=UNIQUE)
 
 
 def _expand_topology(data: dict) -> dict:
@@ -362,24 +449,29 @@ def _expand_topology(data: dict) -> dict:
 
 
 class LinkLegSpec(StrictModel):
-    distance_km: float = Field(gt=0)
-    frequency_mhz: float = Field(gt=0)
-    tx_power_dbw: float
-    tx_losses_db: float = Field(ge=0)
-    tx_antenna_gain_dbi: float
-    data_rate_bps: float = Field(gt=0)
-    rx_losses_db: float = Field(ge=0)
-    rx_g_over_t_db_k: float
-    margin_db: float = Field(0.0, ge=0)
-    code_rate: float = Field(1.0, gt=0, le=1)
+    """One direction of a crosslink (000 Table 2): EIRP, free-space loss and G/T give C/N0 and Es/N0."""
+
+    distance_km: float = Field(gt=0, description="transmitter-receiver distance (km)")
+    frequency_mhz: float = Field(gt=0, description="carrier frequency (MHz)")
+    tx_power_dbw: float = Field(description="transmitter power (dBW)")
+    tx_losses_db: float = Field(ge=0, description="transmitter losses (dB)")
+    tx_antenna_gain_dbi: float = Field(description="transmit antenna gain (dBi)")
+    data_rate_bps: float = Field(gt=0, description="information bit rate (bit/s)")
+    rx_losses_db: float = Field(ge=0, description="receiver losses (dB)")
+    rx_g_over_t_db_k: float = Field(description="receiver figure of merit G/T (dB/K)")
+    margin_db: float = Field(0.0, ge=0, description="design margin held back from Es/N0 (dB)")
+    code_rate: float = Field(1.0, gt=0, le=1, description="information bits per channel symbol, 1 = uncoded "
+                             "(dimensionless)")
 
     def leg(self) -> LinkLeg:
         return LinkLeg(**self.model_dump())
 
 
 class LinkBudgetSpec(StrictModel):
-    uplink: LinkLegSpec
-    downlink: LinkLegSpec
+    """Both legs of a two-way transponder link."""
+
+    uplink: LinkLegSpec = Field(description="receiver to transponder")
+    downlink: LinkLegSpec = Field(description="transponder back to the receiver")
 
 
 RANGING_METHODS = ("time_derived", "telemetry", "pn", "tone")
@@ -390,10 +482,11 @@ CLOCK_KEYS = ("ranging_clock_hz", "loop_bandwidth_hz", "ranging_power_fraction_d
 class CarrierSpec(StrictModel):
     """Carrier-phase observables of a two-way coherent link, from the link budget (001 Eq. 5, 9)."""
 
-    power_fraction_db: float = Field(le=0, description="residual carrier share of each leg's received power")
-    loop_bandwidth_hz: float = Field(gt=0, description="one-sided carrier PLL noise bandwidth at both ends")
-    doppler_count_s: float = Field(gt=0, description="Doppler count (integration) time")
-    turnaround_ratio: float = Field(TURNAROUND_S_BAND, gt=0, description="transponder downlink/uplink ratio")
+    power_fraction_db: float = Field(le=0, description="residual carrier share of each leg's received power (dB)")
+    loop_bandwidth_hz: float = Field(gt=0, description="one-sided carrier PLL noise bandwidth at both ends (Hz)")
+    doppler_count_s: float = Field(gt=0, description="Doppler count (integration) time (s)")
+    turnaround_ratio: float = Field(TURNAROUND_S_BAND, gt=0, description="transponder downlink/uplink frequency "
+                                    "ratio; default S-band 240/221 (dimensionless)")
 
     def sigmas(self, link_budget: "LinkBudgetSpec") -> dict:
         return carrier_sigmas_from_link_budget(
@@ -405,26 +498,42 @@ class NoiseSpec(StrictModel):
     """Range sigma: `sigma_m` directly, or `ranging_method` + `link_budget` (000 Eq. 1-4, 001 Eq. 62-63).
     Range-rate and LOS sigmas: directly, or from the link budget's carrier (`carrier`, 001 Eq. 5 and 9)."""
 
-    sigma_m: float | None = Field(None, gt=0)
-    ranging_method: RangingMethod | None = None
-    link_budget: LinkBudgetSpec | None = None
-    correlator_integration_s: float = Field(0.3, gt=0)
-    ranging_clock_hz: float | None = Field(None, gt=0, description="PN/telemetry clock, or the major tone")
-    loop_bandwidth_hz: float | None = Field(None, gt=0)
-    ranging_power_fraction_db: float | None = Field(None, le=0)
-    carrier: CarrierSpec | None = None
-    bias_m: float = 0.0
-    bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a random bias of this 1-sigma is added")
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        one_of(given("sigma_m"), given("ranging_method")),
+        when(given("ranging_method"), given("link_budget")),
+        when(given("carrier"), all_of(given("link_budget"), not_given("range_rate_sigma_m_s"),
+                                      not_given("los_path_sigma_m"))),
+        when(given("link_budget"), any_of(given("ranging_method"), given("carrier"))),
+        when(equals("ranging_method", "telemetry", "pn", "tone"), all_of(*map(given, CLOCK_KEYS))),
+        when(given("pn_chip_rate_offset_hz"), equals("ranging_method", "pn"))))
+
+    sigma_m: float | None = Field(None, gt=0, description="1-sigma of range-like channels (m)")
+    ranging_method: RangingMethod | None = Field(None, description="derive the range sigma from link_budget by "
+                                                 "this method instead of giving sigma_m")
+    link_budget: LinkBudgetSpec | None = Field(None, description="for ranging_method and carrier")
+    correlator_integration_s: float = Field(0.3, gt=0, description="correlator integration time (s)")
+    ranging_clock_hz: float | None = Field(None, gt=0, description="PN / telemetry ranging clock, or the major "
+                                           "tone (Hz)")
+    loop_bandwidth_hz: float | None = Field(None, gt=0, description="one-sided ranging clock / tone tracking loop "
+                                            "bandwidth (Hz)")
+    ranging_power_fraction_db: float | None = Field(None, le=0, description="share of the received uplink power in "
+                                                    "the ranging clock or tone (dB)")
+    carrier: CarrierSpec | None = Field(None, description="derive the range-rate and LOS sigmas from link_budget")
+    bias_m: float = Field(0.0, description="constant bias added to the range-like channels of every link in the "
+                          "truth (m)")
+    bias_sigma_m: float = Field(0.0, ge=0, description="per run and link, a random bias of this 1-sigma is added "
+                                "(m)")
     bias_distribution: Literal["normal", "uniform"] = Field(
         "normal", description="the per-run bias's law: normal, or uniform over +-sqrt(3) bias_sigma_m (003)")
     pn_chip_rate_offset_hz: float | None = Field(
-        None, description="PN ranging: received minus local chip rate; adds the constant bias of 000 Eq. 2")
-    range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels")
+        None, description="PN ranging: received minus local chip rate; adds the constant bias of 000 Eq. 2 (Hz)")
+    range_rate_sigma_m_s: float | None = Field(None, gt=0, description="1-sigma of range-rate channels (m/s)")
     los_path_sigma_m: float | None = Field(
-        None, gt=0, description="path-difference error across the receiver's baseline (LOS, 001 Eq. 8)")
-    tdoa_sigma_ns: float | None = Field(None, gt=0, description="1-sigma of TDoA channels (004 Table 3: 20 ns)")
-    fdoa_sigma_hz: float | None = Field(None, gt=0, description="1-sigma of FDoA channels (004 Table 3: 0.04 Hz)")
-    carrier_frequency_hz: float | None = Field(None, gt=0, description="the transmitter's carrier (FDoA)")
+        None, gt=0, description="path-difference error across the receiver's baseline (LOS, 001 Eq. 8) (m)")
+    tdoa_sigma_ns: float | None = Field(None, gt=0, description="1-sigma of TDoA channels (004 Table 3: 20 ns) (ns)")
+    fdoa_sigma_hz: float | None = Field(None, gt=0, description="1-sigma of FDoA channels (004 Table 3: 0.04 Hz) "
+                                        "(Hz)")
+    carrier_frequency_hz: float | None = Field(None, gt=0, description="the transmitter's carrier, for FDoA (Hz)")
 
     @model_validator(mode="after")
     def _one_source_of_sigma(self):
@@ -484,15 +593,15 @@ class NoiseSpec(StrictModel):
 class DualOneWayReceiverSpec(StrictModel):
     """A dual one-way ranging receiver (002 §2, Eq. 8-12): code (DLL) and carrier (PLL) tracking."""
 
-    carrier_frequency_hz: float = Field(gt=0)
-    c_n0_db_hz: float = Field(gt=0, le=100)
-    code_loop_bandwidth_hz: float = Field(gt=0, description="B_n of the DLL")
-    code_integration_s: float = Field(gt=0, description="predetection integration of the DLL")
-    front_end_bandwidth_hz: float = Field(gt=0, description="two-sided front-end bandwidth B_fe")
-    chip_rate_hz: float = Field(gt=0, description="spreading-code rate R_c")
+    carrier_frequency_hz: float = Field(gt=0, description="carrier frequency (Hz)")
+    c_n0_db_hz: float = Field(gt=0, le=100, description="received carrier-to-noise density C/N0 (dB-Hz)")
+    code_loop_bandwidth_hz: float = Field(gt=0, description="B_n of the DLL (Hz)")
+    code_integration_s: float = Field(gt=0, description="predetection integration of the DLL (s)")
+    front_end_bandwidth_hz: float = Field(gt=0, description="two-sided front-end bandwidth B_fe (Hz)")
+    chip_rate_hz: float = Field(gt=0, description="spreading-code rate R_c (chip/s)")
     correlator_spacing_s: float = Field(gt=0, description="early-to-late spacing D (s)")
-    doppler_bandwidth_hz: float = Field(gt=0, description="B_d of the PLL")
-    carrier_integration_s: float = Field(gt=0, description="coherent integration of the PLL")
+    doppler_bandwidth_hz: float = Field(gt=0, description="B_d of the PLL (Hz)")
+    carrier_integration_s: float = Field(gt=0, description="coherent integration of the PLL (s)")
 
     @model_validator(mode="after")
     def _spacing_below_two_chips(self):
@@ -547,8 +656,10 @@ class RangingLinkFile(StrictModel):
 
 
 class MeasurementSpec(StrictModel):
-    interval_s: float = Field(gt=0)
-    light_time: bool = True
+    """When every link measures, and how the truth is simulated."""
+
+    interval_s: float = Field(gt=0, description="time between measurement epochs, from t0 (s)")
+    light_time: bool = Field(True, description="simulate the truth with light time (false: instantaneous)")
 
 
 # The residual gate's warm-up (FilterSpec.residual_gate_after), by default none: the gate applies from the
@@ -565,42 +676,51 @@ GATE_AFTER_DEFAULT = 0
 
 
 class FilterSpec(StrictModel):
-    initial_sigma_position_m: float = Field(1000.0, gt=0)
-    initial_sigma_velocity_m_s: float = Field(0.01, gt=0)
-    process_noise_accel_m_s2: float = Field(1e-7, ge=0, description="SNC white acceleration sigma_a (m/s^2) of "
-                                            "every spacecraft (a spacecraft's own key overrides it)")
+    """The estimator's settings: a priori, process noise, health checks, the filter's measurement models."""
+
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        when(equals("bias", "estimate", "consider"), given("bias_apriori_sigma_m"))))
+
+    initial_sigma_position_m: float = Field(1000.0, gt=0, description="a-priori 1-sigma per position axis (m)")
+    initial_sigma_velocity_m_s: float = Field(0.01, gt=0, description="a-priori 1-sigma per velocity axis (m/s)")
+    process_noise_accel_m_s2: float = Field(1e-7, ge=0, description="SNC white acceleration sigma_a of every "
+                                            "spacecraft (a spacecraft's own key overrides it) (m/s^2)")
     process_noise_model: Literal["continuous_white_acceleration", "velocity_only"] = Field(
         "continuous_white_acceleration", description="how sigma_a becomes Q per step dt: continuous white "
         "acceleration (q = sigma_a^2 dt; Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis) or (sigma_a dt)^2 on "
         "the velocities only (the form before issue 26)")
-    divergence_position_km: float = Field(1e4, gt=0)
+    divergence_position_km: float = Field(1e4, gt=0, description="a run whose position error exceeds this is "
+                                          "stopped as diverged (km)")
     divergence_nees_factor: float = Field(
         100.0, ge=1, description="a run whose NEES stays above this many times its 99.9 % chi-square quantile "
-        "for divergence_window_days is diverged")
-    divergence_window_days: float = Field(1.0, gt=0)
-    rk4_substeps: int = Field(4, ge=1, le=256)
+        "for divergence_window_days is diverged (dimensionless)")
+    divergence_window_days: float = Field(1.0, gt=0, description="see divergence_nees_factor (days)")
+    rk4_substeps: int = Field(4, ge=1, le=256, description="RK4 steps of the filter's propagation per "
+                              "measurement interval (count)")
     range_model: Literal["geometric", "light_time"] = Field(
         "geometric", description="filter's two-way range: geometric (paper Eq. 17) or light-time corrected"
     )
     bias: Literal["ignore", "estimate", "consider"] = Field(
         "ignore", description="range bias per link: not modelled, estimated (augmented state) or considered"
     )
-    bias_apriori_sigma_m: float | None = Field(None, gt=0, description="a-priori 1-sigma of each link's bias")
+    bias_apriori_sigma_m: float | None = Field(None, gt=0, description="a-priori 1-sigma of each link's bias (m)")
     underweighting: float = Field(
         0.0, ge=0, le=10, description="Lear's underweighting beta of the EKF gain, K = P H' ((1+beta) H P H' + R)^-1: "
-        "keeps a large a-priori error from being corrected on a linearisation not yet good (e.g. 0.2)")
+        "keeps a large a-priori error from being corrected on a linearisation not yet good (e.g. 0.2) "
+        "(dimensionless)")
     settle_days: float = Field(
-        1.0, ge=0, description="days after t0 from which consistency is judged (error RMS against sigma RMS, NEES "
+        1.0, ge=0, description="time after t0 from which consistency is judged (error RMS against sigma RMS, NEES "
         "in its 95 % band): the a-priori transient is left out. Default 1 d: from the papers' a priori (1 km, "
-        "1 cm/s) the halo and lunar filters settle within the first day, and it keeps the after-day-1 columns")
+        "1 cm/s) the halo and lunar filters settle within the first day, and it keeps the after-day-1 columns "
+        "(days)")
     residual_gate_sigma: float | None = Field(
         None, gt=0, description="EKF residual editing (unit: standard deviations of the innovation): a scalar "
         "measurement whose pre-fit innovation exceeds this many sqrt(H P H' + R) is rejected (no update) and "
-        "counted; absent or null: no gate. 5 rejects 5.7e-7 of clean Gaussian data, 3 rejects 0.27 %")
+        "counted; absent or null: no gate. 5 rejects 5.7e-7 of clean Gaussian data, 3 rejects 0.27 % (sigma)")
     residual_gate_after: int = Field(
         GATE_AFTER_DEFAULT, ge=0, le=10**9, description="the gate applies once the filter has accepted this many "
         "measurements (unit: scalar measurements, all links together); default 0: from the first, the a-priori "
-        "spread being part of the gate's; raise it only for a P0 that understates the initial error")
+        "spread being part of the gate's; raise it only for a P0 that understates the initial error (count)")
     smoother: Literal["none", "rts"] = Field(
         "none", description="rts: also run the Rauch-Tung-Striebel fixed-interval smoother over each EKF pass "
         "(smoothed errors and sigma in the outputs: 003's reconstructed trajectory); keeps three n x n matrices "
@@ -621,15 +741,16 @@ class EphemerisSpec(StrictModel):
 
     epoch_utc: str = Field(description="ISO 8601, UTC (e.g. 2011-11-26T15:52:12.383); a UTC offset "
                            "(2011-11-26T20:52:12+05:00) is converted to UTC")
-    cr: float = Field(1.5, gt=0, description="coefficient of reflectivity (003: 1.5)")
-    area_to_mass_m2_kg: float = Field(0.01, ge=0, description="area-to-mass ratio (003: 0.01 m^2/kg)")
-    node_spacing_days: float = Field(1.0, gt=0, description="patch-point spacing for catalog orbits")
+    cr: float = Field(1.5, gt=0, description="coefficient of reflectivity C_R (003: 1.5) (dimensionless)")
+    area_to_mass_m2_kg: float = Field(0.01, ge=0, description="area-to-mass ratio (003: 0.01) (m^2/kg)")
+    node_spacing_days: float = Field(1.0, gt=0, description="patch-point spacing of the multiple shooting that "
+                                     "corrects catalog and family orbits into the dated model (days)")
     cr_error_sigma: float = Field(0.0, ge=0, lt=1, description="per run, the filter's C_R is the truth's times "
-                                  "(1 + N(0, cr_error_sigma)) (003: 0.05)")
+                                  "(1 + N(0, cr_error_sigma)) (003: 0.05) (dimensionless)")
     filter_bodies: list[ThirdBodyName] = Field(
         default_factory=lambda: ["moon", "sun"],
         description="third bodies in the filter's model beside the Earth (the truth has them all; 003: the Moon "
-        "and the Sun)")
+        "and the Sun)", json_schema_extra=UNIQUE)
 
     @field_validator("filter_bodies")
     @classmethod
@@ -663,15 +784,18 @@ class BatchSpec(StrictModel):
     measurements of the first `span_days`, predicted `prediction_hours` past the span (002's DRMS window).
     The scenario's epochs end at span + prediction (duration_days must cover them)."""
 
-    span_days: float = Field(gt=0, description="data span of the solve, from t0")
-    prediction_hours: float = Field(3.0, ge=0, description="prediction after the span for the DRMS metrics")
-    max_iterations: int = Field(10, ge=1, le=100)
-    tolerance_m: float = Field(1e-3, gt=0, description="converged when no position correction exceeds this")
+    model_config = ConfigDict(json_schema_extra=schema_rules(when(at_least("windows", 2), given("renewal_hours"))))
+
+    span_days: float = Field(gt=0, description="data span of the solve, from t0 (days)")
+    prediction_hours: float = Field(3.0, ge=0, description="prediction after the span for the DRMS metrics (h)")
+    max_iterations: int = Field(10, ge=1, le=100, description="Gauss-Newton iterations at most (count)")
+    tolerance_m: float = Field(1e-3, gt=0, description="converged when no position correction exceeds this (m)")
     apriori: bool = Field(False, description="add the filter's initial covariance as a-priori information")
     jacobian: Literal["first_iteration", "every_iteration"] = Field(
         "first_iteration", description="STM from the first iteration's reference (frozen) or recomputed each time")
-    windows: int = Field(1, ge=1, le=1000, description="sliding windows, each span_days long")
-    renewal_hours: float | None = Field(None, gt=0, description="window start spacing (needed with windows > 1)")
+    windows: int = Field(1, ge=1, le=1000, description="sliding windows, each span_days long (count)")
+    renewal_hours: float | None = Field(None, gt=0, description="window start spacing, a whole number of "
+                                        "measurement intervals (needed with windows > 1) (h)")
 
     @model_validator(mode="after")
     def _renewal(self):
@@ -692,47 +816,72 @@ class ClockSyncSpec(StrictModel):
     """Synchronisation by a polynomial fit to the clock offsets of dual one-way links (002 §4), over a window
     ending at the end of the data span (the batch span, else the scenario's end), then predicted."""
 
-    window_hours: float = Field(3.0, gt=0)
-    prediction_hours: float = Field(3.0, ge=0)
-    degree: int = Field(2, ge=0, le=3, description="2: a0 + a1 (t - t0) + a2 (t - t0)^2")
+    window_hours: float = Field(3.0, gt=0, description="length of the fit window, at least two measurement "
+                                "intervals (h)")
+    prediction_hours: float = Field(3.0, ge=0, description="prediction after the window (h)")
+    degree: int = Field(2, ge=0, le=3, description="polynomial degree, 2: a0 + a1 (t - t0) + a2 (t - t0)^2 "
+                        "(dimensionless)")
 
 
 class InitialErrorSpec(StrictModel):
     """`fixed_sigma`: independent normal errors with the sigmas below (the paper's Monte Carlo);
     `from_covariance`: drawn from the filter's own P0 (for NEES consistency checks)."""
 
-    draw: Literal["fixed_sigma", "from_covariance"] = "fixed_sigma"
-    sigma_position_m: float = Field(500.0, ge=0)
-    sigma_velocity_m_s: float = Field(0.001, ge=0)
+    draw: Literal["fixed_sigma", "from_covariance"] = Field("fixed_sigma", description="fixed_sigma: the sigmas "
+                                                            "below; from_covariance: the filter's P0")
+    sigma_position_m: float = Field(500.0, ge=0, description="fixed_sigma: 1-sigma per position axis (m)")
+    sigma_velocity_m_s: float = Field(0.001, ge=0, description="fixed_sigma: 1-sigma per velocity axis (m/s)")
 
 
 class MonteCarloSpec(StrictModel):
-    runs: int = Field(ge=1, le=MAX_RUNS)
-    seed: int = Field(ge=0)
+    """How many runs, and the seed every run's random numbers derive from (with the run index)."""
+
+    runs: int = Field(ge=1, le=MAX_RUNS, description="Monte Carlo runs; `liaison run --runs` overrides (count)")
+    seed: int = Field(ge=0, description="master seed; a run's numbers depend on (scenario, seed, run index) only "
+                      "(integer)")
 
 
 class Scenario(StrictModel):
-    name: str = Field(pattern=NAME_PATTERN)
-    description: str = ""
-    duration_days: float = Field(gt=0, le=365)
-    spacecraft: list[SpacecraftSpec] = Field(min_length=1)
-    ground_stations: list[GroundStationSpec] = Field(default_factory=list)
-    links: list[LinkSpec] = Field(min_length=1)
+    """A Monte Carlo campaign: who flies where, who measures whom, how the filter runs, how many runs."""
+
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        any_of(given("links"), given("topology")),
+        together(equals("estimator", "batch"), "batch"),
+        when(equals("dynamics", "ephemeris"),
+             all_of(given("ephemeris"), negate(equals("estimator", "batch")),
+                    each("spacecraft", negate(equals("orbit", KEPLERIAN_ORBIT)))),
+             all_of(not_given("ephemeris"), each("spacecraft", negate(equals("orbit", *DATED_ONLY_ORBITS))),
+                    each("ground_stations", not_given("site")))),
+        optional=("links",)))
+
+    name: str = Field(pattern=NAME_PATTERN, description="the result folder's default name (results/<name>); "
+                      "letters, digits, '_', '.', '-'")
+    description: str = Field("", description="one line for people")
+    duration_days: float = Field(gt=0, le=365, description="span from t0 to the last measurement epoch (days)")
+    spacecraft: list[SpacecraftSpec] = Field(min_length=1, description="at least one with role: estimated",
+                                             json_schema_extra={"contains": negate(equals("role", "known"))})
+    ground_stations: list[GroundStationSpec] = Field(default_factory=list, description="stations on the Earth")
+    links: list[LinkSpec] = Field(min_length=1, description="who measures whom (or give topology)")
     station_priority: list[str] | None = Field(
         None, description="one ground observation per epoch and spacecraft: of the stations that see it, only the "
         "first measures (003: Goldstone, Madrid, Canberra). Stations not listed rank after the listed ones, in "
-        "ground_stations order (a partial list orders the first few; every station still obeys the rule)")
-    dynamics: Literal["crtbp", "ephemeris"] = "crtbp"
-    ephemeris: EphemerisSpec | None = None
-    estimator: Literal[tuple(estimator_names())] = "ekf"
-    batch: BatchSpec | None = None
-    clock_sync: ClockSyncSpec | None = None
-    topology: TopologySpec | None = None
-    measurement: MeasurementSpec
-    noise: NoiseSpec
-    filter: FilterSpec = FilterSpec()
-    initial_error: InitialErrorSpec = InitialErrorSpec()
-    monte_carlo: MonteCarloSpec
+        "ground_stations order (a partial list orders the first few; every station still obeys the rule)",
+        json_schema_extra=UNIQUE)
+    dynamics: Literal["crtbp", "ephemeris"] = Field("crtbp", description="crtbp: the Earth-Moon CRTBP, undated; "
+                                                    "ephemeris: DE421 point masses + SRP from ephemeris.epoch_utc")
+    ephemeris: EphemerisSpec | None = Field(None, description="dynamics: ephemeris: the epoch and SRP")
+    estimator: Literal[tuple(estimator_names())] = Field("ekf", description="ekf: the extended Kalman filter; "
+                                                         "batch: least squares (with a batch section)")
+    batch: BatchSpec | None = Field(None, description="estimator: batch: its span and settings")
+    clock_sync: ClockSyncSpec | None = Field(None, description="clock synchronisation by a polynomial fit to "
+                                             "dual_one_way_derived clock offsets")
+    topology: TopologySpec | None = Field(None, description="star or mesh links, expanded into links when read")
+    measurement: MeasurementSpec = Field(description="measurement epochs and the truth's light time")
+    noise: NoiseSpec = Field(description="measurement noise and biases of every link (a link's noise overrides)")
+    filter: FilterSpec = Field(FilterSpec(), description="the estimator's settings")
+    initial_error: InitialErrorSpec = Field(InitialErrorSpec(), description="how each run's initial state error "
+                                            "is drawn")
+    monte_carlo: MonteCarloSpec = Field(description="runs and seed")
 
     @model_validator(mode="before")
     @classmethod
@@ -931,6 +1080,7 @@ class Scenario(StrictModel):
         if start < lo or start + self.duration_days * SECONDS_PER_DAY > hi:
             raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} plus {self.duration_days:g} d is "
                              "outside DE421 (1899-07-29 to 2053-10-09)")
+        self._check_earth_orientation()
         if self.estimator != "ekf":
             raise ValueError("dynamics: ephemeris runs the ekf today (estimator: ekf)")
         timed = [o for link in self.links for o in link.observables if not OBSERVABLES[o].light_time_from_states]
@@ -948,6 +1098,19 @@ class Scenario(StrictModel):
             if sc.orbit == KEPLERIAN_ORBIT:
                 raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog or "
                                  f"family orbit (corrected into the dated model), {', '.join(DATED_ONLY_ORBITS)}")
+
+    def _check_earth_orientation(self):
+        """Ground stations and geostationary spacecraft turn with the Earth: their epochs need the IERS table
+        (dynamics.iers_eop), which begins on 1973-01-02; later epochs past its end run by a stated rule."""
+        turning = self.ground_stations or any(sc.orbit == GEOSTATIONARY_ORBIT for sc in self.spacecraft)
+        if not turning or self.ephemeris.epoch().year > 1973:  # reading the table costs 0.25 s: only near its start
+            return
+        from liaison_cli.dynamics.iers_eop import first_day
+
+        if self.ephemeris.epoch() < first_day():
+            raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} is before the IERS Earth orientation "
+                             f"table ({first_day():%Y-%m-%d}), which ground stations and geostationary spacecraft "
+                             "need; allowed: an epoch from then on")
 
     def _check_departures(self):
         from datetime import timedelta
@@ -1100,11 +1263,22 @@ def _read_bounded(path: Path) -> str:
         raise ScenarioError(f"{path}: cannot read the scenario ({exc.__class__.__name__}: {exc})") from None
 
 
+class _YamlLoader(yaml.SafeLoader):
+    """safe_load, with 1e5 and 1.0e5 read as numbers, as YAML 1.2 and editors read them (PyYAML's YAML 1.1
+    rule wants a dot and a signed exponent, 1.0e+5, and gave the text '1.0e5', which only pydantic's coercion
+    turned into a number: the JSON Schema saw a string where the editor saw a number)."""
+
+
+_YamlLoader.add_implicit_resolver("tag:yaml.org,2002:float",
+                                  re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+                                  list("-+0123456789"))
+
+
 def read_scenario_text(path) -> tuple[dict, str]:
     path = Path(path)
     text = _read_bounded(path)
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_YamlLoader)  # a SafeLoader: no Python objects from the file
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -1123,6 +1297,21 @@ def load_link_file(path) -> RangingLinkFile:
     """Read and validate a `liaison budget` link file."""
     data, _ = read_scenario_text(path)
     return validate_scenario(data, str(path), RangingLinkFile)
+
+
+LINK_FILE_KEYS = ("link_budget", "dual_one_way")  # top-level keys of a link file, never of a scenario
+
+
+def check_file(path) -> str:
+    """Every check `liaison run` makes of a scenario before it computes (reading, keys, values, the rules
+    between them, dates, orbit families' ranges), or `liaison budget` of a link file; nothing is propagated
+    or compiled. Returns what the file is ('scenario' or 'link file'); a problem raises ScenarioError."""
+    data, _ = read_scenario_text(path)
+    if isinstance(data, dict) and "spacecraft" not in data and any(k in data for k in LINK_FILE_KEYS):
+        validate_scenario(data, str(path), RangingLinkFile)
+        return "link file"
+    validate_scenario(data, str(path))
+    return "scenario"
 
 
 def apply_overrides(scenario: Scenario, overrides: dict, source: str = "<override>") -> Scenario:
