@@ -124,7 +124,7 @@ def run(
         f"sigma {problem.sigma_m:.1f} m, {span}, seed {config.monte_carlo.seed}"
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
-    typer.echo(_format_consistency(summary, problem.spacecraft, config.filter.settle_days))
+    typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
     smoothed = _format_smoothed(summary, problem.spacecraft)
     if smoothed:
         typer.echo(smoothed)
@@ -425,7 +425,7 @@ def study003(
             draw_mission(history_, name, stage)
         draw_comparison(history_, stage)
 
-    table = format_table(summary, [k for k, _ in axes], first.filter.settle_days)
+    table = format_table(summary, [k for k, _ in axes], first.settle_days())
     _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
 
 

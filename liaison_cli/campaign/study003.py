@@ -103,7 +103,7 @@ def tuning(scenario: Scenario) -> str:
     gate = f"{flt.residual_gate_sigma:g} sigma" if flt.residual_gate_sigma else "off"
     return (f"SNC sigma_a {snc} m/s^2 ({flt.process_noise_model}), underweighting beta {flt.underweighting:g}, "
             f"a priori {flt.initial_sigma_position_m:g} m / {flt.initial_sigma_velocity_m_s:g} m/s, residual gate "
-            f"{gate}, settle {flt.settle_days:g} d")
+            f"{gate}, settle {scenario.settle_days():g} d")
 
 
 def _statistics(result, mission: str, case: str) -> CaseResult:
@@ -114,7 +114,7 @@ def _statistics(result, mission: str, case: str) -> CaseResult:
         raise StudyError(f"{mission} {case}: no run finished ({'; '.join(reasons)})")
     who = roles(problem.scenario)
     t_days = problem.times_s / SECONDS_PER_DAY
-    settled = problem.times_s >= problem.scenario.filter.settle_days * SECONDS_PER_DAY
+    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
     rows, history = [], []
     for k, name in enumerate(problem.spacecraft):
         stats = {"mission": mission, "case": case, "spacecraft": name, "role": who[name],

@@ -134,7 +134,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         err, sigma = history.err, history.sigma
         summary, norms = summary_rows(problem.times_s, err[:, :n_dyn], sigma[:, :n_dyn], problem.spacecraft,
                                       M_PER_LU, M_S_PER_VU, data_end_step=history.data_end_step,
-                                      settle_s=problem.scenario.filter.settle_days * SECONDS_PER_DAY,
+                                      settle_s=problem.scenario.settle_days() * SECONDS_PER_DAY,
                                       nees=history.nees, n_nees=problem.filter.n_nees)
         _add_estimator_extras(summary, history.extras)
         _add_smoothed(problem, history, summary, norms, n_dyn)

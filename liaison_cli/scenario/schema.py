@@ -708,11 +708,11 @@ class FilterSpec(StrictModel):
         0.0, ge=0, le=10, description="Lear's underweighting beta of the EKF gain, K = P H' ((1+beta) H P H' + R)^-1: "
         "keeps a large a-priori error from being corrected on a linearisation not yet good (e.g. 0.2) "
         "(dimensionless)")
-    settle_days: float = Field(
-        1.0, ge=0, description="time after t0 from which consistency is judged (error RMS against sigma RMS, NEES "
-        "in its 95 % band): the a-priori transient is left out. Default 1 d: from the papers' a priori (1 km, "
-        "1 cm/s) the halo and lunar filters settle within the first day, and it keeps the after-day-1 columns "
-        "(days)")
+    settle_days: float | None = Field(
+        None, ge=0, description="time after t0 from which consistency is judged (error RMS against sigma RMS, NEES "
+        "in its 95 % band): the a-priori transient is left out. Default (absent): 1 d, or half the scenario when it "
+        "is shorter than 2 d. From the papers' a priori (1 km, 1 cm/s) the halo and lunar filters settle within "
+        "the first day, and 1 d keeps the after-day-1 columns' meaning (days)")
     residual_gate_sigma: float | None = Field(
         None, gt=0, description="EKF residual editing (unit: standard deviations of the innovation): a scalar "
         "measurement whose pre-fit innovation exceeds this many sqrt(H P H' + R) is rejected (no update) and "
@@ -927,7 +927,7 @@ class Scenario(StrictModel):
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
                 f"{self.duration_days} d scenario"
             )
-        if self.filter.settle_days >= self.epochs_end_days():
+        if self.filter.settle_days is not None and self.filter.settle_days >= self.epochs_end_days():
             raise ValueError(f"filter.settle_days = {self.filter.settle_days:g} leaves no epoch to judge: it must be "
                              f"shorter than the scenario's {self.epochs_end_days():g} d")
         self._check_epoch_count()
@@ -1143,6 +1143,12 @@ class Scenario(StrictModel):
                              f"measurement intervals ({self.measurement.interval_s:g} s)")
         if not any(OBSERVABLES[o].clock_offset_channel >= 0 for link in self.links for o in link.observables):
             raise ValueError("clock_sync needs a link that measures clock offsets (observable dual_one_way_derived)")
+
+    def settle_days(self) -> float:
+        """filter.settle_days, or its default: 1 d, or half the scenario's epochs when they span less than 2 d."""
+        if self.filter.settle_days is not None:
+            return self.filter.settle_days
+        return min(1.0, 0.5 * self.epochs_end_days())
 
     def data_end_days(self) -> float:
         """Where the estimator's data end: the batch span, else the whole scenario."""
