@@ -198,7 +198,7 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
                                                       scenario.ephemeris.epoch(), times_s)
             else:
                 out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
-                                                       times_tu))
+                                                       times_tu), times_tu)
         for st in scenario.ground_stations:
             out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
                                                   scenario.ephemeris.epoch(), times_s)
