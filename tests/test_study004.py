@@ -23,7 +23,7 @@ def test_receivers_of_table_2():
                      np.moveaxis(problem.filter.known_states, 1, 0)))
     for name in ("GEO130W", "GEO170W"):
         r_km = np.linalg.norm(known[name][:, :3], axis=1) * LU_KM
-        v_km_s = np.linalg.norm(known[name][:, 3:], axis=1) * VU_KM_S
+        v_km_s = np.linalg.norm(known[name][:, 3:6], axis=1) * VU_KM_S  # then the accelerations (tdoa)
         assert np.allclose(r_km, 42164.17, atol=0.5) and np.allclose(v_km_s, 3.0747, atol=1e-3)
     geo_baseline = np.linalg.norm(known["GEO130W"][:, :3] - known["GEO170W"][:, :3], axis=1) * LU_KM
     assert np.allclose(geo_baseline, 2 * 42164.17 * np.sin(np.radians(20.0)), rtol=1e-4)  # 28,842 km

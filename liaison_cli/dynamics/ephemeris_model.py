@@ -6,11 +6,13 @@ propagator needs (the DE421 window, third bodies, GMs, C_R A/m, the epoch) is pa
 parameter vector, so compiled estimators take it as a plain array.
 """
 
+from functools import cached_property
+
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
-from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
+from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
+from liaison_cli.dynamics.ephemeris_dynamics import ephemeris_derivative, rk8_ephemeris
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
 MODEL_EPHEMERIS = 1  # its code behind the dynamics interface (dynamics.model)
@@ -73,17 +75,46 @@ def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
 
 
 
-class SampledTrajectory:
-    """Sampled states (m, 6) in the estimators' scaled units (instantaneous measurement models only)."""
+@njit(cache=True)
+def ephemeris_accelerations_scaled(params, states, times_tu):
+    """The field's accelerations (m, 3), LU/TU^2, at scaled states (m, 6) and times_tu (m,) past the epoch."""
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    out = np.empty((states.shape[0], 3))
+    y = np.empty(6)
+    dy = np.empty(6)
+    for k in range(states.shape[0]):
+        for i in range(6):
+            y[i] = states[k, i] * SCALE[i]
+        ephemeris_derivative(epoch + times_tu[k] * TU_S, y, coeffs, start_s, interval_s, n_records, bodies, gms,
+                             gm_earth, cr_am, False, dy)
+        for i in range(3):
+            out[k, i] = dy[3 + i] / AU_KM_S2
+    return out
 
-    def __init__(self, states):
+
+class SampledTrajectory:
+    """Sampled states (m, 6) in the estimators' scaled units, geocentric ICRF (an inertial frame), at
+    times_tu (m,) past the epoch of the packed parameters `params` (the truth's field)."""
+
+    rotating_frame = False
+
+    def __init__(self, states, params=None, times_tu=None):
         self.states = np.asarray(states, dtype=float)
+        self.params, self.times_tu = params, times_tu
+
+    @cached_property
+    def accelerations(self) -> np.ndarray:
+        """(m, 3) the truth field's accelerations at the samples (what moves a TDoA end over its light time)."""
+        if self.params is None:
+            raise ValueError("SampledTrajectory: accelerations need the model's parameters and the sample times")
+        return ephemeris_accelerations_scaled(self.params, self.states, np.asarray(self.times_tu, dtype=float))
 
 
 class EphemerisDynamicsModel:
     """The DynamicsModel of a dated scenario: code, packed parameters, and the adaptive truth."""
 
     name = "ephemeris"
+    rotating_frame = False  # geocentric ICRF (measurements.tdoa)
 
     def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None):
         """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all)."""
@@ -112,5 +143,5 @@ class EphemerisDynamicsModel:
                              self.gm_earth, self.cr_am)
         return km / SCALE
 
-    def trajectory(self, states):
-        return SampledTrajectory(states)
+    def trajectory(self, states, times_tu):
+        return SampledTrajectory(states, self.params, times_tu)

@@ -44,6 +44,8 @@ def _rotate_z(vectors, angles):
 class GroundStationTrajectory:
     """A station's rotating-frame states (m, 6) and up vectors (m, 3) at times_tu (m,)."""
 
+    rotating_frame = True
+
     def __init__(self, latitude_deg, longitude_deg, altitude_m, times_tu):
         body_km, up = geodetic_to_body_km(latitude_deg, longitude_deg, altitude_m)
         self.body_lu = body_km / LU_KM
@@ -60,6 +62,14 @@ class GroundStationTrajectory:
         rel = _rotate_z(np.broadcast_to(self.body_lu, (len(times_tu), 3)), self._angle(times_tu))
         velocity = EARTH_RATE_IN_ROTATING_FRAME_RAD_TU * np.stack([-rel[:, 1], rel[:, 0], np.zeros(len(rel))], axis=1)
         return np.hstack([rel + np.asarray(EARTH_POSITION_LU), velocity])
+
+    @property
+    def accelerations(self) -> np.ndarray:
+        """(m, 3) rotating-frame accelerations: the centripetal w^2 of the station's turn about the Earth's
+        axis at w = EARTH_RATE_IN_ROTATING_FRAME_RAD_TU (the frame's own turn is not in it)."""
+        rel = self.states[:, 0:3] - np.asarray(EARTH_POSITION_LU)
+        w2 = EARTH_RATE_IN_ROTATING_FRAME_RAD_TU**2
+        return np.stack([-w2 * rel[:, 0], -w2 * rel[:, 1], np.zeros(len(rel))], axis=1)
 
     def inertial_position_before(self, dt_back_tu):
         """Exact: the station's rotating-frame position at t - dt, turned into the inertial frame of t."""

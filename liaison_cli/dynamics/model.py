@@ -117,7 +117,10 @@ class DynamicsModel:
         """The parameters of the filter's own model: the CRTBP's are the truth's."""
         return self.params
 
-    def trajectory(self, states):
+    rotating_frame = True  # the states' frame turns at 1 rad/TU about z (measurements.tdoa)
+
+    def trajectory(self, states, times_tu=None):
+        """The sampled truth of one spacecraft (the CRTBP is autonomous: times_tu is not needed)."""
         return CrtbpTrajectory(states, self.params[0])
 
     def rk8_step_counts(self, positions_lu, dt_tu: float) -> np.ndarray:

@@ -3,20 +3,39 @@
 A trajectory has `.states` (m, 6) in the rotating frame at the epochs, and
 `.inertial_position_before(dt_back_tu)`: where the participant was dt_back earlier, expressed in the
 inertial frame aligned with the rotating frame at each epoch (what light-time solutions need).
+`.accelerations` (m, 3): d(velocity)/dt in the frame of `.states` (LU/TU^2), and `.rotating_frame`: that
+frame turns at 1 rad/TU about z (the CRTBP frame) or is inertial (the dated scenarios' GCRF). The TDoA /
+FDoA light-time model moves its ends to their emission and arrival times with them
+(measurements.tdoa).
 """
+
+from functools import cached_property
 
 import numpy as np
 
 from liaison_cli.dynamics.crtbp import derivative
 
 
+def states_with_accelerations(trajectory) -> np.ndarray:
+    """(m, 9): the trajectory's states, then its accelerations (the layout of a known participant's row
+    when a three-end light-time channel reads it: measurements.tdoa)."""
+    return np.hstack([trajectory.states, trajectory.accelerations])
+
+
 class CrtbpTrajectory:
     """A spacecraft moving in the CRTBP: positions dt_back earlier by a 2nd-order Taylor step
     (light times are below 1e-5 TU, so the third-order term is below a millimetre)."""
 
+    rotating_frame = True
+
     def __init__(self, states, mu):
         self.states = np.asarray(states, dtype=float)
         self.mu = mu
+
+    @cached_property
+    def accelerations(self) -> np.ndarray:
+        """(m, 3) rotating-frame accelerations (Eq. 6-8, Coriolis and centrifugal terms included)."""
+        return np.array([derivative(s, self.mu)[3:6] for s in self.states]).reshape(-1, 3)
 
     def inertial_position_before(self, dt_back_tu):
         states = self.states

@@ -41,9 +41,9 @@ class BatchArrays:
 class FilterArrays:
     """All in filter units (LU, TU, rad). n states, C channels, K known participants, m epochs.
 
-    layout: StateLayout; P0, Q (n, n); known_states (m, K, 6); channel_kind (C,), channel_ends (C, 4),
-    channel_flags (C,), channel_mod_index / channel_mod_coeff (C, M), sigma (C,); model / model_params:
-    dynamics; dt_tu, substeps: step and RK4 substeps; divergence_position_lu: health bound.
+    layout: StateLayout; P0, Q (n, n); known_states (m, K, 6), or (m, K, 9) with the accelerations a
+    light-time TDoA reads (measurements.tdoa); channel_kind (C,), channel_ends (C, 4), channel_flags (C,),
+    channel_mod_index / channel_mod_coeff (C, M), sigma (C,); model / model_params: dynamics; dt_tu, substeps: step and RK4 substeps; divergence_position_lu: health bound.
     """
 
     layout: StateLayout

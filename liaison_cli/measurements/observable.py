@@ -11,6 +11,11 @@ of the two ends. Nothing outside `measurements/` branches on an observable's kin
 from dataclasses import dataclass
 from typing import Callable
 
+# Channel flag (bit 1; FLAG_LIGHT_TIME is bit 0, measurements.range): the ends' states are in the CRTBP
+# frame, turning at 1 rad/TU about z, not an inertial one. Set on every channel of a CRTBP scenario; the
+# light-time TDoA / FDoA turns its ends into the inertial frame of the epoch with it (measurements.tdoa).
+FLAG_ROTATING_FRAME = 2
+
 
 @dataclass(frozen=True)
 class ChannelKind:
@@ -34,6 +39,8 @@ class Observable:
     tuple of pairs, one per channel (dual one-way: the second pseudorange is timed by the other end).
     needs_receiver_clock / needs_both_clocks / needs_receiver_baseline: what the ends must carry;
     needs_second_receiver: the link names a second receiver (a third end) and simulate takes its trajectory.
+    end_accelerations: the known participants' rows in the filter carry their accelerations after their
+    states, (9,) instead of (6,) (dynamics.trajectory.states_with_accelerations).
     clock_offset_channel: index of the channel that measures the ends' clock offset (for synchronisation
     by a clock fit), or -1.
     """
@@ -49,7 +56,8 @@ class Observable:
     clock_offset_channel: int = -1
     needs_receiver_baseline: bool = False
     needs_second_receiver: bool = False  # a three-end channel (TDoA / FDoA): simulate(..., second=trajectory)
-    light_time_from_states: bool = False  # its light-time model needs only the ends' states (any frame)
+    light_time_from_states: bool = False  # its light-time truth needs the ends' states and accelerations only
+    end_accelerations: bool = False  # the filter's light-time model reads known ends' accelerations (below)
     filter_flags: Callable = lambda filter_spec: 0  # model options of the filter's prediction, as bit flags
     missing_noise: Callable = lambda noise: None  # what the noise section lacks for this observable, or None
     description: str = ""

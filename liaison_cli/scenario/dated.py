@@ -19,7 +19,7 @@ from datetime import timedelta
 
 import numpy as np
 
-from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.dynamics.constants import AU_KM_S2, EARTH_ROTATION_RATE_RAD_S, SECONDS_PER_DAY
 from liaison_cli.dynamics.earth_rotation import itrf_to_gcrf_many, stations_gcrf
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
@@ -109,12 +109,19 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
 
 class DatedStationTrajectory:
     """A station's GCRF states (m, 6) in scaled units and its up vectors (m, 3) at the scenario's epochs.
-    The Earth's orientation at those epochs is computed once per scenario and shared by its stations."""
+    The Earth's orientation at those epochs is computed once per scenario and shared by its stations.
+    Accelerations (m, 3), LU/TU^2: the centripetal a = w x v of the Earth's spin w about its axis (the
+    ITRF z axis turned into the GCRF), as the velocity is w x r (dynamics.earth_rotation.stations_gcrf)."""
+
+    rotating_frame = False
 
     def __init__(self, latitude_deg, longitude_deg, altitude_m, epoch_utc, times_s):
-        r, v, up = stations_gcrf(latitude_deg, longitude_deg, altitude_m, _earth_orientation(epoch_utc, times_s))
+        rotations = _earth_orientation(epoch_utc, times_s)
+        r, v, up = stations_gcrf(latitude_deg, longitude_deg, altitude_m, rotations)
         self.states = np.hstack([r, v]) / SCALE
         self.up = up
+        spin_rad_s = EARTH_ROTATION_RATE_RAD_S * rotations[:, :, 2]
+        self.accelerations = np.cross(spin_rad_s, v) / AU_KM_S2
 
 
 _ORIENTATION: dict = {}

@@ -13,10 +13,12 @@ from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.dynamics.ground_station import GroundStationTrajectory
 from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
+from liaison_cli.dynamics.trajectory import states_with_accelerations
 from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
 from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
 from liaison_cli.estimation.process_noise import spacecraft_process_noise
+from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
 from liaison_cli.scenario.reference_states import initial_state_lu
@@ -199,7 +201,7 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
                                                       scenario.ephemeris.epoch(), times_s)
             else:
                 out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
-                                                       times_tu))
+                                                       times_tu), times_tu)
         for st in scenario.ground_stations:
             out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
                                                   scenario.ephemeris.epoch(), times_s)
@@ -497,14 +499,19 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
     names = scenario.spacecraft_names()
     known = [sc.name for sc in scenario.spacecraft if sc.role == "known"] + [st.name for st in scenario.ground_stations]
     index_of_known = {name: i for i, name in enumerate(known)}
-    known_states = np.zeros((len(times_s), len(known), 6))
+    # A three-end light-time channel moves known ends over the light time: their rows carry accelerations.
+    with_accelerations = any(OBSERVABLES[o].end_accelerations for link in scenario.links for o in link.observables)
+    known_states = np.zeros((len(times_s), len(known), 9 if with_accelerations else 6))
     for name, i in index_of_known.items():
-        known_states[:, i] = trajectories[name].states
+        trajectory = trajectories[name]
+        known_states[:, i] = states_with_accelerations(trajectory) if with_accelerations else trajectory.states
     layout = _layout(scenario)
     burns, manoeuvres = _manoeuvres(scenario, layout)
     channels = _channels(scenario)
     P0, Q = _matrices(scenario, layout)
     ends, flags, mod_index, mod_coeff = _channel_tables(scenario, channels, layout, index_of_known)
+    if model.rotating_frame:
+        flags |= FLAG_ROTATING_FRAME
     flt = scenario.filter
     arrays = FilterArrays(
         layout=layout, P0=P0, Q=Q, known_states=known_states,
