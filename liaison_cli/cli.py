@@ -87,6 +87,11 @@ def user_errors(func):
         except KeyboardInterrupt:
             interrupts.ignore_from_now_on()  # nothing may turn exit 130 into death by SIGINT now
             _fail(INTERRUPTED_MESSAGE, EXIT_INTERRUPTED)
+        except SystemError as exc:  # Ctrl-C inside compiled code outside a worker (e.g. errors' check runs)
+            if not interrupts.caused_by_interrupt(exc):
+                raise
+            interrupts.ignore_from_now_on()
+            _fail(INTERRUPTED_MESSAGE, EXIT_INTERRUPTED)
         except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
             where = exc.filename if exc.filename is not None else "file system"
             _fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)

@@ -93,15 +93,20 @@ def test_ctrl_c_in_run_exits_130_and_keeps_the_earlier_result(earlier_result, jo
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
-@pytest.mark.parametrize("command", [
-    ["compare", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--runs", "300", "--jobs", "1"],
-    ["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400"],
+# compare stages its folder first, then computes; errors computes (LinCov, then the check runs: ~50 s for
+# 400) and stages its folder only to write: it is interrupted a few seconds after it starts.
+@pytest.mark.parametrize("command, staged_first", [
+    (["compare", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--runs", "300", "--jobs", "1"], True),
+    (["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400"], False),
 ])
-def test_ctrl_c_in_compare_and_errors_exits_130(tmp_path, command):
+def test_ctrl_c_in_compare_and_errors_exits_130(tmp_path, command, staged_first):
     out = tmp_path / "out"
     proc = _start([*command, "--output", out])
-    _wait_for(lambda: list(tmp_path.glob(".out.partial-*")), proc)
-    time.sleep(1.5)
+    if staged_first:
+        _wait_for(lambda: list(tmp_path.glob(".out.partial-*")), proc)
+        time.sleep(1.5)
+    else:
+        time.sleep(5.0)
     assert proc.poll() is None, "the command finished before it could be interrupted"
     os.killpg(proc.pid, signal.SIGINT)
     _assert_stopped(proc)
