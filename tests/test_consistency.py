@@ -74,3 +74,19 @@ def test_a_settle_time_beyond_the_scenario_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "smoke.yaml", "monte_carlo:", "filter: {settle_days: 2}\nmonte_carlo:")
     assert_one_line_error(run_cli("run", path, "--output", tmp_path / "out"), path,
                           ["filter.settle_days = 2", "shorter than the scenario's 1.25 d"])
+
+
+def test_a_sweep_curve_carries_consistency_and_marks_an_inconsistent_point(tmp_path):
+    import pandas as pd
+
+    out = tmp_path / "sweep"
+    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--grid", "initial_error.sigma_position_m=500,20000",
+                   "--grid", "initial_error.sigma_velocity_m_s=0.001", "--runs", "2", "--jobs", "1", "--quiet",
+                   "--output", out)
+    assert proc.returncode == 0, proc.stderr
+    curve = pd.read_parquet(out / "curve.parquet")
+    good = curve[curve["initial_error.sigma_position_m"] == 500]
+    bad = curve[curve["initial_error.sigma_position_m"] == 20000]
+    assert good.consistent_settled.all() and not bad.consistent_settled.any()
+    assert (bad.position_error_to_sigma_settled > 3 * CONSISTENCY_RATIO_LIMIT).all()
+    assert "! inconsistent after the settle time" in proc.stdout

@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli import __version__, core_source_hash
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
 from liaison_cli.campaign.backends import check_backend, map_batches
 from liaison_cli.scenario.setup import prepare_problem
 from liaison_cli.storage import fsync_folder, naming, write_parquet_atomic, write_text_atomic
@@ -437,9 +438,27 @@ def build_runs_table(plan: SweepPlan, records: dict) -> pd.DataFrame:
     return table.astype({"point": "int32", "run": "int32"})
 
 
+def _curve_consistency(ok: pd.DataFrame) -> dict:
+    """A grid point's consistency for one spacecraft after the settle time: the campaign error/sigma ratios
+    (analysis.metrics.campaign_error_to_sigma), the mean share of NEES in band, and the verdict. NaN (and not
+    consistent) for a manifest written before these columns existed."""
+    out = {}
+    for kind, unit in (("position", "m"), ("velocity", "m_s")):
+        columns = (f"rms_{kind}_settled_{unit}", f"sigma_{kind}_settled_{unit}")
+        present = all(c in ok for c in columns) and len(ok)
+        out[f"{kind}_error_to_sigma_settled"] = (campaign_error_to_sigma(ok[columns[0]].dropna(), ok[columns[1]].dropna())
+                                                 if present else float("nan"))
+    share = ok["frac_nees_in_band_settled"] if "frac_nees_in_band_settled" in ok else pd.Series(dtype=float)
+    out["frac_nees_in_band_settled_mean"] = float(share.mean()) if len(share) else float("nan")
+    out["consistent_settled"] = bool(out["position_error_to_sigma_settled"] <= CONSISTENCY_RATIO_LIMIT
+                                     and out["velocity_error_to_sigma_settled"] <= CONSISTENCY_RATIO_LIMIT)
+    return out
+
+
 def build_curve_table(plan: SweepPlan, runs_table: pd.DataFrame) -> pd.DataFrame:
     """Per (grid point, spacecraft): mean, median and 10/90 % quantiles of each RMS metric over the runs
-    that finished; `runs_excluded` counts the diverged / failed runs left out."""
+    that finished; `runs_excluded` counts the diverged / failed runs left out; the point's consistency
+    after the settle time (_curve_consistency)."""
     rows = []
     for point in plan.points:
         mine = runs_table[runs_table.point == point.index]
@@ -463,6 +482,7 @@ def build_curve_table(plan: SweepPlan, runs_table: pd.DataFrame) -> pd.DataFrame
                 row[f"{metric}_median"] = np.nan if empty else float(np.median(values))
                 row[f"{metric}_p10"] = np.nan if empty else float(np.quantile(values, 0.1))
                 row[f"{metric}_p90"] = np.nan if empty else float(np.quantile(values, 0.9))
+            row.update(_curve_consistency(ok))
             rows.append(row)
     return pd.DataFrame(rows).astype({"point": "int32"})
 
