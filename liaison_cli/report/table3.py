@@ -7,6 +7,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+
 
 FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
 SIGMAS_M = (150.0, 300.0)
@@ -44,6 +46,12 @@ def case_rows(formation: str, sigma_m: float, spacecraft, summary: pd.DataFrame)
             row[f"ours_{metric}"] = float(mine[ours_col].mean()) if len(mine) else np.nan
         row["frac_in_2sigma_after_day1"] = float(mine.frac_in_2sigma_after_day1.mean()) if len(mine) else np.nan
         row["frac_in_3sigma_after_day1"] = float(mine.frac_in_3sigma_after_day1.mean()) if len(mine) else np.nan
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):  # consistency after the settle time
+            row[f"{kind}_error_to_sigma_settled"] = campaign_error_to_sigma(mine[f"rms_{kind}_settled_{unit}"],
+                                                                            mine[f"sigma_{kind}_settled_{unit}"])
+        row["frac_nees_in_band_settled"] = float(mine.frac_nees_in_band_settled.mean()) if len(mine) else np.nan
+        row["consistent_settled"] = bool(max(row["position_error_to_sigma_settled"],
+                                             row["velocity_error_to_sigma_settled"]) <= CONSISTENCY_RATIO_LIMIT)
         rows.append(row)
     return rows
 
@@ -105,8 +113,9 @@ def to_markdown(table: pd.DataFrame, checks: dict[str, bool]) -> str:
         "[after day 1] in brackets. Ratio = ours / paper.",
         "",
         "| formation | S/C | sigma (m) | runs ok | position paper (m) | position ours (m) | ratio | "
-        "velocity paper (mm/s) | velocity ours (mm/s) | ratio | in 2σ / 3σ after day 1 | ok |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "velocity paper (mm/s) | velocity ours (mm/s) | ratio | in 2σ / 3σ after day 1 | err/σ pos, vel; NEES in "
+        "band | ok |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for _, r in table.iterrows():
         lines.append(
@@ -118,9 +127,13 @@ def to_markdown(table: pd.DataFrame, checks: dict[str, bool]) -> str:
             f"{1e3 * r.ours_velocity:.2f} [{1e3 * r.ours_velocity_after_day1:.2f}] | "
             f"{r.velocity_ratio:.2f} [{r.velocity_after_day1_ratio:.2f}] | "
             f"{100 * r.frac_in_2sigma_after_day1:.1f} % / {100 * r.frac_in_3sigma_after_day1:.1f} % | "
+            f"{r.position_error_to_sigma_settled:.2f}, {r.velocity_error_to_sigma_settled:.2f}"
+            f"{'' if r.consistent_settled else ' !'}; {100 * r.frac_nees_in_band_settled:.0f} % | "
             f"{('yes' + (' (' + r.tolerance_note + ')' if r.tolerance_note else '')) if r.within_tolerance else 'NO: ' + r.tolerance_note} |"
         )
-    lines += ["", "Orderings from the paper:", ""]
+    lines += ["", "err/σ: error RMS over the filter's sigma RMS after filter.settle_days (1 d), over the runs; "
+              f"! above {CONSISTENCY_RATIO_LIMIT:g} (inconsistent). NEES in band: share of those epochs whose "
+              "NEES lies in its 95 % chi-square band.", "", "Orderings from the paper:", ""]
     lines += [f"- {'pass' if ok else 'FAIL'}: {name}" for name, ok in checks.items()]
     return "\n".join(lines) + "\n"
 
