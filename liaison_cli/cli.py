@@ -68,6 +68,14 @@ INTERRUPTED_MESSAGE = ("interrupted: nothing was written and no earlier result w
                        "command")
 
 
+def _interrupted_message() -> str:
+    written = interrupts.written()
+    if written:
+        return (f"interrupted after the result was written: {', '.join(written)} is complete; only the printed "
+                "summary was cut short")
+    return INTERRUPTED_MESSAGE
+
+
 def _fail(message: str, code: int) -> None:
     typer.echo(f"error: {message}", err=True)
     raise typer.Exit(code)
@@ -86,12 +94,12 @@ def user_errors(func):
             _fail(str(exc), exc.exit_code)
         except KeyboardInterrupt:
             interrupts.ignore_from_now_on()  # nothing may turn exit 130 into death by SIGINT now
-            _fail(INTERRUPTED_MESSAGE, EXIT_INTERRUPTED)
+            _fail(_interrupted_message(), EXIT_INTERRUPTED)
         except SystemError as exc:  # Ctrl-C inside compiled code outside a worker (e.g. errors' check runs)
             if not interrupts.caused_by_interrupt(exc):
                 raise
             interrupts.ignore_from_now_on()
-            _fail(INTERRUPTED_MESSAGE, EXIT_INTERRUPTED)
+            _fail(_interrupted_message(), EXIT_INTERRUPTED)
         except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
             where = exc.filename if exc.filename is not None else "file system"
             _fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
@@ -404,8 +412,8 @@ def study003(
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
     grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
                                    "(e.g. filter.underweighting=0,0.2); repeatable"),
-    dsn_noise: str = typer.Option("table2", "--dsn-noise", help="003's DSN noise: table2 (10 m, 0.5 mm/s) or "
-                                  "text (1 m, 0.1 mm/s)"),
+    dsn_noise: str = typer.Option(None, "--dsn-noise", help="set every ground link's noise to one of 003's "
+                                  "readings: table2 (10 m, 0.5 mm/s) or text (1 m, 0.1 mm/s); default: the files'"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
 ):
     """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures."""
@@ -414,7 +422,7 @@ def study003(
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
 
     _check_runs(runs)
-    if dsn_noise not in DSN_NOISE_READINGS:
+    if dsn_noise is not None and dsn_noise not in DSN_NOISE_READINGS:
         raise LiaisonError(f"--dsn-noise {dsn_noise!r}: allowed: {', '.join(DSN_NOISE_READINGS)}")
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
@@ -422,7 +430,8 @@ def study003(
     summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
                                     grid=axes, dsn_noise=dsn_noise)
     first = loaded[0][1]
-    typer.echo(f"003 study, {runs} runs per case, DSN noise: 003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}; "
+    noise = (f"003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}" if dsn_noise else "as in the scenario files")
+    typer.echo(f"003 study, {runs} runs per case, DSN noise: {noise}; "
                f"3D RMS after t0 (σ: the filter's; 003: its stated full-set values). Filter ({first.name}): "
                f"{tuning(first)}" + (f"; grid over {', '.join(k for k, _ in axes)}" if axes else ""))
 

@@ -16,6 +16,7 @@ import signal
 import threading
 
 _requested = False
+_written: list = []  # result folders this command has swapped in (storage.staged_output)
 
 
 def _on_sigint(signum, frame):
@@ -29,6 +30,7 @@ def install() -> None:
     else (a shell that started us in the background, a test runner's own handler). Clears an earlier request."""
     global _requested
     _requested = False
+    _written.clear()
     if threading.current_thread() is not threading.main_thread():
         return
     if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _on_sigint):
@@ -44,6 +46,16 @@ def ignore_from_now_on() -> None:
     # run through exec() of a string (generated dataclass, numba and joblib code), even if we catch it later;
     # at exit it then kills itself with SIGINT instead of exiting 130. Each exec() of a string clears the mark.
     exec("None")  # noqa: S102 - a constant: resets that interpreter flag, see above
+
+
+def result_written(path) -> None:
+    """storage: a complete result is now at `path` (an interrupt after this must not say nothing was written)."""
+    _written.append(str(path))
+
+
+def written() -> list:
+    """The result folders this command completed before it was interrupted."""
+    return list(_written)
 
 
 def requested() -> bool:

@@ -21,6 +21,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+from liaison_cli import interrupts
 from liaison_cli.errors import OutputExistsError
 
 METADATA_KEY = b"liaison"
@@ -324,8 +325,11 @@ def staged_output(path, overwrite: bool):
         with _claim(stage, wait=True):
             _mark_ours(stage)  # from the start, so a killed run's folder is known as ours and cleaned
             yield stage
+            if interrupts.requested():  # Ctrl-C that compiled code swallowed: the old result stays
+                raise KeyboardInterrupt
             os.chmod(stage, 0o777 & ~_umask())
             _swap_in(stage, path, replace)
+            interrupts.result_written(path)
     except OSError as exc:
         shutil.rmtree(stage, ignore_errors=True)
         if exc.filename is not None and str(exc.filename).startswith(str(stage)):
@@ -343,6 +347,9 @@ def _swap_in(stage: Path, path: Path, replace: bool) -> None:
     step where the system can (Linux renameat2), so `path` is never missing; it ends up at the stage's name
     and is removed. Elsewhere it is moved aside first (_swap_by_two_renames)."""
     if not replace:
+        if path.is_dir() and not path.is_symlink():  # empty, or only our marker (_check_replaceable): ours to drop
+            (path / RESULT_MARKER).unlink(missing_ok=True)
+            path.rmdir()
         os.replace(stage, path)
         fsync_folder(path.parent)
         return

@@ -1,5 +1,6 @@
-"""Every scenario of scenarios/ gives the per-run numbers and printed output recorded at commit 432c588,
-before the engine restructuring (issue 11): Parquet values equal to 1e-7 relative (absolute floor 1e-7 of
+"""Every scenario of scenarios/ gives the per-run numbers and printed output of tests/golden/runs.json.gz
+(first recorded at 432c588, before the engine restructuring of issue 11; re-recorded since, each time for
+a stated reason: see tests/golden/record.py): Parquet values equal to 1e-7 relative (absolute floor 1e-7 of
 the column's largest value, for values near zero). 1e-7, not tighter: the same code under newer numpy /
 numba builds moves the mean NEES of the star scenarios by 1.5e-8 relative (a different summation order
 in a library), while a change of the models or of a draw moves them by 1e-6 or more."""

@@ -117,15 +117,23 @@ def test_pool_workers_start_with_sigint_ignored():
     """joblib's workers inherit an ignored SIGINT (read from /proc), so Ctrl-C while they start or run
     reaches only the main process, which stops the pool. In a fresh process: no pool started earlier."""
     script = """
-import os, signal
+import os, signal, sys
 from joblib import Parallel, delayed
 from liaison_cli import interrupts
-assert interrupts.shield_pool_workers(), "joblib's process launcher moved: the shield no longer applies"
+if sys.argv[1] == "shield":
+    assert interrupts.shield_pool_workers(), "joblib's process launcher moved: the shield no longer applies"
 for pid in set(Parallel(n_jobs=2)(delayed(os.getpid)() for _ in range(8))) - {os.getpid()}:
     ignored = next(line for line in open(f"/proc/{pid}/status") if line.startswith("SigIgn")).split()[1]
     print(pid, int(ignored, 16) >> (signal.SIGINT - 1) & 1)
 """
-    proc = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 0, proc.stderr
-    flags = [line.split()[1] for line in proc.stdout.splitlines()]
-    assert flags and all(flag == "1" for flag in flags), proc.stdout
+
+    def worker_flags(mode):
+        # SIGINT at its default in the child, as a terminal starts it (a test runner may start us ignoring it).
+        proc = subprocess.run([sys.executable, "-c", script, mode], cwd=REPO, capture_output=True, text=True,
+                              timeout=120, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        assert proc.returncode == 0, proc.stderr
+        return [line.split()[1] for line in proc.stdout.splitlines()]
+
+    shielded, control = worker_flags("shield"), worker_flags("plain")
+    assert shielded and all(flag == "1" for flag in shielded), shielded
+    assert control and all(flag == "0" for flag in control), control  # without the shield: not ignored

@@ -15,8 +15,8 @@ def _continuous(q, t):
 
 
 def test_k_steps_of_the_discrete_q_equal_the_continuous_integral_over_k_dt():
-    """Phi P Phi' + Q over k steps of a double integrator equals q's integral over k dt: the model does not
-    depend on how the arc is cut into steps."""
+    """For a given spectral density q, Phi P Phi' + Q over k steps of a double integrator equals q's integral
+    over k dt (q itself is sigma_a^2 dt: see estimation.process_noise)."""
     Q = spacecraft_process_noise(SIGMA_A, DT, "continuous_white_acceleration", 1.0, 1.0)
     phi = np.block([[np.eye(3), DT * np.eye(3)], [np.zeros((3, 3)), np.eye(3)]])
     P = np.zeros((6, 6))

@@ -46,11 +46,16 @@ def _kalman(phi, H, R, P0, y, Q):
     return x_hat, x_bar, P_upd, P_pred, Phi
 
 
+def _record(x_hat, x_bar, P_upd, P_pred, Phi):
+    """The forward record as filter_loop.run_ekf stores it: [x_hat, x_bar] and [P_bar, P, Phi] per epoch."""
+    return np.stack([x_hat, x_bar], axis=1), np.ascontiguousarray(np.stack([P_pred, P_upd, Phi], axis=1))
+
+
 def test_smoothed_start_equals_the_batch_solution_without_process_noise():
     phi, H, R, P0, y = _linear_system()
     m, n = H.shape
     x_hat, x_bar, P_upd, P_pred, Phi = _kalman(phi, H, R, P0, y, np.zeros((n, n)))
-    x_s, sigma_s, P_s0 = rts_smooth(x_hat, x_bar, P_upd, P_pred, Phi, m - 1)
+    x_s, sigma_s, P_s0 = rts_smooth(*_record(x_hat, x_bar, P_upd, P_pred, Phi), m - 1)
     # Batch: every measurement mapped to t0, prior mean 0 with P0.
     mapped = np.array([H[k] @ np.linalg.matrix_power(phi, k) for k in range(m)])
     information = np.linalg.inv(P0) + mapped.T @ mapped / R
@@ -80,7 +85,7 @@ def test_with_process_noise_the_smoother_is_between_filter_and_truth_on_average(
         truth = np.array(truth)
         y = np.einsum("kn,kn->k", H, truth) + np.sqrt(R) * rng.standard_normal(m)
         x_hat, x_bar, P_upd, P_pred, Phi = _kalman(phi, H, R, P0, y, Q)
-        x_s, sigma_s, _ = rts_smooth(x_hat, x_bar, P_upd, P_pred, Phi, m - 1)
+        x_s, sigma_s, _ = rts_smooth(*_record(x_hat, x_bar, P_upd, P_pred, Phi), m - 1)
         sq_s += (x_s - truth) ** 2
         sq_f += (x_hat - truth) ** 2
         var_s = sigma_s**2

@@ -7,6 +7,7 @@ from tqdm import tqdm
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
+from liaison_cli import interrupts
 from liaison_cli.interrupts import ignore_in_worker_process, shield_pool_workers
 
 
@@ -45,7 +46,10 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
     try:
         if jobs == 1 or n_runs * len(problem.times_s) * problem.filter.layout.n < POOL_MIN_STATE_EPOCHS:
             for run in range(n_runs):
-                yield execute_run(problem, RunTask(run))
+                outcome = execute_run(problem, RunTask(run))
+                if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the campaign
+                    raise KeyboardInterrupt
+                yield outcome
                 bar.update(1)
             return
         # Run 0 here first: the compiled core is then loaded (or, on a cold cache, compiled once, not once
@@ -62,6 +66,8 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
 
         parallel = Parallel(n_jobs=jobs, return_as="generator", pre_dispatch="2*n_jobs")
         for batch in parallel(delayed(_execute_batch)(problem, b) for b in batches):
+            if interrupts.requested():
+                raise KeyboardInterrupt
             yield from batch
             bar.update(len(batch))
     finally:

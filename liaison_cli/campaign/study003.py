@@ -101,9 +101,12 @@ def tuning(scenario: Scenario) -> str:
     snc = f"{flt.process_noise_accel_m_s2:g}" + (f" (per spacecraft: {', '.join(f'{v:g}' for v in own)})" if own
                                                   else "")
     gate = f"{flt.residual_gate_sigma:g} sigma" if flt.residual_gate_sigma else "off"
+    apriori = ", ".join(
+        f"{sc.name} {sc.apriori_sigma_position_m or flt.initial_sigma_position_m:g} m / "
+        f"{sc.apriori_sigma_velocity_m_s or flt.initial_sigma_velocity_m_s:g} m/s"
+        for sc in scenario.spacecraft if sc.role == "estimated")
     return (f"SNC sigma_a {snc} m/s^2 ({flt.process_noise_model}), underweighting beta {flt.underweighting:g}, "
-            f"a priori {flt.initial_sigma_position_m:g} m / {flt.initial_sigma_velocity_m_s:g} m/s, residual gate "
-            f"{gate}, settle {scenario.settle_days():g} d")
+            f"a priori (1 sigma per axis) {apriori}, residual gate {gate}, settle {scenario.settle_days():g} d")
 
 
 def _statistics(result, mission: str, case: str) -> CaseResult:
@@ -148,7 +151,7 @@ def _statistics(result, mission: str, case: str) -> CaseResult:
 
 
 def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, progress: bool = True,
-              grid: list[tuple[str, list]] | None = None, dsn_noise: str = "table2"):
+              grid: list[tuple[str, list]] | None = None, dsn_noise: str | None = None):
     """Every grid point x mission x case: (summary table, histories table, {(point, mission, case): scenario}).
     A grid point is a dict of overrides (apply_overrides keys) applied to every mission's scenario; with no
     grid, one point without overrides. Grid keys become columns of both tables."""
@@ -159,8 +162,9 @@ def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, pr
     results, scenarios = [], {}
     for index, point in enumerate(points or [{}]):
         for mission, scenario in missions:
-            base = with_dsn_noise(apply_overrides(scenario, point, f"{mission} {point}") if point else scenario,
-                                  dsn_noise)
+            base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
+            if dsn_noise is not None:  # otherwise the file's own ground-link noise
+                base = with_dsn_noise(base, dsn_noise)
             for case in CASES:
                 reduced = case_scenario(base, mission, case)
                 scenarios[(index, mission, case)] = reduced

@@ -388,7 +388,7 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
         bar.close()
         _, records, _ = read_manifest(manifest.path)  # tables come from what is on disk, nothing else
     except KeyboardInterrupt:  # before the batches started (setting up, first compilation, starting workers)
-        saved = sum(1 for t in plan.tasks if t.task_id in manifest.records)
+        saved = len(manifest.done() & {t.task_id for t in plan.tasks})
         raise SweepInterrupted(f"interrupted: {saved} of {len(plan.tasks)} tasks saved in {manifest.path}; rerun "
                                "the same command to resume") from None
     finally:

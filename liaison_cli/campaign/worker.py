@@ -198,7 +198,7 @@ def _add_smoothed(problem: Problem, history, summary, norms, n_dyn: int) -> None
     """filter.smoother: rts. The smoothed history's error norms and 3-sigma bounds per epoch go beside the
     filter's (timeseries.parquet: *_smoothed_*), and each spacecraft's row gets the smoothed error RMS and
     sigma RMS over all epochs after t0 with their ratio (smoothing has no transient to settle)."""
-    if history.smoothed_err is None:
+    if history.smoothed_err is None or not history.ok:  # a diverged run (NEES rule included) is not smoothed
         return
     smoothed = error_norms(history.smoothed_err[:, :n_dyn], history.smoothed_sigma[:, :n_dyn], M_PER_LU, M_S_PER_VU)
     for kind, unit in (("position", "m"), ("velocity", "m_s")):

@@ -115,9 +115,7 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     ok = status == STATUS_OK
     smoothed_err = smoothed_sigma = None
     if arrays.smoother:
-        x_s, smoothed_sigma, _ = rts_smooth(np.ascontiguousarray(states[:, 0]), np.ascontiguousarray(states[:, 1]),
-                                            np.ascontiguousarray(matrices[:, 1]), np.ascontiguousarray(matrices[:, 0]),
-                                            np.ascontiguousarray(matrices[:, 2]), m - 1 if ok else -1)
+        x_s, smoothed_sigma, _ = rts_smooth(states, matrices, m - 1 if ok else -1)
         smoothed_err = x_s - truth
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step), rejected=rejected, smoothed_err=smoothed_err,

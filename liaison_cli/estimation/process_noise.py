@@ -7,8 +7,10 @@ Two models, both driven by sigma_a (m/s^2, the scenario's `process_noise_accel_m
       Q = q [[dt^3/3 I, dt^2/2 I], [dt^2/2 I, dt I]].
   q = sigma_a^2 dt keeps the velocity variance added per step at (sigma_a dt)^2, the value of the
   velocity-only form, so a scenario's tuning keeps its meaning; the position terms are what that velocity
-  noise does to the position within the step. Over k steps of a double integrator the sum equals the same
-  matrix with dt -> k dt (tested): the model does not depend on the measurement interval.
+  noise does to the position within the step. For a given q, k steps of a double integrator sum to the
+  same matrix with dt -> k dt (tested). But q itself is sigma_a^2 dt, dt the measurement interval: as in
+  the velocity-only form, the noise intensity grows with the interval, so a sweep over
+  measurement.interval_s also changes the process noise (by the ratio of the intervals).
 - `velocity_only`: (sigma_a dt)^2 on the velocity diagonal and nothing else (the form used before; named so
   a reproduction can ask for it).
 Units: the block is returned in the estimators' scaled units (LU, LU/TU) given the scales.

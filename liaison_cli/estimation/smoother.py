@@ -15,9 +15,10 @@ smoothed covariance at t0 equals the batch least-squares covariance (P0^-1 + sum
 to t0 (tested). Memory: the forward pass keeps three (n, n) matrices per epoch; the backward pass only the
 current P^s.
 
-Arrays (filter units): x_hat, x_bar (m, n); P_upd, P_pred, Phi (m, n, n) (row 0 of x_bar, P_pred, Phi
-unused). Returns x_s (m, n) and sigma_s = sqrt(diag P^s) (m, n); rows from `last` on stay NaN when the pass
-stopped early (a diverged run is smoothed up to its last good epoch).
+Arrays (filter units): the EKF's forward record, states (m, 2, n) = [x_hat, x_bar] and matrices
+(m, 3, n, n) = [P_bar, P, Phi] (epoch 0's x_bar, P_bar and Phi unused). Returns x_s (m, n) and
+sigma_s = sqrt(diag P^s) (m, n); rows after `last` stay NaN. A run that did not finish healthy is not
+smoothed (last = -1: all NaN).
 """
 
 import numpy as np
@@ -25,23 +26,25 @@ from numba import njit
 
 
 @njit(cache=True)
-def rts_smooth(x_hat, x_bar, P_upd, P_pred, Phi, last):
-    """The RTS pass over epochs 0 .. last (module docstring); returns (x_s (m, n), sigma_s (m, n), P^s_0 (n, n))."""
-    m, n = x_hat.shape
+def rts_smooth(states, matrices, last):
+    """The RTS pass over epochs 0 .. last (module docstring) on the EKF's forward record: states (m, 2, n) =
+    [x_hat, x_bar], matrices (m, 3, n, n) = [P_bar, P, Phi] per epoch (filter_loop.run_ekf's store), read in
+    place. Returns (x_s (m, n), sigma_s (m, n), P^s_0 (n, n)); last < 0 (a run that failed): all NaN."""
+    m, n = states.shape[0], states.shape[2]
     x_s = np.full((m, n), np.nan)
     sigma_s = np.full((m, n), np.nan)
     if last < 0:
         return x_s, sigma_s, np.full((n, n), np.nan)
-    x_next = x_hat[last].copy()
-    P_next = P_upd[last].copy()
+    x_next = states[last, 0].copy()
+    P_next = matrices[last, 1].copy()
     x_s[last] = x_next
     for i in range(n):
         sigma_s[last, i] = np.sqrt(max(P_next[i, i], 0.0))
     for k in range(last - 1, -1, -1):
         # C_k^T = P_bar_{k+1}^{-1} Phi_{k+1} P_k (P_bar symmetric), so C_k = (solve(P_bar, Phi P_k))^T.
-        gain = np.linalg.solve(P_pred[k + 1], Phi[k + 1] @ P_upd[k]).T
-        x_now = x_hat[k] + gain @ (x_next - x_bar[k + 1])
-        P_now = P_upd[k] + gain @ (P_next - P_pred[k + 1]) @ gain.T
+        gain = np.linalg.solve(matrices[k + 1, 0], matrices[k + 1, 2] @ matrices[k, 1]).T
+        x_now = states[k, 0] + gain @ (x_next - states[k + 1, 1])
+        P_now = matrices[k, 1] + gain @ (P_next - matrices[k + 1, 0]) @ gain.T
         P_now = 0.5 * (P_now + P_now.T)  # keep it symmetric against rounding over thousands of steps
         x_s[k] = x_now
         for i in range(n):

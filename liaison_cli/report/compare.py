@@ -35,7 +35,9 @@ def consistency_of(ok: pd.DataFrame) -> dict:
         for kind, unit in (("position", "m"), ("velocity", "m_s")):
             ratios[kind].append(campaign_error_to_sigma(group[f"rms_{kind}_settled_{unit}"],
                                                         group[f"sigma_{kind}_settled_{unit}"]))
-    worst = {kind: max(values) if values else float("nan") for kind, values in ratios.items()}
+    # NaN (a spacecraft without settled epochs) wins: max() over NaN would depend on the order.
+    worst = {kind: (float("nan") if any(v != v for v in values) else max(values)) if values else float("nan")
+             for kind, values in ratios.items()}
     return {"position_error_to_sigma_settled": worst["position"],
             "velocity_error_to_sigma_settled": worst["velocity"],
             "frac_nees_in_band_settled": float(ok.frac_nees_in_band_settled.mean()) if len(ok) else float("nan"),

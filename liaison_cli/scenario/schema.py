@@ -36,6 +36,9 @@ MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML an
 # measurements, the filter's histories), so 500,000 epochs stay under ~0.75 GB per worker process; 100x the
 # largest shipped scenario (4,609 epochs: 10 d at 187.5 s).
 MAX_EPOCHS = 500_000
+# The smoother's forward record per run (three n x n matrices per epoch), per worker process: 2 GiB leaves
+# room for two workers and the rest of a run on a 24 GiB machine.
+SMOOTHER_RECORD_MAX_BYTES = 2 * 2**30
 MAX_SCENARIO_BYTES = 1 << 20  # a scenario or link file (the shipped ones are < 5 kB)
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 UNIQUE = {"uniqueItems": True}  # the JSON Schema word for a list the loader refuses repeats in
@@ -927,9 +930,12 @@ class Scenario(StrictModel):
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
                 f"{self.duration_days} d scenario"
             )
-        if self.filter.settle_days is not None and self.filter.settle_days >= self.epochs_end_days():
+        last_epoch_days = (int(self.epochs_end_days() * SECONDS_PER_DAY / self.measurement.interval_s + 1e-9)
+                           * self.measurement.interval_s / SECONDS_PER_DAY)
+        if self.filter.settle_days is not None and self.filter.settle_days > last_epoch_days:
             raise ValueError(f"filter.settle_days = {self.filter.settle_days:g} leaves no epoch to judge: it must be "
-                             f"shorter than the scenario's {self.epochs_end_days():g} d")
+                             f"shorter than the scenario's {self.epochs_end_days():g} d (last epoch at "
+                             f"{last_epoch_days:g} d)")
         self._check_epoch_count()
         return self
 
@@ -937,6 +943,14 @@ class Scenario(StrictModel):
         """Bounded work: refused before anything is allocated (see MAX_EPOCHS)."""
         span_s = self.epochs_end_days() * SECONDS_PER_DAY
         epochs = int(span_s / self.measurement.interval_s + 1e-9) + 1
+        if self.filter.smoother == "rts":  # the forward record: 3 (n, n) matrices per epoch, n >= 6 per craft
+            n_states = 6 * sum(1 for sc in self.spacecraft if sc.role == "estimated")
+            record_bytes = epochs * 3 * n_states**2 * 8
+            if record_bytes > SMOOTHER_RECORD_MAX_BYTES:
+                raise ValueError(
+                    f"filter.smoother = 'rts' over {epochs:,} epochs of {n_states} states keeps "
+                    f"{record_bytes / 2**30:.1f} GiB per run; allowed: at most {SMOOTHER_RECORD_MAX_BYTES / 2**30:g} "
+                    "GiB (a longer measurement.interval_s, a shorter duration_days, or no smoother)")
         if epochs > MAX_EPOCHS:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s:g} over duration_days = "
@@ -956,6 +970,9 @@ class Scenario(StrictModel):
         if self.filter.bias == "consider":
             raise ValueError("filter.smoother = 'rts' with filter.bias = 'consider': not supported (estimate or "
                              "ignore the bias)")
+        if self.filter.underweighting > 0:
+            raise ValueError(f"filter.smoother = 'rts' with filter.underweighting = {self.filter.underweighting:g}: "
+                             "the RTS recursion assumes the optimal gain; allowed: underweighting 0 with the smoother")
         moving = [sc.name for sc in self.spacecraft if sc.manoeuvre is not None]
         if moving:
             raise ValueError(f"filter.smoother = 'rts' with a manoeuvre ({moving[0]!r}): not supported")
