@@ -45,6 +45,20 @@ CONSISTENCY_RATIO_LIMIT = 1.5
 NEES_BAND_PROBABILITY = 0.95
 
 
+def error_and_sigma(norms, epochs, spacecraft_index: int, label: str) -> dict:
+    """Over the selected epochs (boolean mask) of one spacecraft: the RMS of the 3-D error norm, the RMS of the
+    sigma of that norm (3-sigma bound / 3) and their ratio, for position and velocity, as
+    rms_{kind}_{label}_{unit}, sigma_{kind}_{label}_{unit} and {kind}_error_to_sigma_{label}."""
+    out = {}
+    for kind, unit in (("position", "m"), ("velocity", "m_s")):
+        error = rms(norms[f"{kind}_error_{unit}"][epochs, spacecraft_index])
+        spread = rms(norms[f"{kind}_3sigma_{unit}"][epochs, spacecraft_index] / 3.0)
+        out[f"rms_{kind}_{label}_{unit}"] = error
+        out[f"sigma_{kind}_{label}_{unit}"] = spread
+        out[f"{kind}_error_to_sigma_{label}"] = error / spread if spread > 0 else float("nan")
+    return out
+
+
 def consistency_columns(times_s, norms, nees, n_nees: int, settle_s: float, spacecraft_index: int) -> dict:
     """After the settle time: the error RMS and the filter's sigma RMS (sigma of the 3-D norm,
     sqrt(sigma_x^2 + sigma_y^2 + sigma_z^2)) of position and velocity, their ratio, the share of epochs whose
@@ -52,14 +66,7 @@ def consistency_columns(times_s, norms, nees, n_nees: int, settle_s: float, spac
     the filter optimistic there; below it, pessimistic), and whether
     both ratios are within CONSISTENCY_RATIO_LIMIT."""
     settled = times_s >= settle_s
-    i = spacecraft_index
-    out = {}
-    for kind, unit in (("position", "m"), ("velocity", "m_s")):
-        error = rms(norms[f"{kind}_error_{unit}"][settled, i])
-        spread = rms(norms[f"{kind}_3sigma_{unit}"][settled, i] / 3.0)
-        out[f"rms_{kind}_settled_{unit}"] = error
-        out[f"sigma_{kind}_settled_{unit}"] = spread
-        out[f"{kind}_error_to_sigma_settled"] = error / spread if spread > 0 else float("nan")
+    out = error_and_sigma(norms, settled, spacecraft_index, "settled")
     low, high = nees_run_band(n_nees)
     if nees is not None and n_nees > 0:
         values = np.asarray(nees)[settled]

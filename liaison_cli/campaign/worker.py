@@ -4,7 +4,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from liaison_cli.analysis.metrics import error_norms, nees_divergence_limit, rms, summary_rows, sustained_excess_step
+from liaison_cli.analysis.metrics import (
+    error_and_sigma,
+    error_norms,
+    nees_divergence_limit,
+    summary_rows,
+    sustained_excess_step,
+)
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
@@ -206,12 +212,7 @@ def _add_smoothed(problem: Problem, history, summary, norms, n_dyn: int) -> None
             norms[f"{kind}_{what}_smoothed_{unit}"] = smoothed[f"{kind}_{what}_{unit}"]
     after_t0 = problem.times_s > 0.0
     for i, row in enumerate(summary):
-        for kind, unit in (("position", "m"), ("velocity", "m_s")):
-            error = rms(smoothed[f"{kind}_error_{unit}"][after_t0, i])
-            spread = rms(smoothed[f"{kind}_3sigma_{unit}"][after_t0, i] / 3.0)
-            row[f"rms_{kind}_smoothed_{unit}"] = error
-            row[f"sigma_{kind}_smoothed_{unit}"] = spread
-            row[f"{kind}_error_to_sigma_smoothed"] = error / spread if spread > 0 else float("nan")
+        row.update(error_and_sigma(smoothed, after_t0, i, "smoothed"))
 
 
 def _add_estimator_extras(summary, extras) -> None:
