@@ -219,6 +219,15 @@ def _plain_name(name: str) -> bool:
 PAPER_FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
 
 
+def _curve_ratio(row: dict) -> str:
+    """A curve row's error/sigma after the settle time, marked when inconsistent ('-' for a curve written before
+    the consistency columns existed)."""
+    ratio = row.get("position_error_to_sigma_settled")
+    if ratio is None or ratio != ratio:
+        return "-"
+    return f"{ratio:.2f}{'' if row.get('consistent_settled', True) else ' !'}"
+
+
 def _format_curve(curve: "pd.DataFrame", grid_keys) -> str:
     header = f"{'scenario':<12}{'spacecraft':<11}" + "".join(f"{k.split('.')[-1]:>12}" for k in grid_keys)
     lines = [header + f"{'runs ok':>9}{'pos RMS m (p10-p90)':>26}{'vel RMS mm/s':>14}{'err/σ >settle':>15}"]
@@ -229,9 +238,9 @@ def _format_curve(curve: "pd.DataFrame", grid_keys) -> str:
             _left(row["scenario"], 12) + _left(row["spacecraft"], 11) + cells
             + _right(f"{row['runs_ok']}/{row['runs']}", 9) + _right(band, 26)
             + _right(f"{1e3 * row['rms_velocity_m_s_mean']:.3f}", 14)
-            + _right(f"{row['position_error_to_sigma_settled']:.2f}{'' if row['consistent_settled'] else ' !'}", 15)
+            + _right(_curve_ratio(row), 15)
         )
-    if not curve.consistent_settled.all():
+    if "consistent_settled" in curve and not curve.consistent_settled.all():
         from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 
         lines.append(f"! inconsistent after the settle time: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the "
