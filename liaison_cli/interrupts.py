@@ -3,8 +3,10 @@ raises KeyboardInterrupt as Python's own handler does.
 
 Why the memory: a KeyboardInterrupt raised while numba-compiled code runs comes back as
 `SystemError: ... returned a result with an exception set`, an ordinary Exception that a worker (which
-never raises) would record as a failed run, and the campaign would go on and report "ok". A worker asks
-`requested()` (or finds the KeyboardInterrupt in the exception's chain) and re-raises instead.
+never raises) would record as a failed run, and the campaign would go on and report "ok". A worker finds the
+request (`caused_by_interrupt`: the flag, or a KeyboardInterrupt in the exception's chain) and re-raises;
+the campaign runner and the result swap (storage.staged_output) ask `requested()` too, so an interrupt
+that compiled code swallowed whole still stops the command before a result is swapped in.
 
 Pool worker processes receive the terminal's SIGINT too; they must leave the stop to the main process,
 which cancels the pool, so that no worker prints a traceback. `shield_pool_workers` makes joblib's (loky's)

@@ -1,1 +1,3 @@
-"""Pure-numeric dynamics (CRTBP). No I/O; floats and arrays in fixed nondimensional units."""
+"""Dynamics: the CRTBP and the dated DE421 + SRP model with their STMs, integrators, clocks, time scales
+(pyerfa) and the Earth's orientation (IERS data), ground stations and frames. Numerics only; the reads are
+of packaged data files (DE421, the IERS tables)."""

@@ -1,1 +1,3 @@
-"""Estimators. The EKF steps know nothing of the dynamics; the loop wires dynamics and measurements in."""
+"""Estimators: the EKF (its steps in ekf, the compiled loop in filter_loop), batch least squares, LinCov, the
+RTS smoother, process noise and the state blocks. The steps know nothing of the dynamics or observables;
+the loop wires them in."""

@@ -1,1 +1,2 @@
-"""Orbit catalog and initial-state builders (pure numeric)."""
+"""Reference orbits: the catalog, periodic-orbit families (correction, continuation, cache), departures and
+Lambert arcs, and the correction of CRTBP orbits into the dated model (pure numerics)."""

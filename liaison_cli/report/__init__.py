@@ -1,1 +1,2 @@
-"""Paper tables and figures."""
+"""Formatting and drawing: paper tables beside ours, the text `liaison run` prints, figures of sweeps,
+studies, families and geometry."""
