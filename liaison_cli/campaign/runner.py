@@ -8,7 +8,6 @@ from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
 from liaison_cli import interrupts
-from liaison_cli.interrupts import ignore_in_worker_process, shield_pool_workers
 
 
 @dataclass(frozen=True, eq=False)
@@ -22,7 +21,7 @@ class CampaignResult:
 
 
 def _execute_batch(problem, tasks):
-    ignore_in_worker_process()
+    interrupts.ignore_in_worker_process()
     return [execute_run(problem, task) for task in tasks]
 
 
@@ -62,7 +61,7 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
                    for start in range(1, n_runs, chunk))
         from joblib import Parallel, delayed  # here: a run that stays in this process does not import it
 
-        shield_pool_workers()
+        interrupts.shield_pool_workers()
 
         parallel = Parallel(n_jobs=jobs, return_as="generator", pre_dispatch="2*n_jobs")
         for batch in parallel(delayed(_execute_batch)(problem, b) for b in batches):
