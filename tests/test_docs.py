@@ -1,0 +1,255 @@
+"""The documentation site (issue 27): it builds with `mkdocs build --strict`, its generated references cover
+the code, its output tables list exactly the columns that real runs write, and every number a page shows
+from a reference output is that output's (the tables themselves are included verbatim from
+results/reference/ by pymdownx.snippets, which the strict build checks)."""
+
+import re
+import subprocess
+import sys
+import time
+
+import pyarrow.parquet as pq
+import pytest
+
+from tests.conftest import REPO, SCENARIOS, run_cli
+
+DOCS = REPO / "docs"
+REFERENCE = REPO / "results" / "reference"
+
+
+# --- the site builds --------------------------------------------------------------------------------------
+
+
+def test_the_site_builds_strict(tmp_path):
+    """Broken links, missing anchors, missing snippet files and pages outside the nav all fail the build.
+    Measured build time: about 5 s on the development machine (printed here: pytest -s)."""
+    started = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--config-file",
+                           str(REPO / "mkdocs.yml"), "--site-dir", str(tmp_path / "site")],
+                          capture_output=True, text=True, cwd=REPO, timeout=300)
+    print(f"mkdocs build --strict: {time.perf_counter() - started:.1f} s")
+    assert proc.returncode == 0, proc.stderr
+    table3 = (tmp_path / "site" / "reproductions" / "000-table3" / "index.html").read_text()
+    assert "<td>eml1_eml2</td>" in table3  # the snippet was included, not left as text
+    assert (tmp_path / "site" / "results" / "reference" / "fig15.png").is_file()
+
+
+def test_every_page_is_in_the_nav():
+    nav = (REPO / "mkdocs.yml").read_text()
+    pages = {p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*.md")}
+    assert pages and all(page in nav for page in pages), pages
+
+
+# --- generated references -----------------------------------------------------------------------------
+
+
+def test_cli_reference_has_every_command_and_option():
+    import typer.main
+
+    from liaison_cli.cli import app
+    from tools.docs_hooks import cli_reference_markdown
+
+    text = cli_reference_markdown()
+    root = typer.main.get_command(app)
+    ctx = root.context_class(root, info_name="liaison")
+    for name in root.list_commands(ctx):
+        command = root.get_command(ctx, name)
+        assert f"`liaison {name}`" in text, name
+        sub_ctx = command.context_class(command, info_name=name, parent=ctx)
+        for param in command.get_params(sub_ctx):
+            for opt in param.opts:
+                if opt.startswith("--") and opt != "--help":
+                    assert f"`{opt}" in text, (name, opt)
+    assert "`liaison plot fig15`" in text and "`liaison orbits generate`" in text
+
+
+def test_scenario_reference_has_every_schema_key():
+    from liaison_cli.scenario.json_schema import scenario_json_schema
+    from tools.docs_hooks import scenario_reference_markdown
+
+    text = scenario_reference_markdown()
+    schema = scenario_json_schema()
+    for model in [schema, *schema["$defs"].values()]:
+        for key in model.get("properties", {}):
+            assert f"| `{key}` |" in text, key
+    for name in schema["$defs"]:
+        assert f"### {name}" in text, name
+
+
+def test_observables_table_is_the_registry():
+    from liaison_cli.measurements.registry import OBSERVABLES
+    from tools.docs_hooks import observables_markdown
+
+    rows = [line for line in observables_markdown().splitlines() if line.startswith("| `")]
+    assert len(rows) == len(OBSERVABLES) == 8
+    assert "<!-- liaison:observables -->" in (DOCS / "model.md").read_text()
+
+
+def test_rule_text_reads_the_schema_shapes():
+    from tools.docs_hooks import rule_text
+
+    rule = {"if": {"properties": {"bias": {"enum": ["estimate", "consider"]}}, "required": ["bias"]},
+            "then": {"properties": {"bias_apriori_sigma_m": {"not": {"type": "null"}}},
+                     "required": ["bias_apriori_sigma_m"]}}
+    assert rule_text(rule) == "if `bias` is one of `estimate`, `consider`, then `bias_apriori_sigma_m` is given"
+
+
+# --- numbers the pages show from reference outputs -----------------------------------------------------------
+
+
+def _table_rows(path) -> list[list[str]]:
+    return [[c.strip() for c in line.strip().strip("|").split("|")] for line in path.read_text().splitlines()
+            if line.startswith("| ") and not line.startswith("|---")]
+
+
+def _span(values, digits: int) -> str:
+    return f"{min(values):.{digits}f}–{max(values):.{digits}f}"
+
+
+def test_table3_page_ranges_are_the_reference_tables():
+    """The prose of the Table 3 page quotes ranges over results/reference/table3.md's columns."""
+    rows = [r for r in _table_rows(REFERENCE / "table3.md") if r[0] in ("eml2_lunar", "eml1_lunar", "eml1_eml2")]
+    assert len(rows) == 12
+    ratios = [re.findall(r"\d+\.\d+", r[11]) for r in rows]
+    nees = [int(re.search(r"(\d+) %", r[11]).group(1)) for r in rows]
+    halo_lunar = [r for r in rows if r[0] != "eml1_eml2"]
+    inside = [re.findall(r"\d+\.\d+", r[10]) for r in halo_lunar]
+    page = " ".join((DOCS / "reproductions" / "000-table3.md").read_text().split())
+    assert '--8<-- "results/reference/table3.md"' in page
+    assert f"position error {_span([float(p) for p, _ in ratios], 2)} of σ" in page
+    assert f"velocity {_span([float(v) for _, v in ratios], 2)}" in page
+    assert f"{min(nees)}–{max(nees)} % of the time" in page
+    three = [float(t) for _, t in inside]
+    two = [float(t) for t, _ in inside]
+    assert f"inside 3σ {min(three):.1f}–{max(three):.0f} %" in page
+    assert f"(inside 2σ: {min(two):.1f}–{max(two):.0f} %)" in page
+
+
+# (page, reference file, [(number as the page shows it, the reference's value)])
+QUOTED = [
+    ("reproductions/001.md", "networks.md", [("5.35", "5.35"), ("5.06", "5.06")]),
+    ("reproductions/001.md", "measurement_types.md",
+     [("492", "491.9"), ("609", "608.5"), ("3,502", "3501.9"), ("3,751", "3751.1"), ("466", "465.7"),
+      ("3,300", "3299.7")]),
+    ("reproductions/000-fig15.md", "fig15_study.md",
+     [("0.66–2.07", "0.66-2.07"), ("0.56–1.75", "0.56-1.75"), ("35 %", "35 %"), ("33 %", "33 %"),
+      ("1.14", "1.14")]),
+    ("reproductions/003.md", "study003.md", [("44 m", "44.4"), ("26 m per axis", "[25.6]")]),
+]
+
+
+@pytest.mark.parametrize("page, reference, quotes", QUOTED)
+def test_numbers_quoted_from_reference_outputs(page, reference, quotes):
+    text = (DOCS / page).read_text()
+    ref = (REFERENCE / reference).read_text()
+    assert f'--8<-- "results/reference/{reference}"' in text, "the page includes the reference file"
+    for shown, value in quotes:
+        assert shown in text, shown
+        assert value in ref, value
+        shown_number, value_number = (re.search(r"\d[\d,.]*", s).group(0).replace(",", "") for s in (shown, value))
+        decimals = len(shown_number.split(".")[1]) if "." in shown_number else 0
+        assert abs(float(shown_number) - float(value_number)) <= 0.5 * 10**-decimals + 1e-9, (shown, value)
+
+
+# --- output tables: the documented columns are the written ones ---------------------------------------------
+
+
+def documented_columns(stem: str) -> dict[str, str]:
+    """outputs.md's `### \\`stem.parquet\\`` table: column -> its 'when' cell."""
+    text = (DOCS / "outputs.md").read_text()
+    start = text.index(f"### `{stem}.parquet`")
+    columns = {}
+    for line in text[start:].splitlines()[1:]:
+        if line.startswith("### ") or line.startswith("## "):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("| `") and len(cells) == 4:
+            for name in re.findall(r"`([^`]+)`", cells[0]):
+                columns[name] = cells[2]
+    return columns
+
+
+def expected_columns(stem: str, active: set[str], grid_keys=()) -> set[str]:
+    documented = documented_columns(stem)
+    expected = {name for name, when in documented.items() if when in active and not name.startswith("<")}
+    if "<grid key>" in documented:
+        expected |= set(grid_keys)
+    if stem == "curve":  # one row stands for four statistics of each always-present metric
+        for stat in ("mean", "median", "p10", "p90"):
+            expected |= {f"{metric}_{stat}" for metric in ("rms_position_m", "rms_velocity_m_s",
+                                                         "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")}
+    if stem == "runs":  # "every other summary.parquet column"
+        expected |= expected_columns("summary", active)
+    return expected
+
+
+ALWAYS = {"always"}
+RUN_TABLES = ("summary", "timeseries", "residuals", "consistency", "bias")
+
+
+def _schema(path) -> set[str]:
+    return set(pq.read_schema(path).names)
+
+
+def test_run_tables_have_the_documented_columns(tmp_path):
+    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
+    assert proc.returncode == 0, proc.stderr
+    for stem in RUN_TABLES:
+        assert _schema(tmp_path / "run" / f"{stem}.parquet") == expected_columns(stem, ALWAYS), stem
+    assert _schema(tmp_path / "run" / "clocks.parquet") == set()  # no estimated clocks: no columns
+
+
+def test_smoother_and_gate_columns_are_documented(tmp_path):
+    scenario = tmp_path / "smoothed.yaml"
+    text = (SCENARIOS / "smoke.yaml").read_text()
+    scenario.write_text(text + "filter: {smoother: rts, residual_gate_sigma: 5}\n")
+    proc = run_cli("run", scenario, "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
+    assert proc.returncode == 0, proc.stderr
+    active = ALWAYS | {"`filter.smoother: rts`", "`filter.residual_gate_sigma` > 0"}
+    for stem in ("summary", "timeseries"):
+        assert _schema(tmp_path / "run" / f"{stem}.parquet") == expected_columns(stem, active), stem
+
+
+def test_sweep_tables_have_the_documented_columns(tmp_path):
+    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100,200", "--runs", "2", "--jobs", "1",
+                   "--quiet", "--output", tmp_path / "sweep")
+    assert proc.returncode == 0, proc.stderr
+    for stem in ("runs", "curve"):
+        expected = expected_columns(stem, ALWAYS, grid_keys=("noise.sigma_m",))
+        assert _schema(tmp_path / "sweep" / f"{stem}.parquet") == expected, stem
+
+
+@pytest.mark.slow
+def test_batch_clock_and_study_columns_are_documented(tmp_path):
+    """The columns that need slower scenarios: a batch with clock synchronisation, estimated clocks, table3
+    and compare."""
+    proc = run_cli("run", SCENARIOS / "nrho_gateway_anchors.yaml", "--runs", "1", "--jobs", "1", "--quiet",
+                   "--output", tmp_path / "batch")
+    assert proc.returncode == 0, proc.stderr
+    active = ALWAYS | {"`estimator: batch`", "`clock_sync`"}
+    assert _schema(tmp_path / "batch" / "summary.parquet") == expected_columns("summary", active)
+    proc = run_cli("run", SCENARIOS / "clock_one_way_eml2_lunar.yaml", "--runs", "1", "--jobs", "1", "--quiet",
+                   "--output", tmp_path / "clock")
+    assert proc.returncode == 0, proc.stderr
+    assert _schema(tmp_path / "clock" / "clocks.parquet") == expected_columns("clocks", {"estimated clocks"})
+    proc = run_cli("table3", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "table3")
+    assert proc.returncode == 0, proc.stderr
+    assert _schema(tmp_path / "table3" / "table3.parquet") == expected_columns("table3", ALWAYS)
+    proc = run_cli("compare", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--output", tmp_path / "compare")
+    assert proc.returncode == 0, proc.stderr
+    assert _schema(tmp_path / "compare" / "compare.parquet") == expected_columns("compare", ALWAYS)
+
+
+# --- the README stays a newcomer's page --------------------------------------------------------------------
+
+
+def test_readme_points_to_the_docs_and_keeps_the_two_commands():
+    readme = (REPO / "README.md").read_text()
+    blocks = re.findall(r"```\n(.*?)```", readme, flags=re.S)
+    assert blocks[0].strip() == ("python3 -m venv .venv && . .venv/bin/activate && pip install . && "
+                                 "liaison run scenarios/eml2_lunar.yaml")
+    assert blocks[1].strip() == "pip install '.[test]' && pytest"
+    assert "mkdocs serve" in readme and "docs/" in readme
+    for image in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", readme):
+        assert (REPO / image).is_file(), image
+    assert len(readme.splitlines()) < 120
