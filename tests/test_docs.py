@@ -32,6 +32,10 @@ def test_the_site_builds_strict(tmp_path):
     table3 = (tmp_path / "site" / "reproductions" / "000-table3" / "index.html").read_text()
     assert "<td>eml1_eml2</td>" in table3  # the snippet was included, not left as text
     assert (tmp_path / "site" / "results" / "reference" / "fig15.png").is_file()
+    site = tmp_path / "site"
+    assert "liaison orbits generate" in (site / "cli" / "index.html").read_text()  # the generated parts are in
+    assert "SpacecraftSpec" in (site / "scenario-reference" / "index.html").read_text()
+    assert "dual_one_way_derived" in (site / "model" / "index.html").read_text()
 
 
 def test_every_page_is_in_the_nav():

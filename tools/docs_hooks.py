@@ -197,8 +197,9 @@ def scenario_reference_markdown() -> str:
     from liaison_cli.scenario.json_schema import LOADER_ONLY_RULES, scenario_json_schema
 
     schema = scenario_json_schema()
+    top_level = {key: value for key, value in schema.items() if key != "description"}  # its rules: listed below
     lines = ["## Top level", ""]
-    lines += _model_section("scenario file", schema, level="")[2:]
+    lines += _model_section("scenario file", top_level, level="")[2:]
     lines += ["Checked by the loader only (`liaison validate FILE`), beyond what a JSON Schema can say:", ""]
     lines += [f"- {rule}" for rule in LOADER_ONLY_RULES] + ["", "## Sections", ""]
     for name, model in schema.get("$defs", {}).items():
