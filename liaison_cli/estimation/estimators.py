@@ -14,6 +14,7 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
+from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
 from liaison_cli.measurements.registry import kinds_mask
 
@@ -67,6 +68,7 @@ class FilterArrays:
     residual_gate_after: int = 0  # ... applied once this many measurements have been accepted
     smoother: bool = False  # the EKF also returns its RTS-smoothed history (estimation.smoother)
     burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
+    initial_batch: InitialBatchSettings | None = None  # the EKF starts from a batch solve (estimation.initial_batch)
 
     @property
     def n_gain(self) -> int:
@@ -101,15 +103,23 @@ class EstimateHistory:
 
 
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
+    if arrays.initial_batch is not None:
+        return _ekf_from_initial_batch(arrays, x0_hat, y_obs, truth)
+    return _ekf_pass(arrays, x0_hat, arrays.P0, y_obs, truth, arrays.burns, 0.0)
+
+
+def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu) -> EstimateHistory:
+    """One EKF pass over the epochs of y_obs / truth (m rows), epoch 0 at t0_tu, from (x0_hat, P0)."""
     kind, start, size = arrays.layout.arrays()
     m, n = truth.shape
     stored = m if arrays.smoother else 0  # the smoother's forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
-    args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
-            arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
-            arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
-            arrays.divergence_position_lu, arrays.underweight, float(arrays.residual_gate_sigma),
-            int(arrays.residual_gate_after), arrays.burns, kinds_mask(arrays.channel_kind), states, matrices)
+    args = (x0_hat, P0, arrays.Q, truth, y_obs, arrays.known_states[len(arrays.known_states) - m :],
+            arrays.channel_kind, arrays.channel_ends, arrays.channel_flags, arrays.channel_mod_index,
+            arrays.channel_mod_coeff, arrays.sigma, kind, start, size, arrays.model, arrays.model_params,
+            arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees, arrays.divergence_position_lu,
+            arrays.underweight, float(arrays.residual_gate_sigma), int(arrays.residual_gate_after), burns,
+            kinds_mask(arrays.channel_kind), states, matrices, float(t0_tu))
     entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))
     err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = entry(*args)
     ok = status == STATUS_OK
@@ -120,6 +130,38 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step), rejected=rejected, smoothed_err=smoothed_err,
                            smoothed_sigma=smoothed_sigma)
+
+
+def _ekf_from_initial_batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
+    """filter.initial_batch_hours: a batch solve over the window's epochs 0..e from the a priori, handed over
+    at epoch e with its covariance (estimation.initial_batch), then the EKF on the measurements after e.
+    The history: the batch's smoothed solution over the window (its NEES per epoch against the mapped
+    covariance; innovations NaN there), the EKF's after. extras: the solve's iterations and post-fit
+    chi-square per measurement."""
+    solution = solve_initial_batch(arrays, x0_hat, y_obs)
+    m, n = truth.shape
+    e = solution.traj.shape[0] - 1
+    extras = {"initial_batch_iterations": solution.iterations, "initial_batch_epochs": e,
+              "initial_batch_chi2_per_measurement": solution.weighted_rss / max(solution.measurements, 1)}
+    if solution.status != INITIAL_BATCH_OK:
+        nan = np.full((m, n), np.nan)
+        return EstimateHistory(nan, nan.copy(), np.full(m, np.nan), np.full(y_obs.shape, np.nan),
+                               np.full(y_obs.shape, np.nan), False, f"initial batch: {solution.status}", 0,
+                               extras=extras, rejected=np.zeros(y_obs.shape, dtype=bool))
+    burns = arrays.burns.copy()
+    burns[:, 2] -= e  # the scenario keeps manoeuvres out of the window
+    after = _ekf_pass(arrays, solution.x_handover, solution.P_handover, y_obs[e:], truth[e:], burns, e * arrays.dt_tu)
+    window_err = solution.traj - truth[: e + 1]
+    window_nees = np.array([_epoch_nees(error, P, arrays.n_nees) for error, P in
+                            zip(window_err, solution.covariance)])
+    err = np.vstack([window_err[:e], after.err])
+    sigma = np.vstack([solution.sigma[:e], after.sigma])
+    nees = np.concatenate([window_nees[:e], after.nees])
+    innovation = np.vstack([np.full((e, y_obs.shape[1]), np.nan), after.innovation])
+    innovation_std = np.vstack([np.full((e, y_obs.shape[1]), np.nan), after.innovation_std])
+    rejected = np.vstack([np.zeros((e, y_obs.shape[1]), dtype=bool), after.rejected])
+    return EstimateHistory(err, sigma, nees, innovation, innovation_std, after.ok, after.reason,
+                           after.fail_step + e if not after.ok else -1, extras=extras, rejected=rejected)
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:

@@ -58,7 +58,7 @@ def channel_states(x, known_k, ends):
 def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
     """H (n,) = 0 but the partials of the estimated ends at their state offsets (ends sharing a block add)."""
     H[:] = 0.0
-    for i in range(6):  # element loops: see _time_update
+    for i in range(6):  # element loops: see time_update
         if ends[END_RECEIVER_STATE] >= 0:
             H[ends[END_RECEIVER_STATE] + i] += g_receiver[i]
         if ends[END_TRANSMITTER_STATE] >= 0:
@@ -105,7 +105,7 @@ def apply_burn_rows(M, burns, k):
 
 
 @njit(cache=True, inline="always")
-def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
+def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
                  substeps, y, work):
     """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11). y (42,) and
     work (5, 42): scratch for the state + STM propagation."""
@@ -179,7 +179,7 @@ def _store_update(states, matrices, k, x_hat, P):
 def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
             channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
             n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after, burns, kinds,
-            store_states, store_matrices):
+            store_states, store_matrices, t0_tu):
     """Run one EKF pass.
 
     x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
@@ -198,7 +198,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
 
     store_states (m, 2, n) / store_matrices (m, 3, n, n): for the RTS smoother (estimation.smoother), each
     epoch's [x_hat, x_bar] and [P_bar, P, Phi] (Phi from the epoch before; constant blocks as identity); pass
-    arrays of length 0 to store nothing.
+    arrays of length 0 to store nothing. t0_tu: the time of epoch 0 from the dynamics' origin (the dated
+    model's epoch); epoch k is at t0_tu + k * dt_tu (an EKF handed over from an initial batch starts late).
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), rejected (m, C),
     status, fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch;
@@ -239,7 +240,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     work_block = np.empty((6, 6))
     work_nees = np.empty((n_nees, n_nees))
     z_nees = np.empty(n_nees)
-    for i in range(n):  # element loop: see _time_update
+    for i in range(n):  # element loop: see time_update
         err[0, i] = x_hat[i] - truth[0, i]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
@@ -251,8 +252,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
-                     (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+        time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
+                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)
