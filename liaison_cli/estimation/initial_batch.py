@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.model import literal_entry
+from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import channel_states, scatter_partials, time_update
 from liaison_cli.measurements.registry import kinds_mask, predict_for, residual
 
@@ -52,15 +53,17 @@ class InitialBatchSettings:
 
 
 @njit(cache=True)
-def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channel_kind, channel_ends, channel_flags,
-                                   channel_mod_index, channel_mod_coeff, sigma, block_kind, block_start, block_size,
-                                   model_params, dt_tu, substeps, Q, traj, phi):
+def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channels, layout, dynamics, Q, traj, phi):
     """One Gauss-Newton pass over the window: traj (w, n) the reference from x0 (n,), phi (w, n, n) its
     Phi(t_k, t_0), and the normal equations Lambda (n, n), N (n,) of the measurements y_obs (w, C) at epochs
     1..w-1; also Q_w (n, n), the process noise accumulated to the last epoch, and the residual sum of squares
-    weighted by 1/sigma^2 (a chi-square with as many degrees of freedom as measurements, at the truth)."""
+    weighted by 1/sigma^2 (a chi-square with as many degrees of freedom as measurements, at the truth).
+    channels, layout, dynamics: estimation.kernel_args (dynamics.t0_tu is the window's first epoch)."""
     numba.literally(model)
     numba.literally(kinds)
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
+    block_kind, block_start, block_size = layout
+    model_params, dt_tu, substeps, t0_tu = dynamics
     w, n = traj.shape
     n_channels = channel_kind.shape[0]
     n_mods = channel_mod_index.shape[1]
@@ -83,7 +86,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
             phi[0, i, j] = 1.0 if i == j else 0.0
     for k in range(1, w):
         time_update(traj[k - 1], traj[k], phi_step, block_kind, block_start, block_size, model, model_params,
-                    (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         _propagate_products(phi_step, phi[k - 1], phi[k], q_acc, q_tmp, Q)
         for c in range(n_channels):
             y_meas = y_obs[k, c]
@@ -167,7 +170,7 @@ def solve_initial_batch(arrays, x_apriori, y_obs) -> InitialBatchResult:
     with the arc). A window whose solve fails ends the search with that failure."""
     settings = arrays.initial_batch
     block_kind, block_start, _ = arrays.layout.arrays()
-    positions = [np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == 0]
+    positions = [np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == BLOCK_SPACECRAFT]
     x_start, result = x_apriori, None
     for w in window_lengths(settings):
         result = _solve_window(arrays, w, x_start, x_apriori, y_obs)
@@ -197,12 +200,11 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     n = x_start.shape[0]
     traj, phi = np.empty((w, n)), np.empty((w, n, n))
     info_apriori = np.linalg.inv(arrays.P0)
-    block_kind, block_start, block_size = arrays.layout.arrays()
-    position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == 0])
+    block_kind, block_start, _ = arrays.layout.arrays()
+    position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == BLOCK_SPACECRAFT])
     args = [arrays.model, kinds_mask(arrays.channel_kind), x_start, np.ascontiguousarray(y_obs[:w]),
-            np.ascontiguousarray(arrays.known_states[:w]), arrays.channel_kind, arrays.channel_ends,
-            arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, block_kind,
-            block_start, block_size, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.Q, traj, phi]
+            np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
+            arrays.dynamics(), arrays.Q, traj, phi]
     entry = literal_entry(reference_and_normal_equations, tuple(args), (MODEL_ARG, KINDS_ARG))
 
     def linearise(x):
