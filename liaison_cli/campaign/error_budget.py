@@ -31,6 +31,7 @@ from liaison_cli.estimation.lincov import (
     PART_INITIAL,
     PART_NOISE,
     PART_PROCESS,
+    TruthErrors,
     filter_model_along_truth,
     lincov_along_truth,
 )
@@ -115,13 +116,10 @@ def error_budget(problem: Problem) -> Budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")
     f = problem.filter
-    kind, start, size = f.layout.arrays()
-    D_initial, Q_true, S0, d_dyn_extra, bias_link = _inputs(problem)
-    args = (_filter_truth(problem), problem.measurements_true, f.known_states, f.channel_kind, f.channel_ends,
-            f.channel_flags, f.channel_mod_index, f.channel_mod_coeff, bias_link, f.sigma, f.P0, f.Q, D_initial, Q_true,
-            S0, d_dyn_extra, kind, start, size, f.model, f.model_params, f.dt_tu, f.substeps, f.n_gain, f.underweight,
-            f.burns)
-    run_lincov = literal_entry(lincov_along_truth, args, 19)
+    args = (f.model, _filter_truth(problem), problem.measurements_true, f.known_states, f.channels(),
+            f.block_layout(), f.dynamics(), f.P0, f.Q, int(f.n_gain), float(f.underweight), f.burns,
+            TruthErrors(*_inputs(problem)))
+    run_lincov = literal_entry(lincov_along_truth, args, 0)
     P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft
     parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),

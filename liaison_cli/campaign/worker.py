@@ -142,7 +142,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
                                       M_PER_LU, M_S_PER_VU, data_end_step=history.data_end_step,
                                       settle_s=problem.scenario.settle_days() * SECONDS_PER_DAY,
                                       nees=history.nees, n_nees=problem.filter.n_nees)
-        _add_estimator_extras(summary, history.extras)
+        _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
         _add_clock_sync(problem, inputs, history.data_end_step, summary)
         last = history.fail_step - 1 if not history.ok else -1
@@ -215,9 +215,16 @@ def _add_smoothed(problem: Problem, history, summary, norms, n_dyn: int) -> None
         row.update(error_and_sigma(smoothed, after_t0, i, "smoothed"))
 
 
-def _add_estimator_extras(summary, extras) -> None:
-    """A batch solve's iteration count and condition number, in every spacecraft's row."""
+def _add_estimator_extras(summary, extras, interval_s: float) -> None:
+    """A batch solve's iteration count and condition number, in every spacecraft's row; with an initial batch
+    (filter.initial_batch_hours), its window (h), iterations and post-fit chi-square per measurement."""
     if not extras:
+        return
+    if "initial_batch_epochs" in extras:
+        for row in summary:
+            row["initial_batch_window_h"] = extras["initial_batch_epochs"] * interval_s / 3600.0
+            row["initial_batch_iterations"] = float(extras["initial_batch_iterations"])
+            row["initial_batch_chi2_per_measurement"] = float(extras["initial_batch_chi2_per_measurement"])
         return
     windows = extras.get("windows", [])
     for i, row in enumerate(summary):

@@ -81,11 +81,11 @@ def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts
 
 
 @njit(cache=True)
-def _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-         channel_mod_index, channel_mod_coeff, h, g_r, g_t, g_s):
-    """Predicted value of channel c at epoch k and its row h (n,) of partials w.r.t. the epoch state;
-    g_r, g_t, g_s (6,) are scratch for the partials w.r.t. the ends' current states (g_s: a three-end
-    channel's second receiver)."""
+def _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g_s):
+    """Predicted value of channel c (channels: kernel_args.Channels) at epoch k and its row h (n,) of partials
+    w.r.t. the epoch state; g_r, g_t, g_s (6,) are scratch for the partials w.r.t. the ends' current states
+    (g_s: a three-end channel's second receiver)."""
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, _ = channels
     for i in range(h.shape[0]):
         h[i] = 0.0
     ends = channel_ends[c]
@@ -109,9 +109,9 @@ def _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_en
 
 
 @njit(cache=True)
-def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channel_kind, channel_ends,
-                                channel_flags, channel_mod_index, channel_mod_coeff, sigma, n_use):
+def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use):
     """Lambda (n, n), N (n,), and per channel the residual sum of squares and count over epochs 1..n_use-1."""
+    channel_kind, sigma = channels.kind, channels.sigma
     n = traj.shape[1]
     n_channels = y_obs.shape[1]
     lam = np.zeros((n, n))
@@ -128,8 +128,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
             y = y_obs[k, c]
             if not np.isfinite(y):
                 continue
-            value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-                         channel_mod_index, channel_mod_coeff, h, g_r, g_t, g_s)
+            value = _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g_s)
             r = residual(channel_kind[c], y, value)
             w = 1.0 / (sigma[c] * sigma[c])
             ss[c] += r * r
@@ -148,10 +147,10 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
 
 
 @njit(cache=True)
-def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channel_kind, channel_ends, channel_flags,
-                      channel_mod_index, channel_mod_coeff, sigma, P, n_use):
+def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, P, n_use):
     """Residuals (m, C) of the final reference at every epoch with data (NaN elsewhere) and their predicted
     spread sqrt(sigma^2 - h P h^T) inside the span (sqrt(sigma^2 + h P h^T) after it, a prediction)."""
+    channel_kind, sigma = channels.kind, channels.sigma
     m, n_channels = y_obs.shape
     n = traj.shape[1]
     out = np.full((m, n_channels), np.nan)
@@ -165,8 +164,7 @@ def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channel_ki
             y = y_obs[k, c]
             if not np.isfinite(y):
                 continue
-            value = _row(c, k, traj, phi, block_of_start, known_states, channel_kind, channel_ends, channel_flags,
-                         channel_mod_index, channel_mod_coeff, h, g_r, g_t, g_s)
+            value = _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g_s)
             out[k, c] = residual(channel_kind[c], y, value)
             hph = h @ P @ h
             var = sigma[c] * sigma[c] + (-hph if k < n_use else hph)
@@ -207,14 +205,17 @@ def _solve_equilibrated(lam, rhs):
     return dx, cov, cond
 
 
-def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel_ends, channel_flags,
-                channel_mod_index, channel_mod_coeff, sigma, block_kind, block_start, model, params, dt_tu, counts,
-                n_use, use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST, t0_tu=0.0):
-    """One batch solve over epochs 0..n_use-1 (epoch 0 is the solve epoch). Shapes: x_apriori (n,),
-    P_apriori (n, n), y_obs (m, C), known_states (m, K, 6); counts (m - 1,) RK8 steps per interval.
+def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, model, dynamics, counts, n_use,
+                use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST):
+    """One batch solve over epochs 0..n_use-1 (epoch 0, at dynamics.t0_tu, is the solve epoch). Shapes:
+    x_apriori (n,), P_apriori (n, n), y_obs (m, C), known_states (m, K, 6); channels, layout, dynamics:
+    estimation.kernel_args (dynamics.substeps is the EKF's; the batch's RK8 takes counts (m - 1,) steps per
+    interval); model: the dynamics model code.
     Returns (BatchSolution, traj (m, n), phi (m, B, 6, 6), residuals (m, C), spread (m, C)): the converged
     trajectory over all m epochs, Phi(t_k, t_0) of the last STM pass, and the post-fit residuals with their
     predicted spread (estimation.batch.postfit_residuals)."""
+    block_kind, block_start, _ = layout
+    params, dt_tu, _, t0_tu = dynamics
     n = x_apriori.shape[0]
     m = y_obs.shape[0]
     n_blocks = block_kind.shape[0]
@@ -228,14 +229,13 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel
     position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind)
                                if kind == BLOCK_SPACECRAFT])
     corrections, status, cov, cond, iterations = [], BATCH_NOT_CONVERGED, None, np.nan, 0
-    args = (known_states, channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff)
     for iterations in range(1, max_iterations + 1):
         # The STM covers every epoch (the span and the prediction after it), so the frozen Phi also maps the
         # covariance forward; later iterations of the frozen-Jacobian method propagate the state only.
         with_stm = jacobian == JACOBIAN_EVERY or iterations == 1
         propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m if with_stm else n_use,
                             with_stm, traj, phi, t0_tu)
-        lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, *args, sigma, n_use)
+        lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use)
         if info_apriori is not None:
             lam = lam + info_apriori
             rhs = rhs + info_apriori @ (x_apriori - x)
@@ -254,7 +254,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channel_kind, channel
     # The converged trajectory over every epoch, for errors and post-fit residuals (Phi as last computed).
     propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m, False, traj, phi, t0_tu)
     P = cov if cov is not None else np.full((n, n), np.nan)
-    post, spread = postfit_residuals(traj, phi, block_of_start, y_obs, *args, sigma, P, n_use)
+    post, spread = postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, P, n_use)
     with np.errstate(invalid="ignore"):
         rms = np.sqrt(np.nanmean(post[:n_use] ** 2, axis=0)) if n_use > 1 else np.full(y_obs.shape[1], np.nan)
     solution = BatchSolution(x, P, iterations, status, cond, rms, tuple(corrections))

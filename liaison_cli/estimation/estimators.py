@@ -14,11 +14,13 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
+from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, Dynamics, EkfSettings, SmootherRecord,
+                                                channels_of, dynamics_of)
+from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
 from liaison_cli.measurements.registry import kinds_mask
 
-MODEL_ARG = 15  # position of the model code among run_ekf's arguments
-KINDS_ARG = 26  # ... and of its kind set (measurements.registry.kinds_mask)
+MODEL_ARG, KINDS_ARG = 0, 1  # run_ekf's compile-time arguments: the model code and the kind set, first
 
 @dataclass(frozen=True, eq=False)
 class BatchArrays:
@@ -67,6 +69,21 @@ class FilterArrays:
     residual_gate_after: int = 0  # ... applied once this many measurements have been accepted
     smoother: bool = False  # the EKF also returns its RTS-smoothed history (estimation.smoother)
     burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
+    initial_batch: InitialBatchSettings | None = None  # the EKF starts from a batch solve (estimation.initial_batch)
+
+    def channels(self) -> Channels:
+        return channels_of(self.channel_kind, self.channel_ends, self.channel_flags, self.channel_mod_index,
+                           self.channel_mod_coeff, self.sigma)
+
+    def block_layout(self) -> BlockLayout:
+        return BlockLayout(*self.layout.arrays())
+
+    def dynamics(self, t0_tu: float = 0.0) -> Dynamics:
+        return dynamics_of(self.model_params, self.dt_tu, self.substeps, t0_tu)
+
+    def ekf_settings(self) -> EkfSettings:
+        return EkfSettings(int(self.n_gain), int(self.n_nees), float(self.divergence_position_lu),
+                           float(self.underweight), float(self.residual_gate_sigma), int(self.residual_gate_after))
 
     @property
     def n_gain(self) -> int:
@@ -101,15 +118,19 @@ class EstimateHistory:
 
 
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
-    kind, start, size = arrays.layout.arrays()
+    if arrays.initial_batch is not None:
+        return _ekf_from_initial_batch(arrays, x0_hat, y_obs, truth)
+    return _ekf_pass(arrays, x0_hat, arrays.P0, y_obs, truth, arrays.burns, 0.0)
+
+
+def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu) -> EstimateHistory:
+    """One EKF pass over the epochs of y_obs / truth (m rows), epoch 0 at t0_tu, from (x0_hat, P0)."""
     m, n = truth.shape
     stored = m if arrays.smoother else 0  # the smoother's forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
-    args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
-            arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
-            arrays.model, arrays.model_params, arrays.dt_tu, arrays.substeps, arrays.n_gain, arrays.n_nees,
-            arrays.divergence_position_lu, arrays.underweight, float(arrays.residual_gate_sigma),
-            int(arrays.residual_gate_after), arrays.burns, kinds_mask(arrays.channel_kind), states, matrices)
+    args = (arrays.model, kinds_mask(arrays.channel_kind), x0_hat, P0, arrays.Q, truth, y_obs,
+            arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
+            arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices))
     entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))
     err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = entry(*args)
     ok = status == STATUS_OK
@@ -120,6 +141,38 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step), rejected=rejected, smoothed_err=smoothed_err,
                            smoothed_sigma=smoothed_sigma)
+
+
+def _ekf_from_initial_batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
+    """filter.initial_batch_hours: a batch solve over the window's epochs 0..e from the a priori, handed over
+    at epoch e with its covariance (estimation.initial_batch), then the EKF on the measurements after e.
+    The history: the batch's smoothed solution over the window (its NEES per epoch against the mapped
+    covariance; innovations NaN there), the EKF's after. extras: the solve's iterations and post-fit
+    chi-square per measurement."""
+    solution = solve_initial_batch(arrays, x0_hat, y_obs)
+    m, n = truth.shape
+    e = solution.traj.shape[0] - 1
+    extras = {"initial_batch_iterations": solution.iterations, "initial_batch_epochs": e,
+              "initial_batch_chi2_per_measurement": solution.weighted_rss / max(solution.measurements, 1)}
+    if solution.status != INITIAL_BATCH_OK:
+        nan = np.full((m, n), np.nan)
+        return EstimateHistory(nan, nan.copy(), np.full(m, np.nan), np.full(y_obs.shape, np.nan),
+                               np.full(y_obs.shape, np.nan), False, f"initial batch: {solution.status}", 0,
+                               extras=extras, rejected=np.zeros(y_obs.shape, dtype=bool))
+    burns = arrays.burns.copy()
+    burns[:, 2] -= e  # the scenario keeps manoeuvres out of the window
+    after = _ekf_pass(arrays, solution.x_handover, solution.P_handover, y_obs[e:], truth[e:], burns, e * arrays.dt_tu)
+    window_err = solution.traj - truth[: e + 1]
+    window_nees = np.array([_epoch_nees(error, P, arrays.n_nees) for error, P in
+                            zip(window_err, solution.covariance)])
+    err = np.vstack([window_err[:e], after.err])
+    sigma = np.vstack([solution.sigma[:e], after.sigma])
+    nees = np.concatenate([window_nees[:e], after.nees])
+    innovation = np.vstack([np.full((e, y_obs.shape[1]), np.nan), after.innovation])
+    innovation_std = np.vstack([np.full((e, y_obs.shape[1]), np.nan), after.innovation_std])
+    rejected = np.vstack([np.zeros((e, y_obs.shape[1]), dtype=bool), after.rejected])
+    return EstimateHistory(err, sigma, nees, innovation, innovation_std, after.ok, after.reason,
+                           after.fail_step + e if not after.ok else -1, extras=extras, rejected=rejected)
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
@@ -142,11 +195,9 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
         k1 = min(m, k0 + settings.n_use + settings.n_predict)  # this window's epochs: [k0, k1)
         piece_end = starts[w + 1] if w + 1 < len(starts) else m
         solution, traj, phi, post, post_spread = solve_batch(
-            x_apriori, P_apriori, y_obs[k0:k1], arrays.known_states[k0:k1], arrays.channel_kind,
-            arrays.channel_ends, arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff,
-            arrays.sigma, kind, start, arrays.model, arrays.model_params, arrays.dt_tu, settings.counts[k0 : k1 - 1],
-            settings.n_use, settings.use_apriori, settings.max_iterations, settings.tolerance_lu, settings.jacobian,
-            k0 * arrays.dt_tu)
+            x_apriori, P_apriori, y_obs[k0:k1], arrays.known_states[k0:k1], arrays.channels(), arrays.block_layout(),
+            arrays.model, arrays.dynamics(k0 * arrays.dt_tu), settings.counts[k0 : k1 - 1], settings.n_use,
+            settings.use_apriori, settings.max_iterations, settings.tolerance_lu, settings.jacobian)
         e = traj - truth[k0:k1]
         s_w = _mapped_sigma(solution.P, phi, kind, start)
         ok = solution.status == BATCH_OK

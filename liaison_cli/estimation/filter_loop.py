@@ -58,7 +58,7 @@ def channel_states(x, known_k, ends):
 def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
     """H (n,) = 0 but the partials of the estimated ends at their state offsets (ends sharing a block add)."""
     H[:] = 0.0
-    for i in range(6):  # element loops: see _time_update
+    for i in range(6):  # element loops: see time_update
         if ends[END_RECEIVER_STATE] >= 0:
             H[ends[END_RECEIVER_STATE] + i] += g_receiver[i]
         if ends[END_TRANSMITTER_STATE] >= 0:
@@ -105,7 +105,7 @@ def apply_burn_rows(M, burns, k):
 
 
 @njit(cache=True, inline="always")
-def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
+def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
                  substeps, y, work):
     """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11). y (42,) and
     work (5, 42): scratch for the state + STM propagation."""
@@ -176,29 +176,24 @@ def _store_update(states, matrices, k, x_hat, P):
 
 
 @njit(cache=True)
-def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
-            channel_mod_coeff, sigma, block_kind, block_start, block_size, model, model_params, dt_tu, substeps,
-            n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after, burns, kinds,
-            store_states, store_matrices):
+def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
+            record):
     """Run one EKF pass.
 
-    x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) true values of
-    the filter states at the m epochs t_k = k * dt_tu; y_obs (m, C) observed values of the C scalar
-    channels (row 0 unused, NaN = no measurement); known_states (m, K, 6) states of the known participants.
-    Per channel: channel_kind (C,) the measurement kind code; channel_ends (C, 6) see END_* (-1 = unused);
-    channel_flags (C,) model flags for the kind; channel_mod_index / channel_mod_coeff (C, M): additive
-    modifiers value += coeff * x[index] (range bias, clock phases; -1 = none); sigma (C,) 1-sigma.
-    block_kind / block_start / block_size (B,): the state layout. model, model_params: the dynamics.
-    n_gain: states from this index on are consider parameters with zero gain (-1: none); n_nees: the NEES
-    covers the first n_nees states. A spacecraft whose position error exceeds divergence_position_lu stops
-    the run. underweight: Lear's underweighting factor of the gain (ekf.update_scalar; 0 = none).
-    gate_sigma, gate_after: the residual gate (gated); gate_sigma = 0: no gate. burns (N, 3): impulsive
-    manoeuvres (apply_burns), applied after the update of their epoch. kinds: the bit set of channel_kind's
-    codes (registry.kinds_mask), a compile-time constant like model.
+    model, kinds: compile-time constants, the dynamics model code and the bit set of channel_kind's codes
+    (registry.kinds_mask). x0_hat (n,) initial estimate; P0, Q (n, n) (Q added at every step, Eq. 12); truth
+    (m, n) true values of the filter states at the m epochs t_k = t0_tu + k * dt_tu; y_obs (m, C) observed
+    values of the C scalar channels (row 0 unused, NaN = no measurement); known_states (m, K, 6) states of
+    the known participants. The named groups (estimation.kernel_args): channels (Channels: kind, ends, flags,
+    modifiers, sigma per channel), layout (BlockLayout), dynamics (Dynamics: params, dt_tu, substeps, t0_tu;
+    t0_tu > 0 for an EKF handed over from an initial batch), settings (EkfSettings: n_gain, states from this
+    index on are consider parameters with zero gain, -1: none; n_nees, the NEES covers the first n_nees
+    states; a spacecraft whose position error exceeds divergence_position_lu stops the run; underweight,
+    Lear's factor of the gain, ekf.update_scalar, 0 = none; gate_sigma, gate_after, the residual gate, see
+    gated). burns (N, 3): impulsive manoeuvres (apply_burns), applied after the update of their epoch.
 
-    store_states (m, 2, n) / store_matrices (m, 3, n, n): for the RTS smoother (estimation.smoother), each
-    epoch's [x_hat, x_bar] and [P_bar, P, Phi] (Phi from the epoch before; constant blocks as identity); pass
-    arrays of length 0 to store nothing.
+    record (SmootherRecord): for the RTS smoother (estimation.smoother), each epoch's [x_hat, x_bar] and
+    [P_bar, P, Phi] (Phi from the epoch before; constant blocks as identity); arrays of length 0 store nothing.
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), rejected (m, C),
     status, fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch;
@@ -207,6 +202,11 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     """
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
+    block_kind, block_start, block_size = layout
+    model_params, dt_tu, substeps, t0_tu = dynamics
+    n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
+    store_states, store_matrices = record
     m, n = truth.shape
     n_channels = channel_kind.shape[0]
     n_mods = channel_mod_index.shape[1]
@@ -239,7 +239,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     work_block = np.empty((6, 6))
     work_nees = np.empty((n_nees, n_nees))
     z_nees = np.empty(n_nees)
-    for i in range(n):  # element loop: see _time_update
+    for i in range(n):  # element loop: see time_update
         err[0, i] = x_hat[i] - truth[0, i]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
@@ -251,8 +251,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
-                     (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+        time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
+                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)

@@ -21,13 +21,16 @@ have. LinCov is the ungated filter; a gate at k sigma on a consistent filter's c
 and LinCov says nothing about outliers.
 """
 
+from collections import namedtuple
+
 import numba
 import numpy as np
 from numba import njit
 
+from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_SPACECRAFT
 from liaison_cli.estimation.ekf import predict_covariance_blocks, predict_covariance_into, update_scalar_into
 from liaison_cli.estimation.filter_loop import (
-    _time_update,
+    time_update,
     apply_burn_covariance,
     apply_burn_rows,
     apply_burns,
@@ -38,6 +41,9 @@ from liaison_cli.measurements.registry import predict
 
 PART_INITIAL, PART_NOISE, PART_PROCESS = 0, 1, 2
 N_RANDOM_PARTS = 3
+
+# What the truth does that the filter does not know (lincov_along_truth's docstring).
+TruthErrors = namedtuple("TruthErrors", ["D_initial", "Q_true", "S0", "d_dyn_extra", "channel_bias_link"])
 
 
 @njit(cache=True)
@@ -85,24 +91,27 @@ def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
 
 
 @njit(cache=True)
-def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags, channel_mod_index,
-                       channel_mod_coeff, channel_bias_link, sigma, P0, Q, D_initial, Q_true, S0, d_dyn_extra,
-                       block_kind, block_start, block_size, model, params, dt_tu, substeps, n_gain, underweight,
-                       burns):
+def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dynamics, P0, Q, n_gain, underweight,
+                       burns, truth_errors):
     """The filter's covariance and the error parts at every epoch, after the update.
 
-    truth (m, n): the true filter states (clock / bias columns may be zero: they enter linearly);
-    y_true (m, C): noise-free, bias-free, clock-free true measurements (NaN: none); channel tables as in
-    the EKF; channel_bias_link (C,): the link whose unmodelled bias enters the channel (-1: none);
-    sigma (C,) the filter's (and the truth's) 1-sigma; P0, Q (n, n) the filter's; D_initial (n, n) the true
-    initial error covariance; Q_true (n, n) the truth's process noise per step; S0 (n, L) the initial bias
-    sensitivity (for biases that are filter states); d_dyn_extra (n,) a per-step deterministic truth
-    increment the filter does not model (clock drifts).
+    model: the dynamics model code, a compile-time constant. truth (m, n): the true filter states (clock /
+    bias columns may be zero: they enter linearly); y_true (m, C): noise-free, bias-free, clock-free true
+    measurements (NaN: none); channels, layout, dynamics: as the EKF's (estimation.kernel_args; sigma is the
+    filter's and the truth's 1-sigma); P0, Q (n, n) the filter's; n_gain, underweight: as the EKF's;
+    truth_errors (TruthErrors): D_initial (n, n) the true initial error covariance; Q_true (n, n) the truth's
+    process noise per step; S0 (n, L) the initial bias sensitivity (for biases that are filter states);
+    d_dyn_extra (n,) a per-step deterministic truth increment the filter does not model (clock drifts);
+    channel_bias_link (C,): the link whose unmodelled bias enters the channel (-1: none).
 
     Returns P_diag (m, n), D_diag (m, 3, n) for the initial / noise / process parts, S (m, n, L), mu_meas
     (m, n), mu_dyn (m, n).
     """
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
+    block_kind, block_start, block_size = layout
+    params, dt_tu, substeps, t0_tu = dynamics
+    D_initial, Q_true, S0, d_dyn_extra, channel_bias_link = truth_errors
     m, n = truth.shape
     n_links = S0.shape[1]
     n_channels = channel_kind.shape[0]
@@ -144,14 +153,14 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
             apply_burn_rows(S, burns, k - 1)
             apply_burn_rows(mu_meas.reshape((n, 1)), burns, k - 1)
             apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k - 1)
-            _time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
-                         (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+            time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
+                        t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
             d_dyn = truth[k] - x_bar + d_dyn_extra
             for b in range(block_kind.shape[0]):
-                if block_kind[b] != 0:  # clocks and constants: only the stated drifts
+                if block_kind[b] != BLOCK_SPACECRAFT:  # clocks and constants: only the stated drifts
                     for i in range(block_start[b], block_start[b] + block_size[b]):
                         d_dyn[i] = d_dyn_extra[i]
-                        if block_kind[b] == 2:  # constants: identity transition (_time_update leaves it out)
+                        if block_kind[b] == BLOCK_CONSTANT:  # identity transition (time_update leaves it out)
                             Phi[i, i] = 1.0
             P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
                                                  block_size), P

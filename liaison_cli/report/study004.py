@@ -1,5 +1,6 @@
-"""004's study as a table and figures: per transmitter, the 3σ position and velocity histories of each
-receiver pair (the analogue of 004 Figs. 6-9) and the pairs' DOP (the analogue of Fig. 2)."""
+"""004's study as tables and figures: per transmitter, the 3σ position and velocity histories of each
+receiver pair (the analogue of 004 Figs. 6-9) and the pairs' DOP (the analogue of Fig. 2); the LinCov
+table with the EKF Monte Carlo beside it, and the rankings per grid point."""
 
 from pathlib import Path
 
@@ -9,42 +10,83 @@ import pandas as pd
 from liaison_cli.report.study003 import pyplot, save_png
 
 
-def format_table(summary: pd.DataFrame) -> str:
-    lines = ["| transmitter | pair | steady 3σ pos km | steady 3σ vel cm/s | converged pos (d) | < 1 km from (d) | "
-             "< 1 cm/s from (d) | epochs measured | median DOP | EKF runs ok | EKF inside 3σ pos | "
-             "EKF error RMS last quarter km |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+def _day(value) -> str:
+    return "never" if not np.isfinite(value) else f"{value:.2f}"
 
-    def day(value):
-        return "never" if not np.isfinite(value) else f"{value:.2f}"
 
-    for r in summary.itertuples():
-        converged = f"{day(r.convergence_days_position)} | {day(r.days_below_1km)} | {day(r.days_below_1cm_s)}"
-        inside = "—" if not np.isfinite(r.ekf_inside_3sigma_position) else f"{100 * r.ekf_inside_3sigma_position:.1f} %"
-        late = r.ekf_error_rms_last_quarter_position_m
-        late = "—" if not np.isfinite(late) else f"{late / 1e3:.3f}"
-        lines.append(f"| {r.transmitter} | {r.pair} | {r.steady_3sigma_position_m / 1e3:.3f} | "
-                     f"{r.steady_3sigma_velocity_m_s * 1e2:.3f} | {converged} | {100 * r.measured_share:.0f} % | "
-                     f"{r.median_dop:.2f} | {r.runs_ok}/{r.runs} | {inside} | {late} |")
+def _number(value, scale: float = 1.0, digits: int = 3) -> str:
+    return "—" if not np.isfinite(value) else f"{value * scale:.{digits}f}"
+
+
+def format_table(summary: pd.DataFrame, grid_keys: list[str] | None = None) -> str:
+    """Two tables: LinCov (steady 3σ, convergence, DOP) and the EKF Monte Carlo (converged share, time to
+    converge, error and σ after the settle time and over the last quarter, NEES in band, consistent)."""
+    keys = grid_keys or []
+    head = "".join(f"{k} | " for k in keys)
+    rule = "---|" * len(keys)
+    lincov = [f"| {head}transmitter | pair | steady 3σ pos km | steady 3σ vel cm/s | converged pos (d) | "
+              "< 1 km from (d) | < 1 cm/s from (d) | epochs measured | median DOP |",
+              f"|{rule}---|---|---|---|---|---|---|---|---|"]
+    ekf = [f"| {head}transmitter | pair | EKF converged | converged at, median / max (d) | < 1 km at, median (d) | "
+           "batch window (d) | error / σ RMS pos settled km | error/σ pos, vel settled | "
+           "error / σ RMS pos last quarter km | error/σ pos last quarter | NEES in 95 % band | consistent |",
+           f"|{rule}---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in summary.to_dict("records"):
+        point = "".join(f"{r[k]:g} | " if isinstance(r[k], float) else f"{r[k]} | " for k in keys)
+        lincov.append(f"| {point}{r['transmitter']} | {r['pair']} | {r['steady_3sigma_position_m'] / 1e3:.3f} | "
+                      f"{r['steady_3sigma_velocity_m_s'] * 1e2:.3f} | {_day(r['convergence_days_position'])} | "
+                      f"{_day(r['days_below_1km'])} | {_day(r['days_below_1cm_s'])} | "
+                      f"{100 * r['measured_share']:.0f} % | {r['median_dop']:.2f} |")
+        converged = f"{round(r['ekf_converged_share'] * r['runs'])}/{r['runs']}"
+        consistent = "—" if not np.isfinite(r["ekf_error_to_sigma_position_settled"]) else (
+            "yes" if r["ekf_consistent_settled"] else "**no**")
+        ekf.append(
+            f"| {point}{r['transmitter']} | {r['pair']} | {converged} | "
+            f"{_day(r['ekf_converged_days_median'])} / {_day(r['ekf_converged_days_max'])} | "
+            f"{_day(r['ekf_below_1km_days_median'])} | {_day(r['ekf_initial_batch_window_days_median'])} | "
+            f"{_number(r['ekf_error_rms_position_settled_m'], 1e-3)} / "
+            f"{_number(r['ekf_sigma_rms_position_settled_m'], 1e-3)} | "
+            f"{_number(r['ekf_error_to_sigma_position_settled'], 1, 2)}, "
+            f"{_number(r['ekf_error_to_sigma_velocity_settled'], 1, 2)} | "
+            f"{_number(r['ekf_error_rms_position_last_quarter_m'], 1e-3)} / "
+            f"{_number(r['ekf_sigma_rms_position_last_quarter_m'], 1e-3)} | "
+            f"{_number(r['ekf_error_to_sigma_position_last_quarter'], 1, 2)} | "
+            f"{_number(r['ekf_frac_nees_in_band_settled'], 100, 0)} % | {consistent} |")
+    return "\n".join(lincov) + "\n\n" + "\n".join(ekf) + "\n"
+
+
+def format_rankings(rankings: pd.DataFrame, grid_keys: list[str]) -> str:
+    """The pairs best first per grid point and transmitter, by LinCov and by the EKF."""
+    head = "".join(f"{k} | " for k in grid_keys)
+    lines = [f"| {head}transmitter | best first, LinCov steady 3σ | best first, EKF settled error RMS |",
+             f"|{'---|' * len(grid_keys)}---|---|---|"]
+    for r in rankings.to_dict("records"):
+        point = "".join(f"{r[k]:g} | " if isinstance(r[k], float) else f"{r[k]} | " for k in grid_keys)
+        lines.append(f"| {point}{r['transmitter']} | {r['best_first_lincov']} | {r['best_first_ekf']} |")
     return "\n".join(lines) + "\n"
 
 
 def draw_histories(history: pd.DataFrame, transmitter: str, out_dir: Path) -> Path:
+    """LinCov 3σ (lines), the EKF's error RMS over converged runs (dotted) and the DOP, per pair."""
     plt = pyplot()
     data = history[history.transmitter == transmitter]
     fig, axes = plt.subplots(3, 1, figsize=(9, 10), sharex=True)
     for pair, part in data.groupby("pair", sort=False):
-        axes[0].semilogy(part.t_days, part.position_3sigma_m / 1e3, lw=1, label=pair)
-        axes[1].semilogy(part.t_days, part.velocity_3sigma_m_s * 1e2, lw=1, label=pair)
-        axes[2].semilogy(part.t_days[part.measured], part.dop[part.measured], ".", ms=1.5, label=pair)
-    axes[0].set_ylabel("3σ position (km)")
-    axes[1].set_ylabel("3σ velocity (cm/s)")
+        line, = axes[0].semilogy(part.t_days, part.position_3sigma_m / 1e3, lw=1, label=f"{pair} LinCov 3σ")
+        axes[1].semilogy(part.t_days, part.velocity_3sigma_m_s * 1e2, lw=1, color=line.get_color())
+        if np.isfinite(part.position_ekf_error_rms_m).any():
+            axes[0].semilogy(part.t_days, part.position_ekf_error_rms_m / 1e3, ":", lw=1, color=line.get_color(),
+                             label=f"{pair} EKF error RMS")
+            axes[1].semilogy(part.t_days, part.velocity_ekf_error_rms_m_s * 1e2, ":", lw=1, color=line.get_color())
+        axes[2].semilogy(part.t_days[part.measured], part.dop[part.measured], ".", ms=1.5, color=line.get_color())
+    axes[0].set_ylabel("position (km)")
+    axes[1].set_ylabel("velocity (cm/s)")
     axes[2].set_ylabel("DOP (m per m of path)")
     axes[2].set_xlabel("days")
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.suptitle(f"{transmitter}: TDoA + FDoA, 3σ of the filter along the truth, and the pair's DOP")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"{transmitter}: TDoA + FDoA, LinCov 3σ along the truth, the EKF's error RMS, and the pair's DOP")
     fig.tight_layout()
     path = save_png(fig, out_dir / f"{transmitter}_3sigma.png")
     plt.close(fig)

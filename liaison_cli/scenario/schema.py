@@ -728,6 +728,30 @@ class FilterSpec(StrictModel):
         "none", description="rts: also run the Rauch-Tung-Striebel fixed-interval smoother over each EKF pass "
         "(smoothed errors and sigma in the outputs: 003's reconstructed trajectory); keeps three n x n matrices "
         "per epoch in memory while a run is smoothed")
+    initial_batch_hours: float | None = Field(
+        None, gt=0, description="start the EKF from a batch least-squares solution (with the a priori as "
+        "information) over the first this many hours of data, handed over with its covariance at the window's "
+        "end; the EKF takes the measurements after it. For an a priori too poor for the EKF's first updates "
+        "(004's 1,000 km and 100 m/s per axis). Absent: the EKF starts from the a priori at t0 (h)")
+    initial_batch_max_hours: float | None = Field(
+        None, gt=0, description="the batch window doubles from initial_batch_hours up to this many hours until "
+        "the hand-over position 1-sigma (RSS) is below initial_batch_handover_sigma_km; absent: the window stays "
+        "at initial_batch_hours (h)")
+    initial_batch_handover_sigma_km: float = Field(
+        10.0, gt=0, description="hand over to the EKF once every spacecraft's position 1-sigma (RSS) at the "
+        "window's end is below this (or the window has reached initial_batch_max_hours) (km)")
+    initial_batch_max_iterations: int = Field(
+        30, ge=1, le=1000, description="Gauss-Newton iterations per batch window at most (count)")
+
+    @model_validator(mode="after")
+    def _batch_window_order(self):
+        if (self.initial_batch_max_hours is not None and self.initial_batch_hours is not None
+                and self.initial_batch_max_hours < self.initial_batch_hours):
+            raise ValueError(f"initial_batch_max_hours = {self.initial_batch_max_hours:g} is shorter than "
+                             f"initial_batch_hours = {self.initial_batch_hours:g}: allowed: at least as long")
+        if self.initial_batch_max_hours is not None and self.initial_batch_hours is None:
+            raise ValueError("initial_batch_max_hours needs initial_batch_hours (the first window)")
+        return self
 
     @model_validator(mode="after")
     def _bias_needs_apriori(self):
@@ -923,6 +947,7 @@ class Scenario(StrictModel):
         self._check_manoeuvres()
         self._check_batch()
         self._check_smoother()
+        self._check_initial_batch()
         self._check_clock_sync()
         self._check_dynamics()
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
@@ -976,6 +1001,36 @@ class Scenario(StrictModel):
         moving = [sc.name for sc in self.spacecraft if sc.manoeuvre is not None]
         if moving:
             raise ValueError(f"filter.smoother = 'rts' with a manoeuvre ({moving[0]!r}): not supported")
+
+    def _check_initial_batch(self):
+        """The initial batch window: at least two measurement intervals, inside the scenario, before any
+        manoeuvre (the window's solve has no burn), and only in front of an EKF without a smoother or consider
+        parameters (the smoother would smooth only the EKF's part; consider blocks would be solved for)."""
+        flt = self.filter
+        if flt.initial_batch_hours is None:
+            return
+        longest_h = flt.initial_batch_max_hours or flt.initial_batch_hours
+        shortest_h = 2.0 * self.measurement.interval_s / 3600.0
+        if flt.initial_batch_hours < shortest_h - 1e-9:
+            raise ValueError(f"filter.initial_batch_hours = {flt.initial_batch_hours:g} is shorter than two "
+                             f"measurement intervals; allowed: at least {shortest_h:g} h")
+        scenario_h = self.epochs_end_days() * 24.0
+        if longest_h >= scenario_h - self.measurement.interval_s / 3600.0 + 1e-9:
+            key = "initial_batch_max_hours" if flt.initial_batch_max_hours else "initial_batch_hours"
+            raise ValueError(f"filter.{key} = {longest_h:g} leaves the EKF no data: allowed: shorter than the "
+                             f"scenario's {scenario_h:g} h less one measurement interval")
+        if self.estimator != "ekf":
+            raise ValueError(f"filter.initial_batch_hours starts an EKF; estimator: {self.estimator} (allowed: ekf)")
+        if flt.smoother != "none":
+            raise ValueError("filter.initial_batch_hours with filter.smoother = 'rts': not supported (the smoother "
+                             "would cover only the EKF's part of the arc)")
+        if flt.bias == "consider":
+            raise ValueError("filter.initial_batch_hours with filter.bias = 'consider': not supported (the batch "
+                             "would solve for the considered bias)")
+        for i, sc in enumerate(self.spacecraft):
+            if sc.manoeuvre is not None and sc.manoeuvre.epoch_days * 24.0 < longest_h + 1e-9:
+                raise ValueError(f"spacecraft[{i}].manoeuvre.epoch_days = {sc.manoeuvre.epoch_days:g} falls inside "
+                                 f"the initial batch window ({longest_h:g} h); allowed: after it")
 
     def _check_batch(self):
         if (self.estimator == "batch") != (self.batch is not None):

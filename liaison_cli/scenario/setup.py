@@ -17,6 +17,11 @@ from liaison_cli.dynamics.trajectory import states_with_accelerations
 from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
 from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
+from liaison_cli.estimation.initial_batch import InitialBatchSettings
+
+# The initial batch's Gauss-Newton stops when no position correction exceeds this: far below any hand-over
+# sigma, far above the round-off of a multi-day propagation.
+INITIAL_BATCH_TOLERANCE_M = 0.1
 from liaison_cli.estimation.process_noise import spacecraft_process_noise
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
@@ -490,6 +495,23 @@ def _batch_arrays(scenario: Scenario, model: DynamicsModel, times_s, trajectorie
                        n_predict=n_predict, windows=spec.windows, renewal_steps=renewal)
 
 
+def _initial_batch(scenario: Scenario) -> InitialBatchSettings | None:
+    """filter.initial_batch_*: the windows as epoch counts (estimation.initial_batch)."""
+    flt = scenario.filter
+    if flt.initial_batch_hours is None:
+        return None
+    interval_s = scenario.measurement.interval_s
+
+    def epochs(hours):
+        return int(round(hours * 3600.0 / interval_s)) + 1
+
+    return InitialBatchSettings(first_window=epochs(flt.initial_batch_hours),
+                                max_window=epochs(flt.initial_batch_max_hours or flt.initial_batch_hours),
+                                handover_sigma_lu=flt.initial_batch_handover_sigma_km / LU_KM,
+                                max_iterations=flt.initial_batch_max_iterations,
+                                tolerance_lu=INITIAL_BATCH_TOLERANCE_M / M_PER_LU)
+
+
 def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Problem:
     """Build the arrays of a scenario. Pass the same `truth_cache` dict to a series of scenarios that
     differ only in noise / filter / seed (a sweep over sigma) and the truth is propagated once."""
@@ -523,6 +545,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         residual_gate_sigma=flt.residual_gate_sigma or 0.0, residual_gate_after=flt.residual_gate_after,
         smoother=flt.smoother == "rts",
         batch=_batch_arrays(scenario, model, times_s, trajectories),
+        initial_batch=_initial_batch(scenario),
     )
     sc_index = {name: i for i, name in enumerate(names)}
     return Problem(

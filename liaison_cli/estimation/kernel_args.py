@@ -1,0 +1,37 @@
+"""Named groups of arrays the compiled kernels take, instead of long positional lists (numba compiles
+namedtuples of arrays and scalars as typed records, and unpacks them for free).
+
+- Channels: the measurement channels' tables, C channels, M modifiers each: kind (C,) registry codes, ends
+  (C, 6) see filter_loop.END_*, flags (C,), mod_index / mod_coeff (C, M) additive modifiers
+  value += coeff * x[index] (-1: none), sigma (C,) 1-sigma in filter units;
+- BlockLayout: the state's blocks, kind / start / size (B,) (estimation.blocks);
+- Dynamics: the model's parameter vector, the measurement interval dt_tu, the filter's propagation
+  substeps per interval and t0_tu, the time of epoch 0 from the model's origin (the model code itself is a
+  compile-time constant and goes first, on its own);
+- EkfSettings: n_gain (states from it on are consider parameters, -1: none), n_nees (states the NEES
+  covers), divergence_position_lu, underweight (Lear's beta), gate_sigma / gate_after (the residual gate);
+- SmootherRecord: the EKF's forward record for the RTS smoother, states (m, 2, n) and matrices (m, 3, n, n)
+  (length 0: not recorded).
+Field types are fixed by the builders (int64 / float64), so every scenario reuses one compiled signature.
+"""
+
+from collections import namedtuple
+
+import numpy as np
+
+Channels = namedtuple("Channels", ["kind", "ends", "flags", "mod_index", "mod_coeff", "sigma"])
+BlockLayout = namedtuple("BlockLayout", ["kind", "start", "size"])
+Dynamics = namedtuple("Dynamics", ["params", "dt_tu", "substeps", "t0_tu"])
+EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_position_lu", "underweight", "gate_sigma",
+                                         "gate_after"])
+SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
+
+
+def channels_of(kind, ends, flags, mod_index, mod_coeff, sigma) -> Channels:
+    return Channels(np.ascontiguousarray(kind, dtype=np.int64), np.ascontiguousarray(ends, dtype=np.int64),
+                    np.ascontiguousarray(flags, dtype=np.int64), np.ascontiguousarray(mod_index, dtype=np.int64),
+                    np.ascontiguousarray(mod_coeff, dtype=np.float64), np.ascontiguousarray(sigma, dtype=np.float64))
+
+
+def dynamics_of(params, dt_tu: float, substeps: int, t0_tu: float = 0.0) -> Dynamics:
+    return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu), int(substeps), float(t0_tu))
