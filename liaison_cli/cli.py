@@ -492,7 +492,8 @@ def study004(
                                  grid=axes)
     header = [f"004 study, {runs} runs per case. LinCov: steady state = median 3σ over the last quarter; converged "
               "= 3σ position below twice it from then on. EKF: a run converged when its position error stays below "
-              "twice LinCov's steady 3σ (not before its initial batch hands over); settled = after each "
+              "twice LinCov's steady 3σ (not before its initial batch hands over); steady state and convergence are "
+              "judged before a manoeuvre where there is one; settled = after each "
               "scenario's settle time; consistent = error/σ RMS at most 1.5 in position and velocity."]
     header += [f"Filter ({name}): {tuning(scenario)}{_initial_batch_text(scenario)}" for name, scenario, _ in loaded]
     if axes:

@@ -88,7 +88,7 @@ def test_a_bad_initial_batch_window_is_one_line(tmp_path, filter_text, fragments
 
 
 def test_a_manoeuvre_inside_the_window_is_one_line(tmp_path):
-    path = edited_scenario(tmp_path, "004/low_energy_transfer.yaml", "initial_batch_max_hours: 192",
+    path = edited_scenario(tmp_path, "004/low_energy_transfer.yaml", "initial_batch_max_hours: 96",
                            "initial_batch_max_hours: 1200")
     assert_one_line_error(run_cli("validate", path), path,
                           ["spacecraft[0].manoeuvre.epoch_days = 47.6", "inside the initial batch window (1200 h)"])

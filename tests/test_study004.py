@@ -18,7 +18,9 @@ def test_receivers_of_table_2():
     """GEO receivers stay at 42,164 km moving at 3.075 km/s; the EML1 pair is half a period apart (the two
     spacecraft are far apart, not co-located); the VLBA baseline is about 4,000 km (004: over 4,000 km)."""
     scenario, _ = load_scenario(HALO)
-    problem = prepare_problem(apply_overrides(scenario, {"duration_days": 1.0}))
+    problem = prepare_problem(apply_overrides(scenario, {"duration_days": 1.0, "filter.initial_batch_hours": None,
+                                                         "filter.initial_batch_max_hours": None,
+                                                         "filter.settle_days": None}))
     known = dict(zip(["GEO130W", "GEO170W", "L1A", "L1B", "MaunaKea", "OwensValley"],
                      np.moveaxis(problem.filter.known_states, 1, 0)))
     for name in ("GEO130W", "GEO170W"):
@@ -69,8 +71,8 @@ def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
     0.12 km against 1.18 km)."""
     short = tmp_path / "eml2_halo.yaml"
     short.write_text(HALO.read_text().replace("duration_days: 14.75", "duration_days: 2")
-                     .replace("initial_batch_max_hours: 192", "initial_batch_max_hours: 24")
-                     .replace("settle_days: 8 ", "settle_days: 1 "))
+                     .replace("initial_batch_max_hours: 96", "initial_batch_max_hours: 24")
+                     .replace("settle_days: 6 ", "settle_days: 1 "))
     out = tmp_path / "study"
     proc = run_cli("study004", short, "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
     assert proc.returncode == 0, proc.stderr

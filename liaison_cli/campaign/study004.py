@@ -9,7 +9,8 @@ Per transmitter and pair:
   quarter, with the NEES-in-band share: whether the EKF reaches the covariance LinCov promises, and whether
   its sigma can be trusted there. LinCov starts from the a priori at t0; an EKF with an initial batch
   (filter.initial_batch_hours) starts from the batch's hand-over;
-- steady state: the median LinCov 3-sigma bound over the last quarter of the arc;
+- steady state: the median LinCov 3-sigma bound over the last quarter of the arc (before the first manoeuvre
+  where there is one: judged_until_day);
 - days below 1 km / 1 cm/s: from when the 3-sigma bound stays below 004's yardsticks;
 - convergence time: the first epoch from which the position 3-sigma bound stays below twice its steady
   state for the rest of the arc;
@@ -59,7 +60,8 @@ def _statistics(campaign, transmitter: str, pair: str):
     t_days = problem.times_s / SECONDS_PER_DAY
     row = {"transmitter": transmitter, "pair": pair}
     history = {"transmitter": transmitter, "pair": pair, "t_days": t_days}
-    quarter = t_days >= 0.75 * t_days[-1]
+    arc = t_days < judged_until_day(problem.scenario, t_days)
+    quarter = arc & (t_days >= 0.75 * t_days[arc][-1])
     lincov_variance = error_budget(problem).filter_variance[:, 0, :]  # the filter's P along the truth
     steady = {}
     for column, (kind, unit) in enumerate((("position", "m"), ("velocity", "m_s"))):
@@ -67,10 +69,11 @@ def _statistics(campaign, transmitter: str, pair: str):
         history[f"{kind}_3sigma_{unit}"] = bound
         steady[kind] = float(np.median(bound[quarter]))
         row[f"steady_3sigma_{kind}_{unit}"] = steady[kind]
-        row[f"convergence_days_{kind}"] = first_day_staying_below(t_days, bound, 2.0 * steady[kind])
+        row[f"convergence_days_{kind}"] = first_day_staying_below(t_days[arc], bound[arc], 2.0 * steady[kind])
         yardstick = ("1km", 1e3) if kind == "position" else ("1cm_s", 1e-2)  # 004's: 1 km and 1 cm/s
-        row[f"days_below_{yardstick[0]}"] = first_day_staying_below(t_days, bound, yardstick[1])
-    row.update(_monte_carlo(campaign, t_days, quarter, steady["position"], history))
+        row[f"days_below_{yardstick[0]}"] = first_day_staying_below(t_days[arc], bound[arc], yardstick[1])
+    row["judged_until_day"] = float(t_days[arc][-1])
+    row.update(_monte_carlo(campaign, t_days, arc, quarter, steady["position"], history))
     measured = np.isfinite(problem.measurements_true[1:, 0])
     dop = _dop(problem)
     row["measured_share"] = float(measured.mean())
@@ -80,10 +83,17 @@ def _statistics(campaign, transmitter: str, pair: str):
     return row, pd.DataFrame(history)
 
 
-def _monte_carlo(campaign, t_days, quarter, steady_position_3sigma_m: float, history: dict) -> dict:
+def judged_until_day(scenario: Scenario, t_days) -> float:
+    """Steady state and convergence are judged before the first manoeuvre (its a-priori error resets the
+    uncertainty; 004's transfer is judged before its burn), else over the whole arc: the first day past it."""
+    burns = [sc.manoeuvre.epoch_days for sc in scenario.spacecraft if sc.manoeuvre is not None]
+    return min(burns) if burns else float(t_days[-1]) + 1.0
+
+
+def _monte_carlo(campaign, t_days, arc, quarter, steady_position_3sigma_m: float, history: dict) -> dict:
     """The EKF's Monte Carlo beside LinCov. A run has converged at the first epoch from which its position error
-    stays below twice LinCov's steady 3-sigma (the convergence rule LinCov's own row uses, applied to the
-    error) and not before its initial batch hands over (a batch solution is a smoothed estimate: not available
+    stays below twice LinCov's steady 3-sigma until the end of the judged arc (the convergence rule LinCov's
+    own row uses, applied to the error) and not before its initial batch hands over (a batch solution is a smoothed estimate: not available
     in real time before the window closes); 004's reading: from when the error stays below 1 km. Converged
     share: runs with such an epoch among all runs (a run that diverged, failed or never settles has not).
     Consistency over the converged runs: error RMS, sigma RMS and their ratio after the scenario's settle time
@@ -97,11 +107,11 @@ def _monte_carlo(campaign, t_days, quarter, steady_position_3sigma_m: float, his
         error = o.norms["position_error_m"][:, 0]
         handover = o.summary[0].get("initial_batch_window_h", 0.0) / 24.0
         windows.append(handover)
-        first = max(first_day_staying_below(t_days, error, 2.0 * steady_position_3sigma_m), handover)
+        first = max(first_day_staying_below(t_days[arc], error[arc], 2.0 * steady_position_3sigma_m), handover)
         if np.isfinite(first):
             converged.append(o)
             days.append(first)
-            days_1km.append(max(first_day_staying_below(t_days, error, 1e3), handover))
+            days_1km.append(max(first_day_staying_below(t_days[arc], error[arc], 1e3), handover))
     out["ekf_converged_share"] = len(converged) / len(outcomes) if outcomes else float("nan")
     out["ekf_converged_days_median"] = float(np.median(days)) if days else float("nan")
     out["ekf_converged_days_max"] = float(np.max(days)) if days else float("nan")

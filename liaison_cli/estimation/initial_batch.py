@@ -8,7 +8,8 @@ estimate under the Gaussian a priori):
   X*(t_k) = f(x*; t_0 -> t_k)              reference by the filter's own propagator (filter_loop.time_update)
   H_k = G_X(X*(t_k)) Phi(t_k, t_0)         each scalar measurement mapped to the window's first epoch
   (sum H_k' W H_k + P0^-1) dx = sum H_k' W y_k + P0^-1 (x_bar - x*)
-  x* += dx, until the largest position correction is below the tolerance.
+  x* += dx (halved until J falls), until the largest position correction is below the tolerance or below
+  1e-3 of its own sigma (a short window's cost is flat to round-off along its uncertain directions).
 Epochs 0..n_window - 1 are the window (epoch 0 carries no measurement, as in the EKF). The hand-over at the
 window's last epoch e: x(e) = X*(t_e), P(e) = Phi(e, 0) P_0|window Phi(e, 0)' + Q_e, with Q_e the process noise
 accumulated over the window (Q_k = Phi_k Q_(k-1) Phi_k' + Q), so the EKF starts as if it had run with its
@@ -36,6 +37,7 @@ MODEL_ARG, KINDS_ARG = 0, 1  # reference_and_normal_equations' compile-time argu
 
 
 MAX_HALVINGS = 30
+STEP_SIGMA_FRACTION = 1e-3  # a correction below this share of its own sigma is converged (_negligible)
 
 
 @dataclass(frozen=True)
@@ -226,6 +228,13 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         if dx is None:
             status = "normal equations not positive definite"
             break
+        if _negligible(dx[position], cov, position, settings.tolerance_lu):  # at the minimum: a step this small
+            x = x + dx                                                      # cannot be judged by the cost
+            corrections.append(float(np.max(np.abs(dx[position]))))
+            lam, rhs, q_acc, weighted_ss, cost = linearise(x)
+            status = INITIAL_BATCH_OK
+            _, cov = _solve(lam, rhs)
+            break
         for _ in range(MAX_HALVINGS + 1):
             trial = linearise(x + dx)
             if np.isfinite(trial[4]) and trial[4] <= cost * (1.0 + 1e-12):
@@ -237,7 +246,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         x = x + dx
         lam, rhs, q_acc, weighted_ss, cost = trial
         corrections.append(float(np.max(np.abs(dx[position]))))
-        if corrections[-1] < settings.tolerance_lu:
+        if _negligible(dx[position], cov, position, settings.tolerance_lu):
             status = INITIAL_BATCH_OK
             _, cov = _solve(lam, rhs)  # the covariance at the solution
             break
@@ -251,6 +260,14 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     P_handover = mapped[-1] + q_acc
     return InitialBatchResult(status, len(corrections), tuple(corrections), traj.copy(), sigma, mapped,
                               traj[-1].copy(), 0.5 * (P_handover + P_handover.T), float(weighted_ss), measured)
+
+
+def _negligible(step, cov, position, tolerance_lu) -> bool:
+    """A position correction below the tolerance, or below STEP_SIGMA_FRACTION of its own 1-sigma: with weak
+    information (a short window) the cost is flat to round-off along the uncertain directions, and a further
+    step there is noise, not progress."""
+    sigma = np.sqrt(np.abs(np.diag(cov)[position]))
+    return bool(np.max(np.abs(step)) < tolerance_lu or np.all(np.abs(step) < STEP_SIGMA_FRACTION * sigma))
 
 
 def _solve(lam, rhs):
