@@ -1,0 +1,54 @@
+"""Commands on scenario files themselves: `liaison version`, `liaison schema`, `liaison validate`."""
+
+from pathlib import Path
+
+import typer
+
+from liaison_cli import __version__
+from liaison_cli.cli.common import user_errors
+from liaison_cli.cli.root import app
+from liaison_cli.errors import LiaisonError
+
+
+@app.command()
+def version():
+    """Print the package version."""
+    typer.echo(__version__)
+
+
+@app.command()
+@user_errors
+def schema(
+    output: Path = typer.Option(None, "--output", help="write it to this file (atomically) instead of printing"),
+):
+    """Print the scenario JSON Schema (every key's description, unit and allowed values) for editors."""
+    from liaison_cli.scenario.json_schema import scenario_json_schema_text
+
+    text = scenario_json_schema_text()
+    if output is None:
+        typer.echo(text, nl=False)
+        return
+    from liaison_cli.storage import write_text_atomic
+
+    if output.is_dir():
+        raise LiaisonError(f"{output}: a directory; allowed: a file path for the schema")
+    write_text_atomic(text, output)
+    typer.echo(f"wrote {output}")
+
+
+@app.command()
+@user_errors
+def validate(files: list[Path] = typer.Argument(..., metavar="FILE...", help="scenario or link YAML files")):
+    """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each."""
+    from liaison_cli.scenario.schema import check_file
+
+    bad = 0
+    for path in files:
+        try:
+            check_file(path)
+            typer.echo(f"ok: {path}")
+        except LiaisonError as exc:  # one line per bad file, and on to the next
+            typer.echo(f"error: {exc}", err=True)
+            bad += 1
+    if bad:
+        raise typer.Exit(2)
