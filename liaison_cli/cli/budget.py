@@ -5,7 +5,7 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli.cli.common import user_errors
+from liaison_cli.cli.common import echo_json, json_option, user_errors
 from liaison_cli.cli.root import app
 
 
@@ -30,12 +30,18 @@ def _print_dual_one_way(spec) -> None:
 def budget(
     link_file: Path = typer.Argument(..., help="link YAML: link_budget {uplink, downlink} + ranging parameters"),
     sweep_dir: Path = typer.Option(None, "--sweep", help="a 'liaison sweep --sigma' folder to read errors from"),
+    as_json: bool = json_option(),
 ):
     """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off)."""
     from liaison_cli.scenario.schema import load_link_file
-    from liaison_cli.report.budget import METHOD_LABELS, expected_errors
+    from liaison_cli.report.budget import METHOD_LABELS
 
     link = load_link_file(link_file)
+    if as_json:
+        from liaison_cli.report.json_summary import budget_document
+
+        echo_json(budget_document(link_file, link, _expected_errors(link, sweep_dir), sweep_dir))
+        return
     if link.dual_one_way is not None:
         _print_dual_one_way(link.dual_one_way)
     if link.link_budget is None:
@@ -66,9 +72,7 @@ def budget(
                 typer.echo(f"  {METHOD_LABELS[method]:<22}{sigma / carrier['range_rate_sigma_m_s']:10.0f} s")
     if sweep_dir is None:
         return
-    from liaison_cli.report.fig15 import load_curve
-
-    table = expected_errors(load_curve(sweep_dir), sigmas)
+    table = _expected_errors(link, sweep_dir)
     typer.echo(f"expected OD error from {sweep_dir} (mean of run RMS [90th percentile], interpolated in sigma):")
     typer.echo(f"  {'method':<14}{'sigma m':>9}  {'scenario':<12}{'spacecraft':<11}{'position m':>20}"
                f"{'velocity mm/s':>22}")
@@ -79,3 +83,13 @@ def budget(
         else:
             pos, vel = f"outside swept {row.swept_min_m:g}-{row.swept_max_m:g} m", ""
         typer.echo(f"  {row.method:<14}{row.sigma_m:>9.1f}  {row.scenario:<12}{row.spacecraft:<11}{pos:>20}{vel:>22}")
+
+
+def _expected_errors(link, sweep_dir):
+    """The OD errors a sweep's curve gives at each method's sigma; None without --sweep or a link budget."""
+    if sweep_dir is None or link.link_budget is None:
+        return None
+    from liaison_cli.report.budget import expected_errors
+    from liaison_cli.report.fig15 import load_curve
+
+    return expected_errors(load_curve(sweep_dir), link.sigma_by_method())

@@ -104,3 +104,15 @@ def refuse_repeated_labels(labelled: list, what: str) -> None:
                                f"distinct {what}s (each labels its own rows, metadata and figures)")
         first[label] = path
 
+
+
+def json_option():
+    """The `--json` flag of the commands with a machine-readable summary (keys: docs/json-output.md)."""
+    return typer.Option(False, "--json", help="print a machine-readable JSON summary instead of the text "
+                                              "(keys: docs/json-output.md); errors stay one line on stderr")
+
+
+def echo_json(document: dict) -> None:
+    from liaison_cli.report.json_summary import to_json_text
+
+    typer.echo(to_json_text(document))

@@ -1,11 +1,22 @@
-"""`liaison run`, `liaison compare` and `liaison table3`: run scenarios' Monte Carlo campaigns and print their summaries."""
+"""`liaison run`, `liaison compare` and `liaison table3`: run scenarios' Monte Carlo campaigns and print their
+summaries (as text, or with --json as JSON)."""
 
+import logging
 import sys
+import time
 from pathlib import Path
 
 import typer
 
-from liaison_cli.cli.common import check_runs, fail, refuse_repeated_labels, user_errors, EXIT_ALL_DIVERGED
+from liaison_cli.cli.common import (
+    EXIT_ALL_DIVERGED,
+    check_runs,
+    echo_json,
+    fail,
+    json_option,
+    refuse_repeated_labels,
+    user_errors,
+)
 from liaison_cli.cli.root import app
 from liaison_cli.report.run_text import (
     format_consistency as _format_consistency,
@@ -15,6 +26,8 @@ from liaison_cli.report.run_text import (
     rejection_line as _rejection_line,
     status_line as _status_line,
 )
+
+log = logging.getLogger("liaison")
 
 
 @app.command()
@@ -27,6 +40,7 @@ def run(
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    as_json: bool = json_option(),
 ):
     """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results."""
     from liaison_cli.campaign.results import stream_campaign
@@ -34,12 +48,26 @@ def run(
     from liaison_cli.storage import staged_output
 
     check_runs(runs)
+    started = time.perf_counter()
     config, text = load_scenario(scenario)
+    log.info("read and checked %s in %.2f s", scenario, time.perf_counter() - started)
     out_dir = output or Path("results") / config.name
     with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
         problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
                                            progress=not quiet and sys.stderr.isatty(),
                                            float_dtype="float64" if float64 else "float32")
+    if as_json:
+        from liaison_cli.report.json_summary import run_document
+
+        echo_json(run_document(config, scenario, problem, summary, out_dir))
+    else:
+        _print_run(config, problem, summary, out_dir)
+    if not any(row["status"] == "ok" for row in summary):
+        fail(f"no run of {config.name} finished healthy (see the "
+             f"{'failed_runs' if as_json else 'status line above'}); results kept in {out_dir}", EXIT_ALL_DIVERGED)
+
+
+def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     span = (f"batch span {config.batch.span_days:g} d + {config.batch.prediction_hours:g} h"
             if config.batch is not None else f"{config.duration_days:g} d")
     typer.echo(
@@ -48,20 +76,14 @@ def run(
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
-    smoothed = _format_smoothed(summary, problem.spacecraft)
-    if smoothed:
-        typer.echo(smoothed)
-    prediction = _format_prediction(summary, problem.spacecraft)
-    if prediction:
-        typer.echo(prediction)
+    for optional in (_format_smoothed(summary, problem.spacecraft), _format_prediction(summary, problem.spacecraft)):
+        if optional:
+            typer.echo(optional)
     typer.echo(_status_line(summary))
     rejections = _rejection_line(summary, config.filter)
     if rejections:
         typer.echo(rejections)
     typer.echo(f"results: {out_dir}")
-    if not any(row["status"] == "ok" for row in summary):
-        fail(f"no run of {config.name} finished healthy (see the status line above); results kept in {out_dir}",
-              EXIT_ALL_DIVERGED)
 
 
 @app.command()
@@ -94,6 +116,7 @@ def compare(
     output: Path = typer.Option(Path("results/compare"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    as_json: bool = json_option(),
 ):
     """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
     from liaison_cli.campaign.results import summarise_campaign
@@ -113,5 +136,10 @@ def compare(
             summaries.append(summary.assign(scenario=config.name))
             texts[config.name] = text
         table, markdown = write_compare(rows, summaries, texts, stage)
+    if as_json:
+        from liaison_cli.report.json_summary import compare_document
+
+        echo_json(compare_document(table, output))
+        return
     typer.echo(markdown)
     typer.echo(f"results: {output}")

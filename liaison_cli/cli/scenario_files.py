@@ -5,7 +5,7 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import user_errors
+from liaison_cli.cli.common import echo_json, json_option, user_errors
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 
@@ -38,17 +38,26 @@ def schema(
 
 @app.command()
 @user_errors
-def validate(files: list[Path] = typer.Argument(..., metavar="FILE...", help="scenario or link YAML files")):
+def validate(
+    files: list[Path] = typer.Argument(..., metavar="FILE...", help="scenario or link YAML files"),
+    as_json: bool = json_option(),
+):
     """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each."""
     from liaison_cli.scenario.schema import check_file
 
-    bad = 0
+    results = []
     for path in files:
         try:
             check_file(path)
-            typer.echo(f"ok: {path}")
-        except LiaisonError as exc:  # one line per bad file, and on to the next
+            results.append((path, None))
+            if not as_json:
+                typer.echo(f"ok: {path}")
+        except LiaisonError as exc:  # one line per bad file (on stderr), and on to the next
+            results.append((path, str(exc)))
             typer.echo(f"error: {exc}", err=True)
-            bad += 1
-    if bad:
+    if as_json:
+        from liaison_cli.report.json_summary import validate_document
+
+        echo_json(validate_document(results))
+    if any(error is not None for _, error in results):
         raise typer.Exit(2)

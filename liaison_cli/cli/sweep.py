@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from liaison_cli.cli.common import EXIT_ALL_DIVERGED, check_runs, fail, plain_name, user_errors
+from liaison_cli.cli.common import EXIT_ALL_DIVERGED, check_runs, echo_json, fail, json_option, plain_name, user_errors
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 from liaison_cli.report.run_text import left as _left, right as _right
@@ -67,6 +67,7 @@ def sweep(
     scenarios_dir: Path = typer.Option(Path("scenarios"), "--scenarios",
                                        help="folder of the paper's scenario files (when none is named)"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    as_json: bool = json_option(),
 ):
     """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
@@ -100,14 +101,13 @@ def sweep(
     with sweep_lock(out_dir), resumable_output(out_dir, overwrite, plan.key()) as work_dir:
         result = run_sweep(plan, work_dir, backend=backend, jobs=jobs, scheduler=scheduler,
                            progress=not quiet and sys.stderr.isatty(), connect_timeout_s=scheduler_timeout)
-    typer.echo(_format_curve(result.curve_table, [k for k, _ in axes]))
-    excluded = int(result.curve_table.runs_excluded.sum())
-    total = len(plan.tasks)
-    typer.echo(f"{len(plan.points)} grid points x {runs} runs = {total} tasks: {result.computed} computed, "
-               f"{result.reused} reused from the manifest"
-               + (f"; {excluded} spacecraft-runs diverged or failed and are excluded from the curves"
-                  if excluded else ""))
-    typer.echo(f"results: {out_dir}")
+    if as_json:
+        from liaison_cli.report.json_summary import sweep_document
+
+        echo_json(sweep_document(name, out_dir, [k for k, _ in axes], result.curve_table, len(plan.tasks),
+                                 result.computed, result.reused))
+    else:
+        _print_sweep(result, axes, plan, runs, out_dir)
     curve = result.curve_table
     empty = curve[curve.runs_ok == 0].drop_duplicates("point")
     if len(empty) == curve.point.nunique():
@@ -116,3 +116,13 @@ def sweep(
     if len(empty):
         typer.echo(f"warning: no healthy run at {len(empty)} grid point(s) ({', '.join(map(str, empty.point))}); "
                    "their curve values are empty", err=True)
+
+
+def _print_sweep(result, axes, plan, runs: int, out_dir: Path) -> None:
+    typer.echo(_format_curve(result.curve_table, [k for k, _ in axes]))
+    excluded = int(result.curve_table.runs_excluded.sum())
+    typer.echo(f"{len(plan.points)} grid points x {runs} runs = {len(plan.tasks)} tasks: {result.computed} computed, "
+               f"{result.reused} reused from the manifest"
+               + (f"; {excluded} spacecraft-runs diverged or failed and are excluded from the curves"
+                  if excluded else ""))
+    typer.echo(f"results: {out_dir}")
