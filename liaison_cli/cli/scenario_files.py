@@ -1,4 +1,5 @@
-"""Commands on scenario files themselves: `liaison version`, `liaison schema`, `liaison validate`."""
+"""Commands on scenario files themselves: `liaison new` (from a template), `liaison schema`, `liaison validate`;
+and `liaison version`."""
 
 from pathlib import Path
 
@@ -61,3 +62,20 @@ def validate(
         echo_json(validate_document(results))
     if any(error is not None for _, error in results):
         raise typer.Exit(2)
+
+
+@app.command("new")
+@user_errors
+def new(
+    path: Path = typer.Argument(..., metavar="NAME.yaml", help="the scenario file to write (must not exist)"),
+    kind: str = typer.Option(..., "--from", metavar="KIND", help="template: crosslink-pair, network, "
+                             "nrho-batch, dated-dsn or tdoa-pair"),
+):
+    """Write a commented starting scenario from a template; it validates and runs as written."""
+    from liaison_cli.scenario.json_schema import SCHEMA_FILE_NAME
+    from liaison_cli.scenario.templates import TEMPLATES, new_scenario
+
+    name = new_scenario(path, kind)
+    typer.echo(f"wrote {path} (scenario {name}: {TEMPLATES[kind]}); run it with: liaison run {path}")
+    if not (path.parent / SCHEMA_FILE_NAME).exists():
+        typer.echo(f"editor help: liaison schema --output {path.parent / SCHEMA_FILE_NAME}")
