@@ -33,3 +33,20 @@ def plot_fig15(
                        f"ratio {row.ratio:5.2f}")
     for path in paths:
         typer.echo(f"wrote {path}")
+
+
+@plot_app.command("run")
+@user_errors
+def plot_run(
+    result_dir: Path = typer.Argument(..., metavar="RESULT_DIR", help="folder written by 'liaison run'"),
+    output: Path = typer.Option(None, "--output", help="folder for the figures (default: RESULT_DIR/plots)"),
+    run: int = typer.Option(None, "--run", min=0, help="run to highlight (default: the first that finished ok)"),
+):
+    """A run result's errors against 3σ, NEES against its 95 % band, normalised innovations, clocks and biases."""
+    from liaison_cli.report.run_plots import draw_run
+    from liaison_cli.report.run_result import highlighted_run, load_run_result
+
+    result = load_run_result(result_dir)
+    paths = draw_run(result, output or result_dir / "plots", highlighted_run(result, run))
+    for path in paths:
+        typer.echo(f"wrote {path}")

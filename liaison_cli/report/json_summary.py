@@ -87,7 +87,8 @@ def budget_document(link_file, link, expected=None, sweep_dir=None) -> dict:
     """`liaison budget --json`: the legs, each method's ranging sigma, the carrier's sigmas, the dual one-way
     receiver's bounds, and (with --sweep) the expected OD errors."""
     document = {**_header("budget"), "link_file": str(link_file), "legs": None, "ranging_sigma_m": None,
-                "correlator_integration_s": None, "carrier": None, "dual_one_way": None, "expected_errors": None}
+                "correlator_integration_s": None, "carrier": None, "dual_one_way": None, "sweep": None,
+                "expected_errors": None}
     if link.dual_one_way is not None:
         document["dual_one_way"] = link.dual_one_way.receiver().sigmas()
     if link.link_budget is None:
