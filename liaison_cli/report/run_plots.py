@@ -134,7 +134,7 @@ def _draw_innovations(result: RunResult, highlight: int):
     channels = list(table.groupby(["link", "observable"], sort=False).groups)
     ncol = 2 if len(channels) > 1 else 1
     nrow = -(-len(channels) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.4 * nrow + 0.8), squeeze=False, sharex=True)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.6 * nrow + 1.0), squeeze=False, sharex=True)
     faint_runs = set(sorted(table.run.unique())[:MAX_FAINT_RUNS]) - {highlight}
     for ax, (link, observable) in zip(axes.flat, channels):
         mine = table[(table.link == link) & (table.observable == observable)]
@@ -208,7 +208,7 @@ def _draw_bias(result: RunResult, highlight: int):
         return None
     table = table[table.treatment != "ignore"]
     links = list(dict.fromkeys(table.link))
-    fig, axes = plt.subplots(len(links), 1, figsize=(11, 2.4 * len(links) + 0.8), squeeze=False)
+    fig, axes = plt.subplots(len(links), 1, figsize=(11, 2.6 * len(links) + 1.0), squeeze=False)
     for ax, link in zip(axes[:, 0], links):
         mine = table[table.link == link]
         miss = mine.bias_estimate_m - mine.bias_true_m
