@@ -34,14 +34,19 @@ def budget(
 ):
     """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off)."""
     from liaison_cli.scenario.schema import load_link_file
-    from liaison_cli.report.budget import METHOD_LABELS
 
     link = load_link_file(link_file)
     if as_json:
         from liaison_cli.report.json_summary import budget_document
 
         echo_json(budget_document(link_file, link, _expected_errors(link, sweep_dir), sweep_dir))
-        return
+    else:
+        _print_budget(link, sweep_dir)
+
+
+def _print_budget(link, sweep_dir) -> None:
+    from liaison_cli.report.budget import METHOD_LABELS
+
     if link.dual_one_way is not None:
         _print_dual_one_way(link.dual_one_way)
     if link.link_budget is None:
