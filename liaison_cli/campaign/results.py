@@ -301,8 +301,13 @@ def summarise_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 
                        description: str | None = None, truth_cache: dict | None = None
                        ) -> tuple[Problem, "pd.DataFrame"]:
     """Run a campaign and keep only its summary rows (for tables across scenarios: compare, Table 3)."""
+    started = time.perf_counter()
     problem = prepare_problem(scenario, truth_cache)
+    prepared = time.perf_counter()
+    log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     rows = [row for outcome in iter_outcomes(problem, n_runs, jobs, progress, description)
             for row in _summary_rows(problem, outcome)]
+    log.info("%s: %d runs estimated in %.2f s (%d job(s))", scenario.name, n_runs, time.perf_counter() - prepared,
+             jobs)
     return problem, _summary_frame(rows)
