@@ -54,3 +54,13 @@ def test_new_refuses_an_unknown_template(tmp_path):
     assert result.stderr.strip().count("\n") == 0
     assert "'halo-trio'" in result.stderr and "crosslink-pair" in result.stderr
     assert not path.exists()
+
+
+def test_the_help_names_every_template():
+    """The --from help is written out (importing the templates would load the schema on every Tab press)."""
+    import inspect
+
+    from liaison_cli.cli.scenario_files import new
+
+    help_text = inspect.signature(new).parameters["kind"].default.help
+    assert all(kind in help_text for kind in TEMPLATES) and help_text.count(",") + 2 == len(TEMPLATES)  # a, b, c, d or e
