@@ -87,10 +87,13 @@ def _draw_errors(result: RunResult, highlight: int):
     axes[0, 0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("time (days)")
-    fig.suptitle(f"{result.name}: estimation error norms of {runs} runs (grey; run {highlight} in colour, with "
-                 "its 3σ norm)")
+    fig.suptitle(f"{result.name}: estimation error norms, {_runs_phrase(runs, highlight)}, with its 3σ norm")
     fig.tight_layout()
     return fig
+
+
+def _runs_phrase(runs: int, highlight: int) -> str:
+    return f"run {highlight}" if runs == 1 else f"{runs} runs (grey; run {highlight} in colour)"
 
 
 def _log_scale(ax, values: np.ndarray) -> None:
@@ -161,8 +164,9 @@ def _draw_innovations(result: RunResult, highlight: int):
     axes.flat[0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("time (days)")
-    shown = len(faint_runs) + 1
-    fig.suptitle(f"{result.name}: normalised innovations, {shown} of {table.run.nunique()} runs (±3 lines)")
+    runs = table.run.nunique()
+    shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
+    fig.suptitle(f"{result.name}: normalised innovations, {_runs_phrase(runs, highlight)}{shown}; ±3 lines")
     fig.tight_layout()
     return fig
 
@@ -193,8 +197,8 @@ def _draw_clocks(result: RunResult, highlight: int):
     axes[0, 0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("time (days)")
-    fig.suptitle(f"{result.name}: clock estimation errors of {table.run.nunique()} runs (grey; run {highlight} in "
-                 "colour, with its ±3σ)")
+    fig.suptitle(f"{result.name}: clock estimation errors, {_runs_phrase(table.run.nunique(), highlight)}, with "
+                 "its ±3σ")
     fig.tight_layout()
     return fig
 
