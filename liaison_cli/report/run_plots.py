@@ -66,7 +66,7 @@ def _draw_errors(result: RunResult, highlight: int):
     if not spacecraft:
         return None
     fig, axes = plt.subplots(len(spacecraft), 2, figsize=(11, 2.6 * len(spacecraft) + 0.8), squeeze=False,
-                             sharex=True)
+                             sharex=True, layout="constrained")
     runs = series.run.nunique()
     for row, name in enumerate(spacecraft):
         mine = series[series.spacecraft == name]
@@ -88,7 +88,6 @@ def _draw_errors(result: RunResult, highlight: int):
     for ax in axes[-1]:
         ax.set_xlabel("time (days)")
     fig.suptitle(f"{result.name}: estimation error norms, {_runs_phrase(runs, highlight)}, with its 3σ norm")
-    fig.tight_layout()
     return fig
 
 
@@ -111,7 +110,7 @@ def _draw_nees(result: RunResult, highlight: int):
     table = result.consistency
     if table.empty:
         return None
-    fig, ax = plt.subplots(figsize=(11, 4))
+    fig, ax = plt.subplots(figsize=(11, 4), layout="constrained")
     t = _days(table.t_s)
     ax.fill_between(t, table.band_low, table.band_high, color="tab:green", alpha=0.2, linewidth=0,
                     label="95 % χ² band of the mean")
@@ -124,7 +123,6 @@ def _draw_nees(result: RunResult, highlight: int):
     ax.set_ylabel("NEES")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
     return fig
 
 
@@ -137,7 +135,8 @@ def _draw_innovations(result: RunResult, highlight: int):
     channels = list(table.groupby(["link", "observable"], sort=False).groups)
     ncol = 2 if len(channels) > 1 else 1
     nrow = -(-len(channels) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.6 * nrow + 1.0), squeeze=False, sharex=True)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.6 * nrow + 1.0), squeeze=False, sharex=True,
+                             layout="constrained")
     faint_runs = set(sorted(table.run.unique())[:MAX_FAINT_RUNS]) - {highlight}
     for ax, (link, observable) in zip(axes.flat, channels):
         mine = table[(table.link == link) & (table.observable == observable)]
@@ -167,7 +166,6 @@ def _draw_innovations(result: RunResult, highlight: int):
     runs = table.run.nunique()
     shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
     fig.suptitle(f"{result.name}: normalised innovations, {_runs_phrase(runs, highlight)}{shown}; ±3 lines")
-    fig.tight_layout()
     return fig
 
 
@@ -178,7 +176,8 @@ def _draw_clocks(result: RunResult, highlight: int):
     if table.empty:
         return None
     clocks = list(dict.fromkeys(table["clock"]))
-    fig, axes = plt.subplots(len(clocks), 2, figsize=(11, 2.6 * len(clocks) + 0.8), squeeze=False, sharex=True)
+    fig, axes = plt.subplots(len(clocks), 2, figsize=(11, 2.6 * len(clocks) + 0.8), squeeze=False, sharex=True,
+                             layout="constrained")
     for row, name in enumerate(clocks):
         mine = table[table["clock"] == name]
         for col, (error, sigma, label) in enumerate((("phase_error_ns", "phase_sigma_ns", "phase (ns)"),
@@ -199,7 +198,6 @@ def _draw_clocks(result: RunResult, highlight: int):
         ax.set_xlabel("time (days)")
     fig.suptitle(f"{result.name}: clock estimation errors, {_runs_phrase(table.run.nunique(), highlight)}, with "
                  "its ±3σ")
-    fig.tight_layout()
     return fig
 
 
@@ -212,7 +210,8 @@ def _draw_bias(result: RunResult, highlight: int):
         return None
     table = table[table.treatment != "ignore"]
     links = list(dict.fromkeys(table.link))
-    fig, axes = plt.subplots(len(links), 1, figsize=(11, 2.6 * len(links) + 1.0), squeeze=False)
+    fig, axes = plt.subplots(len(links), 1, figsize=(11, 2.6 * len(links) + 1.0), squeeze=False,
+                             layout="constrained")
     for ax, link in zip(axes[:, 0], links):
         mine = table[table.link == link]
         miss = mine.bias_estimate_m - mine.bias_true_m
@@ -228,5 +227,4 @@ def _draw_bias(result: RunResult, highlight: int):
     axes[-1, 0].set_xlabel("run")
     axes[-1, 0].xaxis.set_major_locator(MaxNLocator(integer=True))
     fig.suptitle(f"{result.name}: range-bias estimates at the end of each run")
-    fig.tight_layout()
     return fig
