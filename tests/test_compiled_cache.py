@@ -32,7 +32,7 @@ def test_hash_covers_callees_of_the_filter_loop(tmp_path, monkeypatch):
 def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
     """The first run on a machine compiles the core (about 15 s) and says so in one line; the next
     run loads the cache and says nothing."""
-    from liaison_cli.cli import COMPILE_NOTICE
+    from liaison_cli.cli.common import COMPILE_NOTICE
     from tests.conftest import SCENARIOS
 
     env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path / "cache")}

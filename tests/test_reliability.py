@@ -36,7 +36,8 @@ def test_sweep_name_must_be_plain(tmp_path, name):
 def test_wide_numbers_keep_a_space_between_columns():
     import pandas as pd
 
-    from liaison_cli.cli import _format_curve, _format_summary
+    from liaison_cli.cli.sweep import _format_curve
+    from liaison_cli.report.run_text import format_summary as _format_summary
 
     summary = [{"spacecraft": "EML2", "status": "ok", "rms_position_m": 1361933.5,
                 "rms_position_after_day1_m": 1294688.1, "rms_velocity_m_s": 12345.6,

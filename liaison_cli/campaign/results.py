@@ -5,6 +5,8 @@ never imports pandas (about 0.3 s of a 1.5 s run). The table builders for studie
 (summary_table, timeseries_table, ...) return DataFrames and import pandas when called.
 """
 
+import logging
+import time
 from numbers import Integral, Real
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,6 +23,8 @@ from liaison_cli.storage import ParquetStream, write_columns_atomic, write_text_
 
 if TYPE_CHECKING:
     import pandas as pd
+
+log = logging.getLogger("liaison")  # -v shows its info lines (stage times) on stderr
 
 
 def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | None = None) -> dict:
@@ -281,10 +285,15 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
                     progress: bool = True, float_dtype="float32") -> tuple[Problem, list[dict]]:
     """Run a campaign and write its tables as runs finish: memory does not grow with the run count.
     Returns the problem and the summary rows."""
+    started = time.perf_counter()
     problem = prepare_problem(scenario)
+    prepared = time.perf_counter()
+    log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress), n_runs, out_dir,
                              scenario_text, float_dtype)
+    log.info("%s: %d runs estimated and written in %.2f s (%d job(s))", scenario.name, n_runs,
+             time.perf_counter() - prepared, jobs)
     return problem, summary
 
 
@@ -292,8 +301,13 @@ def summarise_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 
                        description: str | None = None, truth_cache: dict | None = None
                        ) -> tuple[Problem, "pd.DataFrame"]:
     """Run a campaign and keep only its summary rows (for tables across scenarios: compare, Table 3)."""
+    started = time.perf_counter()
     problem = prepare_problem(scenario, truth_cache)
+    prepared = time.perf_counter()
+    log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     rows = [row for outcome in iter_outcomes(problem, n_runs, jobs, progress, description)
             for row in _summary_rows(problem, outcome)]
+    log.info("%s: %d runs estimated in %.2f s (%d job(s))", scenario.name, n_runs, time.perf_counter() - prepared,
+             jobs)
     return problem, _summary_frame(rows)

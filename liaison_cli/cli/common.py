@@ -1,0 +1,118 @@
+"""What every command shares: exit codes, one-line errors instead of tracebacks, the --runs cap and the
+first-compilation notice, and the checks on names given on the command line."""
+
+import functools
+
+import typer
+
+from liaison_cli import interrupts
+from liaison_cli.errors import LiaisonError
+
+EXIT_OS_ERROR = 4  # an operating-system fault while reading or writing files
+EXIT_ALL_DIVERGED = 5  # the campaign ran, but no run finished healthy
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT, as a shell reports it)
+INTERRUPTED_MESSAGE = ("interrupted: nothing was written and no earlier result was replaced; rerun the same "
+                       "command")
+
+
+def _interrupted_message() -> str:
+    written = interrupts.written()
+    if written:
+        return (f"interrupted after the result was written: {', '.join(written)} is complete; only the printed "
+                "summary was cut short")
+    return INTERRUPTED_MESSAGE
+
+
+def fail(message: str, code: int) -> None:
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def user_errors(func):
+    """Turn typed errors into a one-line message and their exit code; never a traceback."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except LiaisonError as exc:
+            if exc.exit_code == EXIT_INTERRUPTED:  # a sweep's own "interrupted: N of M tasks saved" line
+                interrupts.ignore_from_now_on()
+            fail(str(exc), exc.exit_code)
+        except KeyboardInterrupt:
+            interrupts.ignore_from_now_on()  # nothing may turn exit 130 into death by SIGINT now
+            fail(_interrupted_message(), EXIT_INTERRUPTED)
+        except SystemError as exc:  # Ctrl-C inside compiled code outside a worker (e.g. errors' check runs)
+            if not interrupts.caused_by_interrupt(exc):
+                raise
+            interrupts.ignore_from_now_on()
+            fail(_interrupted_message(), EXIT_INTERRUPTED)
+        except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
+            where = exc.filename if exc.filename is not None else "file system"
+            fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
+
+    return wrapper
+
+
+def check_runs(runs, option: str = "--runs") -> None:
+    """--runs (errors: --check-runs) obeys the same cap as the scenario's monte_carlo.runs. Every command that
+    runs filters calls this first, so it is also where the first-compilation notice is armed."""
+    from liaison_cli.scenario.schema import MAX_RUNS
+
+    if runs is not None and runs > MAX_RUNS:
+        raise LiaisonError(f"{option} {runs}: at most {MAX_RUNS:,} runs (the cap of monte_carlo.runs)")
+    _announce_compilation()
+
+
+COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first run after installing or "
+                  "upgrading: about 15 seconds; cached afterwards)")
+
+
+def _announce_compilation() -> None:
+    """One line on stderr when numba starts compiling liaison code (a cache miss), so a new user knows why
+    the first run is slow. Loading from the cache is not compiling and stays silent."""
+    from numba.core import event
+
+    class Notice(event.Listener):
+        shown = False
+
+        def on_start(self, ev):
+            function = getattr(ev.data.get("dispatcher"), "py_func", None)
+            if not Notice.shown and getattr(function, "__module__", "").startswith("liaison_cli"):
+                Notice.shown = True
+                typer.echo(COMPILE_NOTICE, err=True)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Notice())
+
+
+def plain_name(name: str) -> bool:
+    """A sweep name becomes a folder under results/: it may not climb out of it or hide."""
+    import re
+
+    return bool(re.fullmatch(r"[A-Za-z0-9_+\-][A-Za-z0-9_+.\-]*", name)) and ".." not in name
+
+
+def refuse_repeated_labels(labelled: list, what: str) -> None:
+    """labelled: [(path, label)]; a label given twice is one line naming the second file."""
+    first: dict = {}
+    for path, label in labelled:
+        if label in first:
+            raise LiaisonError(f"{path}: {what} {label!r} is also that of {first[label]}; allowed: scenarios with "
+                               f"distinct {what}s (each labels its own rows, metadata and figures)")
+        first[label] = path
+
+
+
+def json_option():
+    """The `--json` flag of the commands with a machine-readable summary (keys: docs/json-output.md)."""
+    return typer.Option(False, "--json", help="print a machine-readable JSON summary instead of the text "
+                                              "(keys: docs/json-output.md); errors stay one line on stderr")
+
+
+def echo_json(document: dict) -> None:
+    from liaison_cli.report.json_summary import to_json_text
+
+    typer.echo(to_json_text(document))

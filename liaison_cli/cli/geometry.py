@@ -1,0 +1,72 @@
+"""`liaison observability` and `liaison geometry`: information-matrix studies without Monte Carlo."""
+
+from pathlib import Path
+
+import typer
+
+from liaison_cli.cli.common import user_errors
+from liaison_cli.cli.root import app
+
+
+@app.command()
+@user_errors
+def observability(
+    scenario: Path = typer.Argument(..., help="scenario YAML file"),
+    output: Path = typer.Option(None, "--output", help="result folder (default: results/observability-<name>)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    range_rate_sigma_m_s: float = typer.Option(
+        None, "--range-rate-sigma", min=1e-9,
+        help="range-rate 1-sigma in m/s for the range-rate weights [default: the scenario's, else 0.001]"),
+    no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
+):
+    """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
+    from liaison_cli.storage import staged_output
+    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.report.observability_report import check_supported, observability_report
+
+    config, text = load_scenario(scenario)
+    check_supported(config, str(scenario))
+    if range_rate_sigma_m_s is None:
+        range_rate_sigma_m_s = config.noise.resolved_range_rate_sigma_m_s() or 1e-3
+    out_dir = output or Path("results") / f"observability-{config.name}"
+    with staged_output(out_dir, overwrite) as stage:
+        summary = observability_report(config, text, stage, range_rate_sigma_m_s, taylor=not no_taylor)
+    for observable, values in summary["observables"].items():
+        least = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["least_observable"])
+        most = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["most_observable"])
+        typer.echo(f"{observable:<11} condition number {values['condition_number']:.3e}   unobservability index "
+                   f"{values['unobservability_index']:.3e}")
+        typer.echo(f"{'':<11} most observable: {most}; least observable: {least}")
+    for row in summary["gamma_range_rate_over_range"]:
+        typer.echo(f"gamma (range-rate / range information), {row['spacecraft']:<8} position: median "
+                   f"{row['gamma_position_median']:.3g}, >= 1 at {100 * row['share_epochs_gamma_position_ge_1']:.0f} % "
+                   f"of epochs; velocity: median {row['gamma_velocity_median']:.3g}, >= 1 at "
+                   f"{100 * row['share_epochs_gamma_velocity_ge_1']:.0f} %")
+    for row in summary.get("taylor_stm", []):
+        typer.echo(f"Taylor STM vs integrated, {row['spacecraft']:<8} step {row['step_s']:>4} s: relative error "
+                   f"RMS {row['relative_error_rms']:.2e}, std {row['relative_error_std']:.2e}")
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
+@user_errors
+def geometry(
+    output: Path = typer.Option(Path("results/geometry"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    count: int = typer.Option(7, "--count", min=2, max=30, help="orbits per family"),
+    interval_s: float = typer.Option(600.0, "--interval", min=10.0, help="sampling interval of the links, s"),
+):
+    """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter."""
+    from liaison_cli.storage import staged_output
+    from liaison_cli.report.geometry import run_study
+
+    out_dir = output
+    with staged_output(out_dir, overwrite) as stage:
+        tables = run_study(stage, count, interval_s)
+    for key, table in tables.items():
+        for observable in ("range", "range_rate"):
+            col = table[f"{observable}_condition_number"]
+            best, worst = table.loc[col.idxmin()], table.loc[col.idxmax()]
+            typer.echo(f"{key:<14}{observable:<11} cond {col.min():.2e} ({best['first']} / {best['second']}) to "
+                       f"{col.max():.2e} ({worst['first']} / {worst['second']})")
+    typer.echo(f"results: {out_dir}")

@@ -1,0 +1,68 @@
+"""The root `liaison` command: its options (--version, -v/--verbose, shell completion) and what runs before
+every command (interrupt handling, the `liaison` logger's stderr handler)."""
+
+import logging
+import sys
+
+import typer
+
+from liaison_cli import __version__, interrupts
+
+app = typer.Typer(
+    add_completion=True,
+    no_args_is_help=True,
+    help="LiAISON Monte Carlo campaigns: crosslink-only orbit determination in cislunar space.",
+)
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(__version__)
+        raise typer.Exit()
+
+
+@app.callback()
+def _configure_process(
+    _version: bool = typer.Option(False, "--version", is_eager=True, callback=_print_version,
+                                  help="Print the package version and exit."),
+    verbose: bool = typer.Option(False, "-v", "--verbose",
+                                 help="Also print progress details on stderr (e.g. each stage's time)."),
+) -> None:
+    """Before every command: Ctrl-C is remembered as well as raised (liaison_cli.interrupts), and messages from
+    the library's `liaison` logger go to stderr: warnings as `note: ...` (e.g. a date past the IERS tables),
+    and with -v also its info and debug lines (`info: ...`, `debug: ...`)."""
+    interrupts.install()
+    _install_log_handler(logging.DEBUG if verbose else logging.WARNING)
+
+
+class _CurrentStderr(logging.StreamHandler):
+    """Writes to whatever sys.stderr is at the time of the message (a test runner swaps it per call)."""
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, _value):
+        pass
+
+
+class _LevelPrefix(logging.Formatter):
+    """`note: ` for warnings and errors (what a user should read), the level's name for the -v details."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        prefix = "note" if record.levelno >= logging.WARNING else record.levelname.lower()
+        return f"{prefix}: {record.getMessage()}"
+
+
+def _install_log_handler(level: int) -> None:
+    """One stderr handler on the `liaison` logger per process (CliRunner calls the app many times in one
+    process); the level is set on every call, so -v on one command does not leak into the next."""
+    logger = logging.getLogger("liaison")
+    if not any(getattr(h, "_liaison_notes", False) for h in logger.handlers):
+        handler = _CurrentStderr()
+        handler.setFormatter(_LevelPrefix())
+        handler._liaison_notes = True
+        logger.addHandler(handler)
+        logger.propagate = False
+    logger.setLevel(level)

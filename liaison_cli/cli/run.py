@@ -1,0 +1,145 @@
+"""`liaison run`, `liaison compare` and `liaison table3`: run scenarios' Monte Carlo campaigns and print their
+summaries (as text, or with --json as JSON)."""
+
+import logging
+import sys
+import time
+from pathlib import Path
+
+import typer
+
+from liaison_cli.cli.common import (
+    EXIT_ALL_DIVERGED,
+    check_runs,
+    echo_json,
+    fail,
+    json_option,
+    refuse_repeated_labels,
+    user_errors,
+)
+from liaison_cli.cli.root import app
+from liaison_cli.report.run_text import (
+    format_consistency as _format_consistency,
+    format_prediction as _format_prediction,
+    format_smoothed as _format_smoothed,
+    format_summary as _format_summary,
+    rejection_line as _rejection_line,
+    status_line as _status_line,
+)
+
+log = logging.getLogger("liaison")
+
+
+@app.command()
+@user_errors
+def run(
+    scenario: Path = typer.Argument(..., help="scenario YAML file"),
+    runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs (default: the scenario's)"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    as_json: bool = json_option(),
+):
+    """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results."""
+    from liaison_cli.campaign.results import stream_campaign
+    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.storage import staged_output
+
+    check_runs(runs)
+    started = time.perf_counter()
+    config, text = load_scenario(scenario)
+    log.info("read and checked %s in %.2f s", scenario, time.perf_counter() - started)
+    out_dir = output or Path("results") / config.name
+    with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
+        problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
+                                           progress=not quiet and sys.stderr.isatty(),
+                                           float_dtype="float64" if float64 else "float32")
+    if as_json:
+        from liaison_cli.report.json_summary import run_document
+
+        echo_json(run_document(config, scenario, problem, summary, out_dir))
+    else:
+        _print_run(config, problem, summary, out_dir)
+    if not any(row["status"] == "ok" for row in summary):
+        fail(f"no run of {config.name} finished healthy (see the "
+             f"{'failed_runs' if as_json else 'status line above'}); results kept in {out_dir}", EXIT_ALL_DIVERGED)
+
+
+def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
+    span = (f"batch span {config.batch.span_days:g} d + {config.batch.prediction_hours:g} h"
+            if config.batch is not None else f"{config.duration_days:g} d")
+    typer.echo(
+        f"{config.name}: {len(problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
+        f"sigma {problem.sigma_m:.1f} m, {span}, seed {config.monte_carlo.seed}"
+    )
+    typer.echo(_format_summary(summary, problem.spacecraft))
+    typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
+    for optional in (_format_smoothed(summary, problem.spacecraft), _format_prediction(summary, problem.spacecraft)):
+        if optional:
+            typer.echo(optional)
+    typer.echo(_status_line(summary))
+    rejections = _rejection_line(summary, config.filter)
+    if rejections:
+        typer.echo(rejections)
+    typer.echo(f"results: {out_dir}")
+
+
+@app.command()
+@user_errors
+def table3(
+    runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per case"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(Path("results/table3"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    scenarios: Path = typer.Option(Path("scenarios"), "--scenarios", help="folder holding the paper's scenario files"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
+    from liaison_cli.report.table3 import run_table3
+    from liaison_cli.storage import staged_output
+
+    check_runs(runs)
+    with staged_output(output, overwrite) as stage:
+        result = run_table3(scenarios, stage, runs, jobs, progress=not quiet and sys.stderr.isatty())
+    typer.echo(result.markdown)
+    typer.echo(f"results: {output}")
+
+
+@app.command()
+@user_errors
+def compare(
+    scenarios: list[Path] = typer.Argument(..., help="scenario YAML files to run side by side"),
+    runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs per scenario (default: each scenario's)"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(Path("results/compare"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    as_json: bool = json_option(),
+):
+    """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
+    from liaison_cli.campaign.results import summarise_campaign
+    from liaison_cli.report.compare import compare_rows, write_compare
+    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.storage import staged_output
+
+    check_runs(runs)
+    loaded = [(path, *load_scenario(path)) for path in scenarios]
+    refuse_repeated_labels([(path, config.name) for path, config, _ in loaded], "name")
+    rows, summaries, texts = [], [], {}
+    with staged_output(output, overwrite) as stage:
+        for path, config, text in loaded:
+            _, summary = summarise_campaign(config, runs=runs, jobs=jobs,
+                                            progress=not quiet and sys.stderr.isatty(), description=config.name)
+            rows.append(compare_rows(config, summary))
+            summaries.append(summary.assign(scenario=config.name))
+            texts[config.name] = text
+        table, markdown = write_compare(rows, summaries, texts, stage)
+    if as_json:
+        from liaison_cli.report.json_summary import compare_document
+
+        echo_json(compare_document(table, output))
+        return
+    typer.echo(markdown)
+    typer.echo(f"results: {output}")

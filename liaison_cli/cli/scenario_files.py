@@ -1,0 +1,81 @@
+"""Commands on scenario files themselves: `liaison new` (from a template), `liaison schema`, `liaison validate`;
+and `liaison version`."""
+
+from pathlib import Path
+
+import typer
+
+from liaison_cli import __version__
+from liaison_cli.cli.common import echo_json, json_option, user_errors
+from liaison_cli.cli.root import app
+from liaison_cli.errors import LiaisonError
+
+
+@app.command()
+def version():
+    """Print the package version."""
+    typer.echo(__version__)
+
+
+@app.command()
+@user_errors
+def schema(
+    output: Path = typer.Option(None, "--output", help="write it to this file (atomically) instead of printing"),
+):
+    """Print the scenario JSON Schema (every key's description, unit and allowed values) for editors."""
+    from liaison_cli.scenario.json_schema import scenario_json_schema_text
+
+    text = scenario_json_schema_text()
+    if output is None:
+        typer.echo(text, nl=False)
+        return
+    from liaison_cli.storage import write_text_atomic
+
+    if output.is_dir():
+        raise LiaisonError(f"{output}: a directory; allowed: a file path for the schema")
+    write_text_atomic(text, output)
+    typer.echo(f"wrote {output}")
+
+
+@app.command()
+@user_errors
+def validate(
+    files: list[Path] = typer.Argument(..., metavar="FILE...", help="scenario or link YAML files"),
+    as_json: bool = json_option(),
+):
+    """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each."""
+    from liaison_cli.scenario.schema import check_file
+
+    results = []
+    for path in files:
+        try:
+            check_file(path)
+            results.append((path, None))
+            if not as_json:
+                typer.echo(f"ok: {path}")
+        except LiaisonError as exc:  # one line per bad file (on stderr), and on to the next
+            results.append((path, str(exc)))
+            typer.echo(f"error: {exc}", err=True)
+    if as_json:
+        from liaison_cli.report.json_summary import validate_document
+
+        echo_json(validate_document(results))
+    if any(error is not None for _, error in results):
+        raise typer.Exit(2)
+
+
+@app.command("new")
+@user_errors
+def new(
+    path: Path = typer.Argument(..., metavar="NAME.yaml", help="the scenario file to write (must not exist)"),
+    kind: str = typer.Option(..., "--from", metavar="KIND", help="template: crosslink-pair, network, "
+                             "nrho-batch, dated-dsn or tdoa-pair"),
+):
+    """Write a commented starting scenario from a template; it validates and runs as written."""
+    from liaison_cli.scenario.json_schema import SCHEMA_FILE_NAME
+    from liaison_cli.scenario.templates import TEMPLATES, new_scenario
+
+    name = new_scenario(path, kind)
+    typer.echo(f"wrote {path} (scenario {name}: {TEMPLATES[kind]}); run it with: liaison run {path}")
+    if not (path.parent / SCHEMA_FILE_NAME).exists():
+        typer.echo(f"editor help: liaison schema --output {path.parent / SCHEMA_FILE_NAME}")

@@ -1,0 +1,181 @@
+"""The papers' studies: `liaison study003`, `liaison study004` and `liaison tables002`."""
+
+from pathlib import Path
+
+import typer
+
+from liaison_cli import __version__
+from liaison_cli.cli.common import check_runs, refuse_repeated_labels, user_errors
+from liaison_cli.cli.root import app
+from liaison_cli.errors import LiaisonError
+
+
+def _load_study(paths: list[Path]) -> list:
+    """[(name = file stem, scenario, text)] of a study's scenario files. The stem labels the study's rows,
+    metadata and figures, so two files with one stem would be merged into one label: refused."""
+    from liaison_cli.scenario.schema import load_scenario
+
+    refuse_repeated_labels([(Path(path), Path(path).stem) for path in paths], "file stem")
+    return [(Path(path).stem, *load_scenario(path)) for path in paths]
+
+
+def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, history, table: str, draw) -> None:
+    """A study's table, Parquet (scenario texts, seeds and version in the metadata) and figures, swapped in
+    whole; `draw(history, stage)` draws the figures into the staging folder."""
+    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
+
+    typer.echo(table, nl=False)
+    meta = {"package": "liaison", "version": __version__, "runs": runs,
+            "scenarios_yaml": {name: text for name, _, text in loaded},
+            "seeds": {name: scenario.monte_carlo.seed for name, scenario, _ in loaded}}
+    with staged_output(output, overwrite) as stage:
+        write_parquet_atomic(summary, stage / "summary.parquet", meta)
+        write_parquet_atomic(history, stage / "histories.parquet", meta)
+        write_text_atomic(table, stage / "table.md")
+        draw(history, stage)
+    typer.echo(f"results: {output}")
+
+
+STUDY003_MISSIONS = ("scenarios/003/cassini.yaml", "scenarios/003/mer_a.yaml", "scenarios/003/msl.yaml")
+
+
+@app.command("study003")
+@user_errors
+def study003(
+    scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="missions' full-set scenarios "
+                                           "(default: scenarios/003/cassini, mer_a, msl)"),
+    runs: int = typer.Option(50, "--runs", min=1, help="Monte Carlo runs per mission and case"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(Path("results/study003"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
+    grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
+                                   "(e.g. filter.underweighting=0,0.2); repeatable"),
+    dsn_noise: str = typer.Option(None, "--dsn-noise", help="set every ground link's noise to one of 003's "
+                                  "readings: table2 (10 m, 0.5 mm/s) or text (1 m, 0.1 mm/s); default: the files'"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures."""
+    from liaison_cli.campaign.grid import check_grid_size, parse_grid
+    from liaison_cli.campaign.study003 import DSN_NOISE_READINGS, run_study, tuning
+    from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
+
+    check_runs(runs)
+    if dsn_noise is not None and dsn_noise not in DSN_NOISE_READINGS:
+        raise LiaisonError(f"--dsn-noise {dsn_noise!r}: allowed: {', '.join(DSN_NOISE_READINGS)}")
+    axes = [parse_grid(text) for text in grid or []]
+    check_grid_size(axes, 1, runs)
+    loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
+    summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
+                                    grid=axes, dsn_noise=dsn_noise)
+    first = loaded[0][1]
+    noise = (f"003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}" if dsn_noise else "as in the scenario files")
+    typer.echo(f"003 study, {runs} runs per case, DSN noise: {noise}; "
+               f"3D RMS after t0 (σ: the filter's; 003: its stated full-set values). Filter ({first.name}): "
+               f"{tuning(first)}" + (f"; grid over {', '.join(k for k, _ in axes)}" if axes else ""))
+
+    def draw(history_, stage):
+        if axes:  # the figures show the first grid point; every point's numbers are in the tables
+            first_point = history_
+            for key, values in axes:
+                first_point = first_point[first_point[key] == values[0]]
+            history_ = first_point
+        for name, _, _ in loaded:
+            draw_mission(history_, name, stage)
+        draw_comparison(history_, stage)
+
+    table = format_table(summary, [k for k, _ in axes], first.settle_days())
+    _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
+
+
+STUDY004_TRANSMITTERS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml",
+                         "scenarios/004/low_energy_transfer.yaml")
+
+
+@app.command("study004")
+@user_errors
+def study004(
+    scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="transmitter scenarios, one link "
+                                           "per receiver pair (default: scenarios/004/eml2_halo, dro, "
+                                           "low_energy_transfer)"),
+    runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    output: Path = typer.Option(Path("results/study004"), "--output", help="result folder"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
+    grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
+                                   "(e.g. filter.process_noise_accel_m_s2=1e-9,1e-8,1e-7); repeatable"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+):
+    """004's study: each transmitter x receiver pair (TDoA + FDoA); LinCov 3σ and the EKF Monte Carlo
+    (converged share, time to converge, consistency), rankings, DOP; table and figures."""
+    from liaison_cli.campaign.grid import check_grid_size, parse_grid
+    from liaison_cli.campaign.study003 import tuning
+    from liaison_cli.campaign.study004 import rankings, run_study
+    from liaison_cli.report.study004 import draw_histories, format_rankings, format_table
+
+    check_runs(runs)
+    axes = [parse_grid(text) for text in grid or []]
+    check_grid_size(axes, 1, runs)
+    keys = [k for k, _ in axes]
+    loaded = _load_study(scenarios or [Path(p) for p in STUDY004_TRANSMITTERS])
+    summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
+                                 grid=axes)
+    header = [f"004 study, {runs} runs per case. LinCov: steady state = median 3σ over the last quarter; converged "
+              "= 3σ position below twice it from then on. EKF: a run converged when its position error stays below "
+              "twice LinCov's steady 3σ (not before its initial batch hands over); steady state and convergence are "
+              "judged before a manoeuvre where there is one; settled = after each "
+              "scenario's settle time; consistent = error/σ RMS at most 1.5 in position and velocity."]
+    header += [f"Filter ({name}): {tuning(scenario)}{_initial_batch_text(scenario)}" for name, scenario, _ in loaded]
+    if axes:
+        header.append(f"Grid over {', '.join(keys)} (overrides the files' values)")
+    table = "\n".join(header) + "\n\n" + format_table(summary, keys) + "\n" + format_rankings(
+        rankings(summary, keys), keys)
+
+    def draw(history_, stage):
+        if axes:  # the figures show the first grid point; every point's numbers are in the tables
+            for key, values in axes:
+                history_ = history_[history_[key] == values[0]]
+        for name, _, _ in loaded:
+            draw_histories(history_, name, stage)
+
+    _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
+
+
+def _initial_batch_text(scenario) -> str:
+    flt = scenario.filter
+    if flt.initial_batch_hours is None:
+        return "; no initial batch (the EKF starts from the a priori)"
+    longest = flt.initial_batch_max_hours or flt.initial_batch_hours
+    return (f"; initial batch {flt.initial_batch_hours:g} h, doubling up to {longest:g} h until the hand-over "
+            f"position 1σ < {flt.initial_batch_handover_sigma_km:g} km")
+
+
+@app.command("tables002")
+@user_errors
+def tables002(
+    sweep_dir: Path = typer.Argument(..., help="a sweep over batch scenarios with --grid batch.span_days=... "
+                                               "--grid measurement.interval_s=..."),
+    output: Path = typer.Option(None, "--output", help="folder for the tables and histograms (default: "
+                                                      "SWEEP_DIR/tables002)"),
+    span_days: float = typer.Option(9.885, "--span", help="grid cell of the histograms: span (days)"),
+    interval_s: float = typer.Option(1800, "--interval", help="grid cell of the histograms: interval (s)"),
+):
+    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, plus histograms."""
+    from liaison_cli.report.nrho002 import clock_table, draw_histograms, drms_table, format_tables, per_run_metrics
+    from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+
+    metrics = per_run_metrics(sweep_dir)
+    drms, clocks = drms_table(metrics), clock_table(metrics)
+    text = format_tables(drms, clocks)
+    typer.echo(text, nl=False)
+    out_dir = output or sweep_dir / "tables002"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    meta = {"package": "liaison", "source": str(sweep_dir), "metric": "p90 over runs with status ok"}
+    paths = [out_dir / "drms_p90.parquet", out_dir / "clock_p90.parquet", out_dir / "per_run.parquet",
+             out_dir / "tables.md"]
+    write_parquet_atomic(drms, paths[0], meta)
+    write_parquet_atomic(clocks, paths[1], meta)
+    write_parquet_atomic(metrics, paths[2], meta)
+    write_text_atomic(text, paths[3])
+    paths += draw_histograms(metrics, span_days, interval_s, out_dir)
+    for path in paths:
+        typer.echo(f"wrote {path}")

@@ -1,0 +1,130 @@
+"""The machine-readable summaries `--json` prints instead of the text (run, sweep, compare, budget, errors,
+validate); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
+from the campaign's summary rows, the sweep's curve table, the link file and the error budget. Units are in
+the key names (`_m`, `_m_s`, `_db`, ...), shares are fractions in [0, 1], and a number that does not exist
+(NaN: no healthy run) is null."""
+
+import json
+import math
+
+from liaison_cli import __version__
+from liaison_cli.report.run_text import mean, ok_values, quantile
+
+# Per-spacecraft means over the runs that finished 'ok' (the columns `liaison run` prints).
+RUN_MEANS = ("rms_position_m", "rms_position_after_day1_m", "rms_velocity_m_s", "rms_velocity_after_day1_m_s",
+             "frac_in_2sigma_after_day1", "frac_in_3sigma_after_day1", "frac_nees_in_band_settled",
+             "frac_nees_above_band_settled", "rms_position_smoothed_m", "rms_velocity_smoothed_m_s")
+# Batch scenarios: mean and 90th percentile over the runs that finished 'ok'.
+RUN_BATCH_STATISTICS = ("rms_position_prediction_m", "clock_rms_window_ns", "clock_rms_prediction_ns")
+
+
+def to_json_text(document: dict) -> str:
+    """Indented JSON with NaN and infinities as null (JSON has no NaN)."""
+    return json.dumps(_finite(document), indent=2, allow_nan=False)
+
+
+def _finite(value):
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):  # a numpy scalar
+        return _finite(value.item())
+    return value
+
+
+def _header(command: str) -> dict:
+    return {"command": command, "liaison_version": __version__}
+
+
+def run_document(config, scenario_file, problem, summary: list[dict], out_dir) -> dict:
+    """`liaison run --json`: the campaign's settings, run counts and per-spacecraft figures."""
+    from liaison_cli.report.run_text import campaign_ratio
+
+    runs = {}
+    for row in summary:
+        runs.setdefault(row["run"], row)
+    spacecraft = {}
+    for name in problem.spacecraft:
+        figures = {}
+        for column in RUN_MEANS:
+            values = ok_values(summary, name, column)
+            if any(column in row for row in summary):
+                figures[column] = mean(values)
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):
+            figures[f"{kind}_error_to_sigma_settled"] = campaign_ratio(summary, name, kind, unit)
+        for column in RUN_BATCH_STATISTICS:
+            if any(column in row for row in summary):
+                values = ok_values(summary, name, column)
+                figures[f"{column}_mean"] = mean(values)
+                figures[f"{column}_p90"] = quantile(values, 0.9) if values else math.nan
+        spacecraft[name] = figures
+    return {**_header("run"), "scenario": config.name, "scenario_file": str(scenario_file), "output": str(out_dir),
+            "estimator": "batch" if config.batch is not None else "ekf", "seed": config.monte_carlo.seed,
+            "sigma_m": problem.sigma_m, "links": len(config.links), "settle_days": config.settle_days(),
+            "runs": len(runs), "runs_ok": sum(row["status"] == "ok" for row in runs.values()),
+            "failed_runs": [{"run": int(r["run"]), "status": r["status"], "reason": r.get("reason", "")}
+                            for r in runs.values() if r["status"] != "ok"],
+            "spacecraft": spacecraft}
+
+
+def sweep_document(name: str, out_dir, grid_keys, curve, tasks: int, computed: int, reused: int) -> dict:
+    """`liaison sweep --json`: the sweep's counts and one object per row of curve.parquet."""
+    return {**_header("sweep"), "name": name, "output": str(out_dir), "grid_keys": list(grid_keys),
+            "points": int(curve.point.nunique()), "tasks": tasks, "computed": computed, "reused": reused,
+            "spacecraft_runs_excluded": int(curve.runs_excluded.sum()),
+            "curve": curve.to_dict("records")}
+
+
+def compare_document(table, out_dir) -> dict:
+    """`liaison compare --json`: one object per scenario (the rows of compare.parquet)."""
+    return {**_header("compare"), "output": str(out_dir), "scenarios": table.to_dict("records")}
+
+
+def budget_document(link_file, link, expected=None, sweep_dir=None) -> dict:
+    """`liaison budget --json`: the legs, each method's ranging sigma, the carrier's sigmas, the dual one-way
+    receiver's bounds, and (with --sweep) the expected OD errors."""
+    document = {**_header("budget"), "link_file": str(link_file), "legs": None, "ranging_sigma_m": None,
+                "correlator_integration_s": None, "carrier": None, "dual_one_way": None, "sweep": None,
+                "expected_errors": None}
+    if link.dual_one_way is not None:
+        document["dual_one_way"] = link.dual_one_way.receiver().sigmas()
+    if link.link_budget is None:
+        return document
+    document["legs"] = {}
+    for leg_name in ("uplink", "downlink"):
+        leg = getattr(link.link_budget, leg_name).leg()
+        document["legs"][leg_name] = {
+            "distance_km": leg.distance_km, "data_rate_bps": leg.data_rate_bps,
+            "free_space_loss_db": leg.free_space_loss_db, "c_over_n0_dbhz": leg.c_over_n0_dbhz,
+            "es_over_n0_db": leg.es_over_n0_db, "margin_db": leg.margin_db}
+    document["ranging_sigma_m"] = link.sigma_by_method()
+    document["correlator_integration_s"] = link.correlator_integration_s
+    if link.carrier is not None:
+        carrier = link.carrier.sigmas(link.link_budget)
+        document["carrier"] = {"range_rate_sigma_m_s": carrier["range_rate_sigma_m_s"],
+                               "los_path_sigma_m": carrier["los_path_sigma_m"],
+                               "uplink_loop_snr": carrier["uplink_loop_snr"],
+                               "downlink_loop_snr": carrier["downlink_loop_snr"],
+                               "doppler_count_s": link.carrier.doppler_count_s}
+    if expected is not None:
+        document["sweep"] = str(sweep_dir)
+        document["expected_errors"] = expected.to_dict("records")
+    return document
+
+
+def errors_document(scenario, out_dir, rows_all, rows_late, checks) -> dict:
+    """`liaison errors --json`: each part's share of the mean-square error (all epochs after t0 and after
+    day 1) and the Monte Carlo check's ratios."""
+    return {**_header("errors"), "scenario": scenario.name, "duration_days": scenario.duration_days,
+            "output": str(out_dir), "shares": rows_all, "shares_after_day1": rows_late,
+            "monte_carlo_check": checks}
+
+
+def validate_document(results: list[tuple]) -> dict:
+    """`liaison validate --json`: results = [(path, error message or None)]."""
+    files = [{"path": str(path), "ok": error is None, "error": error} for path, error in results]
+    return {**_header("validate"), "files": files, "ok": sum(f["ok"] for f in files),
+            "failed": sum(not f["ok"] for f in files)}

@@ -1,0 +1,230 @@
+"""Figures of one `liaison run` result (`liaison plot run`), each as PNG and SVG:
+
+- errors: per spacecraft, the position and velocity error norms of every run (faint) and of one highlighted
+  run, against that run's 3-sigma norm (shaded below it), on log axes;
+- nees: the run-averaged NEES against its two-sided 95 % chi-square band (analysis.metrics.nees_band);
+- innovations: per link and observable, the innovations divided by their predicted standard deviation,
+  with the +-3 lines and the residual gate's rejections marked;
+- clocks (with clock states): per clock, phase and frequency errors with the highlighted run's +-3 sigma;
+- bias (with range biases estimated or considered): per link and run, estimate - truth with +-3 sigma bars.
+
+Faint lines and points are rasterised inside the SVG so that it stays small for many runs."""
+
+from pathlib import Path
+
+import numpy as np
+
+from liaison_cli.report.run_result import RunResult
+
+SECONDS_PER_DAY = 86400.0
+FAINT = {"color": "0.55", "alpha": 0.35, "linewidth": 0.7, "rasterized": True}
+HIGHLIGHT = "tab:blue"
+SIGMA_COLOUR = "tab:orange"
+MAX_FAINT_RUNS = 30  # runs drawn faint in the innovation panels (points add up fast)
+
+
+def draw_run(result: RunResult, out_dir, highlight: int) -> list[Path]:
+    """Draw every figure the result has data for into out_dir; returns the files written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for stem, draw in (("errors", _draw_errors), ("nees", _draw_nees), ("innovations", _draw_innovations),
+                       ("clocks", _draw_clocks), ("bias", _draw_bias)):
+        fig = draw(result, highlight)
+        if fig is not None:
+            paths += _save(fig, out_dir / stem)
+    return paths
+
+
+def _save(fig, stem: Path) -> list[Path]:
+    """PNG and SVG, each written beside its place and renamed over it (never a half-written figure)."""
+    import matplotlib.pyplot as plt
+
+    paths = []
+    for suffix in (".png", ".svg"):
+        path = stem.with_suffix(suffix)
+        tmp = path.with_name(f".{path.name}.tmp{suffix}")
+        fig.savefig(tmp, dpi=120)
+        tmp.replace(path)
+        paths.append(path)
+    plt.close(fig)
+    return paths
+
+
+def _days(t_s) -> np.ndarray:
+    return np.asarray(t_s, dtype=float) / SECONDS_PER_DAY
+
+
+def _draw_errors(result: RunResult, highlight: int):
+    import matplotlib.pyplot as plt
+
+    series = result.timeseries
+    spacecraft = list(dict.fromkeys(series.spacecraft))
+    if not spacecraft:
+        return None
+    fig, axes = plt.subplots(len(spacecraft), 2, figsize=(11, 2.6 * len(spacecraft) + 0.8), squeeze=False,
+                             sharex=True, layout="constrained")
+    runs = series.run.nunique()
+    for row, name in enumerate(spacecraft):
+        mine = series[series.spacecraft == name]
+        for col, (error, sigma, unit) in enumerate((("position_error_m", "position_3sigma_m", "m"),
+                                                    ("velocity_error_m_s", "velocity_3sigma_m_s", "m/s"))):
+            ax = axes[row, col]
+            for run, group in mine.groupby("run"):
+                if run != highlight:
+                    ax.plot(_days(group.t_s), group[error], **FAINT)
+            chosen = mine[mine.run == highlight]
+            t = _days(chosen.t_s)
+            ax.fill_between(t, 0, chosen[sigma], color=SIGMA_COLOUR, alpha=0.15, linewidth=0)
+            ax.plot(t, chosen[sigma], color=SIGMA_COLOUR, linewidth=1.2, label=f"3σ (run {highlight})")
+            ax.plot(t, chosen[error], color=HIGHLIGHT, linewidth=1.0, label=f"error, run {highlight}")
+            _log_scale(ax, mine[[error, sigma]].to_numpy())
+            ax.set_ylabel(f"{name} {error.split('_')[0]} ({unit})")
+            ax.grid(True, which="both", alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (days)")
+    fig.suptitle(f"{result.name}: estimation error norms, {_runs_phrase(runs, highlight)}, with its 3σ norm")
+    return fig
+
+
+def _runs_phrase(runs: int, highlight: int) -> str:
+    return f"run {highlight}" if runs == 1 else f"{runs} runs (grey; run {highlight} in colour)"
+
+
+def _log_scale(ax, values: np.ndarray) -> None:
+    """Log y when the values span more than a decade and are positive (errors shrink by orders as the filter
+    converges); linear otherwise."""
+    finite = values[np.isfinite(values) & (values > 0)]
+    if finite.size and finite.max() / finite.min() > 10:
+        ax.set_yscale("log")
+        ax.set_ylim(bottom=max(finite.min(), finite.max() * 1e-8) / 2)
+
+
+def _draw_nees(result: RunResult, highlight: int):
+    import matplotlib.pyplot as plt
+
+    table = result.consistency
+    if table.empty:
+        return None
+    fig, ax = plt.subplots(figsize=(11, 4), layout="constrained")
+    t = _days(table.t_s)
+    ax.fill_between(t, table.band_low, table.band_high, color="tab:green", alpha=0.2, linewidth=0,
+                    label="95 % χ² band of the mean")
+    ax.plot(t, table.mean_nees, color=HIGHLIGHT, linewidth=1.0, label="NEES averaged over the runs")
+    _log_scale(ax, table[["mean_nees", "band_low", "band_high"]].to_numpy())
+    inside = 100.0 * float(np.mean(table.inside_band)) if len(table) else float("nan")
+    ax.set_title(f"{result.name}: run-averaged NEES ({int(table.runs.max())} runs, state size "
+                 f"{int(table.state_size.max())}); inside the band at {inside:.0f} % of epochs")
+    ax.set_xlabel("time (days)")
+    ax.set_ylabel("NEES")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def _draw_innovations(result: RunResult, highlight: int):
+    import matplotlib.pyplot as plt
+
+    table = result.residuals
+    if table.empty:
+        return None
+    channels = list(table.groupby(["link", "observable"], sort=False).groups)
+    ncol = 2 if len(channels) > 1 else 1
+    nrow = -(-len(channels) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.6 * nrow + 1.0), squeeze=False, sharex=True,
+                             layout="constrained")
+    faint_runs = set(sorted(table.run.unique())[:MAX_FAINT_RUNS]) - {highlight}
+    for ax, (link, observable) in zip(axes.flat, channels):
+        mine = table[(table.link == link) & (table.observable == observable)]
+        normalised = mine.innovation / mine.innovation_std
+        faint = mine.run.isin(faint_runs)
+        ax.plot(_days(mine.t_s[faint]), normalised[faint], ".", color="0.55", alpha=0.3, markersize=1.5,
+                rasterized=True)
+        chosen = mine.run == highlight
+        ax.plot(_days(mine.t_s[chosen]), normalised[chosen], ".", color=HIGHLIGHT, markersize=2.5,
+                label=f"run {highlight}")
+        rejected = mine.rejected.astype(bool)
+        if rejected.any():
+            ax.plot(_days(mine.t_s[rejected]), normalised[rejected], "x", color="tab:red", markersize=4,
+                    label="rejected by the gate")
+        for level in (-3, 3):
+            ax.axhline(level, color=SIGMA_COLOUR, linewidth=1.0)
+        spread = np.nanpercentile(np.abs(normalised), 99.5) if normalised.notna().any() else 3.0
+        ax.set_ylim(-max(4.0, 1.2 * spread), max(4.0, 1.2 * spread))
+        ax.set_ylabel("innovation / σ")
+        ax.set_title(f"{link}: {observable} ({mine.unit.iloc[0]})", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    for ax in axes.flat[len(channels):]:
+        ax.set_visible(False)
+    axes.flat[0].legend(loc="upper right", fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (days)")
+    runs = table.run.nunique()
+    shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
+    fig.suptitle(f"{result.name}: normalised innovations, {_runs_phrase(runs, highlight)}{shown}; ±3 lines")
+    return fig
+
+
+def _draw_clocks(result: RunResult, highlight: int):
+    import matplotlib.pyplot as plt
+
+    table = result.clocks
+    if table.empty:
+        return None
+    clocks = list(dict.fromkeys(table["clock"]))
+    fig, axes = plt.subplots(len(clocks), 2, figsize=(11, 2.6 * len(clocks) + 0.8), squeeze=False, sharex=True,
+                             layout="constrained")
+    for row, name in enumerate(clocks):
+        mine = table[table["clock"] == name]
+        for col, (error, sigma, label) in enumerate((("phase_error_ns", "phase_sigma_ns", "phase (ns)"),
+                                                     ("frequency_error", "frequency_sigma", "frequency (s/s)"))):
+            ax = axes[row, col]
+            for run, group in mine.groupby("run"):
+                if run != highlight:
+                    ax.plot(_days(group.t_s), group[error], **FAINT)
+            chosen = mine[mine.run == highlight]
+            t = _days(chosen.t_s)
+            ax.fill_between(t, -3 * chosen[sigma], 3 * chosen[sigma], color=SIGMA_COLOUR, alpha=0.2, linewidth=0,
+                            label=f"±3σ (run {highlight})")
+            ax.plot(t, chosen[error], color=HIGHLIGHT, linewidth=1.0, label=f"error, run {highlight}")
+            ax.set_ylabel(f"{name} {label}")
+            ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (days)")
+    fig.suptitle(f"{result.name}: clock estimation errors, {_runs_phrase(table.run.nunique(), highlight)}, with "
+                 "its ±3σ")
+    return fig
+
+
+def _draw_bias(result: RunResult, highlight: int):
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
+
+    table = result.bias
+    if table.empty or (table.treatment == "ignore").all():
+        return None
+    table = table[table.treatment != "ignore"]
+    links = list(dict.fromkeys(table.link))
+    fig, axes = plt.subplots(len(links), 1, figsize=(11, 2.6 * len(links) + 1.0), squeeze=False,
+                             layout="constrained")
+    for ax, link in zip(axes[:, 0], links):
+        mine = table[table.link == link]
+        miss = mine.bias_estimate_m - mine.bias_true_m
+        ax.errorbar(mine.run, miss, yerr=3 * mine.bias_sigma_m, fmt="o", color="0.45", markersize=3,
+                    elinewidth=0.8, capsize=2, label="estimate − truth, ±3σ")
+        chosen = mine.run == highlight
+        ax.plot(mine.run[chosen], miss[chosen], "o", color=HIGHLIGHT, markersize=5, label=f"run {highlight}")
+        ax.axhline(0.0, color="black", linewidth=0.8)
+        ax.set_ylabel("range bias (m)")
+        ax.set_title(f"{link} ({mine.treatment.iloc[0]})", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("run")
+    axes[-1, 0].xaxis.set_major_locator(MaxNLocator(integer=True))
+    fig.suptitle(f"{result.name}: range-bias estimates at the end of each run")
+    return fig

@@ -1,0 +1,70 @@
+"""Reading a `liaison run` result folder back (its Parquet tables) for `liaison plot run`: what a folder must
+hold to be a run result, and a clear line when it is not."""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from liaison_cli.errors import LiaisonError, UnreadableFileError
+
+# Written by every `liaison run` (campaign.results.write_outcomes); clocks and bias are empty (no columns)
+# when the scenario has no clock states or range biases.
+REQUIRED_TABLES = ("summary", "timeseries", "consistency", "residuals")
+OPTIONAL_TABLES = ("clocks", "bias")
+
+
+@dataclass
+class RunResult:
+    folder: Path
+    name: str                       # the scenario's name (summary metadata), else the folder's name
+    summary: pd.DataFrame           # one row per run and spacecraft
+    timeseries: pd.DataFrame        # per run, epoch and spacecraft: error and 3-sigma norms, NEES
+    consistency: pd.DataFrame       # per epoch: run-averaged NEES and its 95 % band
+    residuals: pd.DataFrame         # per run, epoch, link and observable: innovation and its std
+    clocks: pd.DataFrame            # per run, epoch and clock: phase and frequency errors and sigmas
+    bias: pd.DataFrame              # per run and link: true range bias, estimate, sigma, treatment
+
+
+def load_run_result(folder) -> RunResult:
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise LiaisonError(f"{folder}: not a folder; allowed: a result folder written by 'liaison run'")
+    missing = [f"{name}.parquet" for name in REQUIRED_TABLES if not (folder / f"{name}.parquet").is_file()]
+    if missing:
+        raise LiaisonError(f"{folder}: not a 'liaison run' result (no {', '.join(missing)}); allowed: a folder "
+                           "written by 'liaison run' (a sweep or study folder holds its own figures)")
+    tables = {name: _read(folder / f"{name}.parquet") for name in REQUIRED_TABLES}
+    for name in OPTIONAL_TABLES:
+        path = folder / f"{name}.parquet"
+        tables[name] = _read(path) if path.is_file() else pd.DataFrame()
+    return RunResult(folder=folder, name=_scenario_name(folder), **tables)
+
+
+def _read(path: Path) -> pd.DataFrame:
+    try:
+        return pd.read_parquet(path)
+    except (OSError, ValueError) as exc:  # pyarrow: ArrowInvalid is a ValueError, ArrowIOError an OSError
+        raise UnreadableFileError(f"{path}: not a readable Parquet table ({type(exc).__name__}: "
+                                  f"{str(exc).splitlines()[0] if str(exc) else 'no detail'}); rerun the "
+                                  "scenario to rebuild it") from None
+
+
+def _scenario_name(folder: Path) -> str:
+    from liaison_cli.storage import read_metadata
+
+    try:
+        return str(read_metadata(folder / "summary.parquet").get("scenario_name", folder.name))
+    except Exception:  # noqa: BLE001 - the name only titles the figures; the folder's name will do
+        return folder.name
+
+
+def highlighted_run(result: RunResult, requested: int | None) -> int:
+    """The run drawn in colour: the one asked for, else the first that finished 'ok' (else run 0)."""
+    runs = sorted(int(r) for r in result.summary.run.unique())
+    if requested is not None:
+        if requested not in runs:
+            raise LiaisonError(f"--run {requested}: {result.folder} holds runs {runs[0]}-{runs[-1]}")
+        return requested
+    ok = result.summary[result.summary.status == "ok"]
+    return int(ok.run.min()) if len(ok) else runs[0]

@@ -1,0 +1,83 @@
+"""`liaison plot run RESULT_DIR` on a representative set of small results (an EKF CRTBP run, a batch run with
+clock synchronisation, a dated run, a run with clock states, a run with a considered range bias): every
+figure the result has data for is written as a non-empty PNG of the expected size and an SVG; a folder that
+is not a run result is one line, exit 2."""
+
+import struct
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from liaison_cli.cli import app
+
+REPO = Path(__file__).resolve().parents[1]
+SCENARIOS = REPO / "scenarios"
+TEMPLATES = REPO / "liaison_cli" / "scenario" / "templates"
+ALWAYS = {"errors", "nees", "innovations"}
+CASES = {  # result: (scenario, runs, figures beyond ALWAYS)
+    "ekf_crtbp": (SCENARIOS / "smoke.yaml", 2, set()),
+    "batch": (TEMPLATES / "nrho-batch.yaml", 2, set()),
+    "dated": (TEMPLATES / "dated-dsn.yaml", 2, set()),
+    "clock": (SCENARIOS / "clock_one_way_eml2_lunar.yaml", 2, {"clocks"}),
+    "bias": (SCENARIOS / "bias_eml2_lunar.yaml", 2, {"bias"}),
+}
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    data = path.read_bytes()[:24]
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", path
+    return struct.unpack(">II", data[16:24])
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    root = tmp_path_factory.mktemp("results")
+    for name, (scenario, runs, _) in CASES.items():
+        ran = invoke("run", scenario, "--runs", runs, "--jobs", "1", "--quiet", "--output", root / name)
+        assert ran.exit_code == 0, ran.output
+    return root
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_plot_run_draws_every_figure_the_result_has(results, case):
+    result = invoke("plot", "run", results / case)
+    assert result.exit_code == 0, result.output
+    plots = results / case / "plots"
+    expected = ALWAYS | CASES[case][2]
+    assert {p.stem for p in plots.glob("*.png")} == expected
+    assert {p.stem for p in plots.glob("*.svg")} == expected
+    for stem in expected:
+        png, svg = plots / f"{stem}.png", plots / f"{stem}.svg"
+        width, height = png_size(png)
+        assert width == 1320 and 400 <= height <= 3000, (stem, width, height)  # 11 in wide at 120 dpi
+        assert png.stat().st_size > 20_000 and svg.stat().st_size > 20_000
+        assert svg.read_text().lstrip().startswith("<?xml") and "</svg>" in svg.read_text()[-100:]
+        assert f"wrote {png}" in result.stdout
+    assert not list(plots.glob(".*"))  # no temporary file left behind
+
+
+def test_plot_run_output_folder_and_highlighted_run(results, tmp_path):
+    result = invoke("plot", "run", results / "ekf_crtbp", "--output", tmp_path / "figs", "--run", "1")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "figs" / "errors.png").exists()
+    bad = invoke("plot", "run", results / "ekf_crtbp", "--run", "7")
+    assert bad.exit_code == 2 and bad.stderr.strip().count("\n") == 0 and "--run 7" in bad.stderr
+
+
+@pytest.mark.parametrize("what", ["empty folder", "missing folder", "a file"])
+def test_a_folder_that_is_not_a_run_result_is_one_line(tmp_path, what):
+    target = tmp_path / "target"
+    if what == "empty folder":
+        target.mkdir()
+    elif what == "a file":
+        target.write_text("x")
+    result = invoke("plot", "run", target)
+    assert result.exit_code == 2 and result.stdout == ""
+    line = result.stderr.strip()
+    assert "\n" not in line and str(target) in line and "liaison run" in line and "Traceback" not in line
+    assert not (target / "plots").exists() if target.is_dir() else True

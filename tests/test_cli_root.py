@@ -1,0 +1,54 @@
+"""The root command: shell completion (`--install-completion` / `--show-completion`) and what it relies on.
+
+Completion works by running `liaison` on every Tab press with `_LIAISON_COMPLETE` set: the answer must come
+quickly, so the command modules import pandas, numba, matplotlib and the campaign code inside the commands,
+not at the top (the reason cli/run.py and the others keep their imports lazy; the first CLI kept completion
+off). These tests hold both: the completion answers, and answering loads none of the heavy libraries."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from liaison_cli.cli import app
+
+REPO = Path(__file__).resolve().parents[1]
+HEAVY = ["pandas", "numba", "matplotlib", "pyarrow", "scipy", "liaison_cli.campaign", "liaison_cli.scenario.schema"]
+
+
+def test_show_completion_prints_the_bash_script():
+    result = CliRunner().invoke(app, ["--show-completion", "bash"], prog_name="liaison")
+    assert result.exit_code == 0, result.output
+    assert "_LIAISON_COMPLETE=complete_bash" in result.stdout and "complete " in result.stdout
+
+
+def test_install_completion_writes_into_the_users_shell_setup_only(tmp_path):
+    env = {**os.environ, "HOME": str(tmp_path), "SHELL": "/bin/bash"}
+    proc = subprocess.run([sys.executable, "-m", "liaison_cli", "--install-completion", "bash"], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    script = tmp_path / ".bash_completions" / "liaison.sh"
+    assert "_LIAISON_COMPLETE=complete_bash" in script.read_text()
+    assert str(script) in (tmp_path / ".bashrc").read_text()
+
+
+def test_a_tab_press_is_answered_without_loading_the_heavy_libraries():
+    code = ("import atexit, sys\n"
+            f"atexit.register(lambda: print('loaded:' + ','.join(m for m in {HEAVY!r} if m in sys.modules)))\n"
+            "from liaison_cli.cli import app\napp(prog_name='liaison')\n")
+    env = {**os.environ, "_LIAISON_COMPLETE": "complete_bash", "COMP_WORDS": "liaison plot r", "COMP_CWORD": "2"}
+    proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True,
+                          timeout=120)
+    lines = proc.stdout.split()
+    assert "run" in lines and "fig15" not in lines, proc.stdout
+    assert lines[-1] == "loaded:", proc.stdout
+
+
+def test_version_option_and_command_agree():
+    from liaison_cli import __version__
+
+    for args in (["--version"], ["version"]):
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 0 and result.stdout.strip() == __version__
