@@ -283,6 +283,8 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
     Returns the problem and the summary rows."""
     problem = prepare_problem(scenario)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
+    if problem.observed is not None:  # measurements from a file: one run, no Monte Carlo
+        n_runs = 1
     summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress), n_runs, out_dir,
                              scenario_text, float_dtype)
     return problem, summary

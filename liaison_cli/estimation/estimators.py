@@ -101,9 +101,15 @@ class EstimateHistory:
 
 
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
+    return ekf_with_record(arrays, x0_hat, y_obs, truth, arrays.smoother)[0]
+
+
+def ekf_with_record(arrays: FilterArrays, x0_hat, y_obs, truth, record: bool):
+    """The EKF's history and, with `record`, its forward record: states (m, 2, n) = [x_hat, x_bar] and matrices
+    (m, 3, n, n) = [P_bar, P, Phi] per epoch (the smoother's input; an export's estimate and covariance)."""
     kind, start, size = arrays.layout.arrays()
     m, n = truth.shape
-    stored = m if arrays.smoother else 0  # the smoother's forward record: 3 (n, n) matrices per epoch
+    stored = m if record else 0  # the forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
     args = (x0_hat, arrays.P0, arrays.Q, truth, y_obs, arrays.known_states, arrays.channel_kind, arrays.channel_ends,
             arrays.channel_flags, arrays.channel_mod_index, arrays.channel_mod_coeff, arrays.sigma, kind, start, size,
@@ -119,7 +125,7 @@ def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
         smoothed_err = x_s - truth
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step), rejected=rejected, smoothed_err=smoothed_err,
-                           smoothed_sigma=smoothed_sigma)
+                           smoothed_sigma=smoothed_sigma), states, matrices
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
