@@ -100,6 +100,9 @@ def read_oem(path) -> list[Ephemeris]:
     (malformed file, unreadable tags, epochs not increasing, an unsupported time system) raise
     ExchangeFileError naming the file."""
     message = library.read_message(path, "OEM")
+    if not message.body.segment or not any(seg.data.state_vector for seg in message.body.segment):
+        raise ExchangeFileError(f"{path}: malformed CCSDS message (no segment with state lines: META_START ... "
+                                "META_STOP, then epoch x y z vx vy vz lines)")
     by_object: dict[str, list] = {}
     for segment in message.body.segment:
         by_object.setdefault(segment.metadata.object_name, []).append(segment)

@@ -115,4 +115,7 @@ def _segment_tracks(path, segment) -> list[Track]:
 def read_tdm(path) -> list[Track]:
     """Every track of a TDM file: one per segment and data keyword."""
     message = library.read_message(path, "TDM")
+    if not message.body.segment or not any(seg.data.observation for seg in message.body.segment):
+        raise ExchangeFileError(f"{path}: malformed CCSDS message (no segment with data: META_START ... META_STOP, "
+                                "DATA_START ... DATA_STOP)")
     return [track for segment in message.body.segment for track in _segment_tracks(path, segment)]
