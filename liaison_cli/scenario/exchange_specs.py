@@ -42,7 +42,8 @@ class MeasurementFileSpec(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
     tdm: str = Field(description="a TDM file (KVN or XML)")
-    run: int = Field(0, ge=0, description="the run whose draws (initial error, clocks, biases) the filter takes")
+    run: int = Field(0, ge=0, description="the run whose draws (initial error, clocks, biases) the filter takes "
+                     "(run index)")
 
 
 def orbit_file_from_mapping(data):
@@ -76,3 +77,12 @@ def resolve_exchange_files(data, folder: Path):
             spacecraft.append(sc)
         data["spacecraft"] = spacecraft
     return data
+
+
+def orbit_json_schema(schema: dict, names: list) -> None:
+    """SpacecraftSpec.orbit in the JSON Schema: one of `names`, or the {oem: FILE} / {opm: FILE} mapping the
+    loader moves into orbit_file."""
+    schema.pop("type", None)
+    mapping = OrbitFileSpec.model_json_schema()
+    mapping.pop("title", None)
+    schema["anyOf"] = [{"type": "string", "enum": names}, mapping]

@@ -24,7 +24,8 @@ from liaison_cli.radio.carrier import TURNAROUND_S_BAND
 from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
 from liaison_cli.scenario.exchange_specs import (
-    ORBIT_FILE_KINDS, MeasurementFileSpec, OrbitFileSpec, orbit_file_from_mapping, resolve_exchange_files)
+    ORBIT_FILE_KINDS, MeasurementFileSpec, OrbitFileSpec, orbit_file_from_mapping, orbit_json_schema,
+    resolve_exchange_files)
 from liaison_cli.scenario.schema_rules import (
     all_of, any_of, at_least, each, equals, given, negate, not_given, one_of, schema_rules, together, when)
 
@@ -238,9 +239,9 @@ class SpacecraftSpec(StrictModel):
     orbit: str = Field(description="a catalog orbit; an orbit family (with period_days or amplitude_km); "
                        f"{KEPLERIAN_ORBIT} (with elements); with dynamics: ephemeris also {ICRF_STATE_ORBIT} "
                        f"(with state_km), {DEPARTURE_ORBIT} (with departure), {GEOSTATIONARY_ORBIT} (with "
-                       "longitude_deg)",
-                       json_schema_extra={"enum": [*catalog_names(), KEPLERIAN_ORBIT, *family_names(),
-                                                   *DATED_ONLY_ORBITS]})
+                       "longitude_deg), {oem: FILE} or {opm: FILE}",
+                       json_schema_extra=lambda schema: orbit_json_schema(schema, [
+                           *catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS]))
     elements: KeplerianElements | None = Field(None, description=f"orbit: {KEPLERIAN_ORBIT}: its elements")
     period_days: float | None = Field(None, gt=0, description="orbit: <family>: the member of this period (days)")
     amplitude_km: float | None = Field(None, gt=0, description="orbit: <family>: the member of this amplitude, Az "
