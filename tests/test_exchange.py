@@ -45,7 +45,7 @@ def kvn_oem(path) -> list[dict]:
 
 # --- exports of the two acceptance scenarios (shortened; the full spans are in docs/exchange.md) ------------
 
-SHORT = {"eml2_lunar": {"duration_days": 1.25}, "eph_eml1_eml2_dsn": {"duration_days": 2}}
+SHORT = {"eml2_lunar": {"duration_days": 0.5}, "eph_eml1_eml2_dsn": {"duration_days": 1}}
 RUN = 1
 
 
@@ -132,7 +132,7 @@ def test_tdm_fed_back_gives_the_runs_estimate(exported, name, tmp_path):
         # One ulp of a value in LU is 1e-8 m: the km <-> LU conversions, not the file.
         assert np.nanmax(np.abs(fed.y_obs - original.y_obs) * problem.channel_scale_si) < 1e-7
         difference_m = np.max(np.abs(fed.estimate - original.estimate)[:, [0, 1, 2, 6, 7, 8]]) * M_PER_LU
-        # Measured: 2.1e-6 m (eml2_lunar, 1.25 d), 1.2e-4 m (eph_eml1_eml2_dsn, 2 d): last-bit differences.
+        # Measured: 2.1e-6 m (eml2_lunar, 0.5 d), 4.5e-5 m (eph_eml1_eml2_dsn, 1 d): last-bit differences.
         assert difference_m < 1e-3, difference_m
 
 
