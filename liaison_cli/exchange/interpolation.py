@@ -15,7 +15,8 @@ def _window(times_s: np.ndarray, t: float, points: int) -> slice:
 
 
 def _lagrange(x: np.ndarray, y: np.ndarray, t: float) -> np.ndarray:
-    """The polynomial through (x, y rows) at t (x shifted to its first node to keep the products small)."""
+    """The polynomial through (x, y rows) at t (callers shift x and t to the window's first line: small
+    products)."""
     out = np.zeros(y.shape[1])
     for j in range(len(x)):
         weight = 1.0

@@ -1,7 +1,7 @@
 """OEM (CCSDS 502.0-B-3, version 3.0) <-> arrays: one object's states (km, km/s) at tagged epochs, and optionally
 its 6x6 covariances (km**2, km**2/s, km**2/s**2), through ccsds-ndm."""
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -131,4 +131,4 @@ def read_oem(path) -> list[Ephemeris]:
     return out
 
 
-__all__ = ["Ephemeris", "oem_message", "read_oem", "fields"]
+__all__ = ["Ephemeris", "oem_message", "read_oem"]

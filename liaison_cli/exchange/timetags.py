@@ -39,7 +39,9 @@ def tags_to_seconds(tags, time_system: str) -> np.ndarray:
     """TDB seconds past J2000 of dated tags (TDB, TT or UTC), or MET seconds from t0 (MET)."""
     parts = [_split(t) for t in tags]
     if time_system == "MET":
-        return np.array([(doy - 1) * 86400.0 + sod + (year * 366) * 86400.0 for year, doy, sod in parts])
+        if any(year != 0 for year, _, _ in parts):
+            raise ValueError("MET tags are read as 0000-DDDThh:mm:ss (0000-001T00:00:00 = t0)")
+        return np.array([(doy - 1) * 86400.0 + sod for _, doy, sod in parts])
     if time_system in ("TDB", "TT"):
         seconds = np.array([_days_from_j2000(y, d) * 86400.0 + sod - 43200.0 for y, d, sod in parts])
         if time_system == "TT":

@@ -10,11 +10,25 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 ORBIT_FILE_KINDS = ("oem", "opm")
 
 
-class OrbitFileSpec(BaseModel):
+class _FileSpec(BaseModel):
+    """Frozen, and an unknown key is named with the keys allowed (as schema.StrictModel does)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_keys(cls, data):
+        if isinstance(data, dict):
+            unknown = sorted(str(k) for k in data if k not in cls.model_fields)
+            if unknown:
+                raise ValueError(f"unknown key {unknown[0]!r}; allowed keys here: {', '.join(sorted(cls.model_fields))}")
+        return data
+
+
+class OrbitFileSpec(_FileSpec):
     """A spacecraft's truth from an OEM (interpolated as its INTERPOLATION says), or its initial state from an
     OPM (then propagated by the scenario's dynamics)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
     oem: str | None = Field(None, description="an OEM file (KVN or XML): the truth follows it")
     opm: str | None = Field(None, description="an OPM file (KVN or XML): the initial state at the scenario epoch")
     object_name: str | None = Field(None, description="the file's OBJECT_NAME to use; default: the spacecraft's "
@@ -35,12 +49,11 @@ class OrbitFileSpec(BaseModel):
         return self.oem if self.oem is not None else self.opm
 
 
-class MeasurementFileSpec(BaseModel):
+class MeasurementFileSpec(_FileSpec):
     """The filter's measurements from a TDM instead of simulated ones: one run; its initial error (and any
     other draw: clocks, biases, C_R) is run `run`'s of the scenario seed, so a TDM exported from run K and
     read back with run: K gives that run's estimate."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
     tdm: str = Field(description="a TDM file (KVN or XML)")
     run: int = Field(0, ge=0, description="the run whose draws (initial error, clocks, biases) the filter takes "
                      "(run index)")
