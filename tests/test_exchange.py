@@ -381,3 +381,20 @@ def test_oem_interpolation_follows_a_circular_orbit(method, degree, limit_km):
     assert np.max(np.abs(got[:, :3] - circle(between)[:, :3])) < limit_km
     assert np.max(np.abs(got[:, :3] - circle(between)[:, :3])) > limit_km / 1e6  # it interpolates, not copies
     assert np.array_equal(interpolate_states(lines, circle(lines), lines[3:5], method, degree), circle(lines)[3:5])
+
+
+def test_export_command_writes_the_files_and_keeps_an_existing_folder(tmp_path):
+    """`liaison run` then `liaison export --run 1 --format kvn`: one truth and one estimate OEM per spacecraft and
+    the TDM, in RESULT/ccsds-run1; a second export without --overwrite refuses and leaves them."""
+    result = tmp_path / "smoke"
+    assert run_cli("run", SCENARIOS / "smoke.yaml", "--output", result, "--quiet").returncode == 0
+    proc = run_cli("export", result, "--run", "1", "--format", "kvn")
+    assert proc.returncode == 0, proc.stderr
+    folder = result / "ccsds-run1"
+    assert sorted(p.name for p in folder.iterdir() if not p.name.startswith(".")) == [
+        "EML2_estimate.oem", "EML2_truth.oem", "Lunar_estimate.oem", "Lunar_truth.oem", "measurements.tdm"]
+    assert "run 1, 577 epochs recomputed" in proc.stdout  # 1.25 d every 187.5 s, t0 included
+    before = (folder / "measurements.tdm").read_text()
+    again = run_cli("export", result, "--run", "1")
+    assert again.returncode == 2 and "--overwrite" in again.stderr
+    assert (folder / "measurements.tdm").read_text() == before
