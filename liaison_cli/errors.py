@@ -23,3 +23,8 @@ class UnreadableFileError(LiaisonError):
     """A file liaison should read is corrupt or not what it claims to be (e.g. a damaged Parquet table)."""
 
     exit_code = 4
+
+
+class ExchangeFileError(LiaisonError):
+    """A CCSDS file (OEM, OPM, TDM) cannot be used: malformed, of another type, in an unsupported frame or time
+    system, not covering the scenario, or naming a participant the scenario lacks; or the library is missing."""

@@ -290,6 +290,8 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
     prepared = time.perf_counter()
     log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
+    if problem.observed is not None:  # measurements from a file: one run, no Monte Carlo
+        n_runs = 1
     summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress), n_runs, out_dir,
                              scenario_text, float_dtype)
     log.info("%s: %d runs estimated and written in %.2f s (%d job(s))", scenario.name, n_runs,

@@ -71,7 +71,8 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     (one channel after another), then the per-run random bias of each link, then each clock's history,
     then the filter's C_R error, then each manoeuvre's a-priori error.
     """
-    rng = run_rng(problem.scenario.monte_carlo.seed, run_index)
+    # measurements: {tdm}: the draws of the run the file names, then the file's values replace the simulated ones.
+    rng = run_rng(problem.scenario.monte_carlo.seed, run_index if problem.observed is None else problem.observed.run)
     n = problem.truth.shape[1]
     if problem.scenario.initial_error.draw == "from_covariance":
         dx0 = np.linalg.cholesky(problem.P0[:n, :n]) @ rng.standard_normal(n)
@@ -114,6 +115,8 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     for start, delta_v, sigma in problem.manoeuvres:
         truth[:, start : start + 3] = delta_v[None, :]
         x0_hat[start : start + 3] = delta_v + sigma * rng.standard_normal(3)
+    if problem.observed is not None:
+        y_obs = problem.observed.values.copy()
     return RunInputs(x0_hat, y_obs, truth, bias, phases, filter_params)
 
 

@@ -15,6 +15,7 @@ from liaison_cli.cli import (  # noqa: F401  (imported to register their command
     orbits,
     geometry,
     scenario_files,
+    exchange,
 )
 
 __all__ = ["app", "main"]

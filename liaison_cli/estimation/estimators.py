@@ -120,13 +120,21 @@ class EstimateHistory:
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     if arrays.initial_batch is not None:
         return _ekf_from_initial_batch(arrays, x0_hat, y_obs, truth)
-    return _ekf_pass(arrays, x0_hat, arrays.P0, y_obs, truth, arrays.burns, 0.0)
+    return ekf_with_record(arrays, x0_hat, y_obs, truth, arrays.smoother)[0]
 
 
-def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu) -> EstimateHistory:
-    """One EKF pass over the epochs of y_obs / truth (m rows), epoch 0 at t0_tu, from (x0_hat, P0)."""
+def ekf_with_record(arrays: FilterArrays, x0_hat, y_obs, truth, record: bool):
+    """The EKF's history and, with `record`, its forward record: states (m, 2, n) = [x_hat, x_bar] and matrices
+    (m, 3, n, n) = [P_bar, P, Phi] per epoch (the smoother's input; an export's estimate and covariance). From
+    the a priori at t0 (an initial batch is not part of it: export refuses such a scenario)."""
+    return _ekf_pass(arrays, x0_hat, arrays.P0, y_obs, truth, arrays.burns, 0.0, record)
+
+
+def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, record: bool):
+    """One EKF pass over the epochs of y_obs / truth (m rows), epoch 0 at t0_tu, from (x0_hat, P0):
+    (EstimateHistory, states, matrices) as ekf_with_record; the smoother runs when arrays.smoother."""
     m, n = truth.shape
-    stored = m if arrays.smoother else 0  # the smoother's forward record: 3 (n, n) matrices per epoch
+    stored = m if record else 0  # the forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
     args = (arrays.model, kinds_mask(arrays.channel_kind), x0_hat, P0, arrays.Q, truth, y_obs,
             arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
@@ -140,7 +148,7 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu) -> E
         smoothed_err = x_s - truth
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step), rejected=rejected, smoothed_err=smoothed_err,
-                           smoothed_sigma=smoothed_sigma)
+                           smoothed_sigma=smoothed_sigma), states, matrices
 
 
 def _ekf_from_initial_batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
@@ -161,7 +169,8 @@ def _ekf_from_initial_batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> Estim
                                extras=extras, rejected=np.zeros(y_obs.shape, dtype=bool))
     burns = arrays.burns.copy()
     burns[:, 2] -= e  # the scenario keeps manoeuvres out of the window
-    after = _ekf_pass(arrays, solution.x_handover, solution.P_handover, y_obs[e:], truth[e:], burns, e * arrays.dt_tu)
+    after = _ekf_pass(arrays, solution.x_handover, solution.P_handover, y_obs[e:], truth[e:], burns, e * arrays.dt_tu,
+                      False)[0]
     window_err = solution.traj - truth[: e + 1]
     window_nees = np.array([_epoch_nees(error, P, arrays.n_nees) for error, P in
                             zip(window_err, solution.covariance)])

@@ -90,6 +90,10 @@ def departure_state_km(spec, epoch_utc) -> np.ndarray:
 def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> np.ndarray:
     if spacecraft.state_km is not None:
         return np.asarray(spacecraft.state_km, dtype=float) / SCALE
+    if spacecraft.orbit_file is not None:  # an OPM (an OEM's truth is read whole, scenario.orbit_files)
+        from liaison_cli.scenario.orbit_files import opm_state_lu
+
+        return opm_state_lu(spacecraft, model.epoch_tdb_s)
     if spacecraft.departure is not None:
         return departure_state_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
     forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)

@@ -23,6 +23,9 @@ from liaison_cli.orbits.families import FAMILIES, family_names
 from liaison_cli.radio.carrier import TURNAROUND_S_BAND
 from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
+from liaison_cli.scenario.exchange_specs import (
+    ORBIT_FILE_KINDS, MeasurementFileSpec, OrbitFileSpec, orbit_file_from_mapping, orbit_json_schema,
+    resolve_exchange_files)
 from liaison_cli.scenario.schema_rules import (
     all_of, any_of, at_least, each, equals, given, negate, not_given, one_of, schema_rules, together, when)
 
@@ -30,7 +33,7 @@ KEPLERIAN_ORBIT = "lunar_keplerian"
 ICRF_STATE_ORBIT = "icrf_state"
 DEPARTURE_ORBIT = "departure"
 GEOSTATIONARY_ORBIT = "geostationary"
-DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT, GEOSTATIONARY_ORBIT)
+DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT, GEOSTATIONARY_ORBIT, *ORBIT_FILE_KINDS)
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 # Epochs per run (t0 included): a run holds ~1.0-1.5 kB per epoch (measured peak RSS, 2-3 spacecraft: truth,
 # measurements, the filter's histories), so 500,000 epochs stay under ~0.75 GB per worker process; 100x the
@@ -236,9 +239,9 @@ class SpacecraftSpec(StrictModel):
     orbit: str = Field(description="a catalog orbit; an orbit family (with period_days or amplitude_km); "
                        f"{KEPLERIAN_ORBIT} (with elements); with dynamics: ephemeris also {ICRF_STATE_ORBIT} "
                        f"(with state_km), {DEPARTURE_ORBIT} (with departure), {GEOSTATIONARY_ORBIT} (with "
-                       "longitude_deg)",
-                       json_schema_extra={"enum": [*catalog_names(), KEPLERIAN_ORBIT, *family_names(),
-                                                   *DATED_ONLY_ORBITS]})
+                       "longitude_deg), {oem: FILE} or {opm: FILE}",
+                       json_schema_extra=lambda schema: orbit_json_schema(schema, [
+                           *catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS]))
     elements: KeplerianElements | None = Field(None, description=f"orbit: {KEPLERIAN_ORBIT}: its elements")
     period_days: float | None = Field(None, gt=0, description="orbit: <family>: the member of this period (days)")
     amplitude_km: float | None = Field(None, gt=0, description="orbit: <family>: the member of this amplitude, Az "
@@ -265,6 +268,13 @@ class SpacecraftSpec(StrictModel):
                          "its period (e.g. 0.5: the second of a pair half a period apart) (periods)")
     longitude_deg: float | None = Field(None, ge=-180.0, le=360.0, description=f"orbit: {GEOSTATIONARY_ORBIT}: the "
                                         "station-kept longitude, east (004: 130 W = -130) (deg)")
+    orbit_file: OrbitFileSpec | None = Field(None, description="orbit: {oem: FILE} or {opm: FILE} (dynamics: "
+                                             "ephemeris), read into this key (docs/exchange.md)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _orbit_from_file(cls, data):
+        return orbit_file_from_mapping(data)
 
     @field_validator("orbit")
     @classmethod
@@ -291,6 +301,10 @@ class SpacecraftSpec(StrictModel):
             raise ValueError(f"orbit {DEPARTURE_ORBIT!r} and a 'departure' section go together")
         if (self.orbit == GEOSTATIONARY_ORBIT) != (self.longitude_deg is not None):
             raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} and 'longitude_deg' go together")
+        if (self.orbit in ORBIT_FILE_KINDS) != (self.orbit_file is not None):
+            raise ValueError("orbit: {oem: FILE} or {opm: FILE} is given as a mapping with the file")
+        if self.orbit == "oem" and self.manoeuvre is not None:
+            raise ValueError("an OEM truth already holds its manoeuvres: remove 'manoeuvre' or use orbit: {opm: FILE}")
         if self.manoeuvre is not None and self.role != "estimated":
             raise ValueError("a manoeuvre is solved for by the filter: give it to an estimated spacecraft")
         if self.orbit == GEOSTATIONARY_ORBIT and self.role != "known":
@@ -909,6 +923,8 @@ class Scenario(StrictModel):
     initial_error: InitialErrorSpec = Field(InitialErrorSpec(), description="how each run's initial state error "
                                             "is drawn")
     monte_carlo: MonteCarloSpec = Field(description="runs and seed")
+    measurements: MeasurementFileSpec | None = Field(None, description="{tdm: FILE}: the filter's measurements from "
+                                                     "a TDM, one run (docs/exchange.md)")
 
     @model_validator(mode="before")
     @classmethod
@@ -1368,7 +1384,7 @@ def read_scenario_text(path) -> tuple[dict, str]:
 def load_scenario(path) -> tuple[Scenario, str]:
     """Read and validate a scenario file. Returns (scenario, original text)."""
     data, text = read_scenario_text(path)
-    return validate_scenario(data, str(path)), text
+    return validate_scenario(resolve_exchange_files(data, Path(path).parent), str(path)), text
 
 
 def load_link_file(path) -> RangingLinkFile:

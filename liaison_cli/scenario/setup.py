@@ -26,6 +26,7 @@ from liaison_cli.estimation.process_noise import spacecraft_process_noise
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
+from liaison_cli.scenario.observed import observed_measurements
 from liaison_cli.scenario.reference_states import initial_state_lu
 from liaison_cli.scenario.schema import Scenario
 
@@ -99,6 +100,7 @@ class Problem:
     initial_error_sigma: np.ndarray
     dynamics: DynamicsModel
     manoeuvres: tuple = ()  # (Delta-v state start, true Delta-v (3,), a-priori sigma), scaled units
+    observed: object = None  # measurements: {tdm: FILE}: scenario.observed.ObservedMeasurements, else None
 
     @property
     def n_spacecraft(self) -> int:
@@ -160,6 +162,7 @@ def trajectory_key(scenario: Scenario) -> str:
         "dynamics": scenario.dynamics,
         "ephemeris": scenario.ephemeris and scenario.ephemeris.model_dump(),
         "state_km": [sc.state_km for sc in scenario.spacecraft],
+        "orbit_file": [sc.orbit_file and sc.orbit_file.model_dump() for sc in scenario.spacecraft],
     }
     return json.dumps(fields, sort_keys=True)
 
@@ -204,6 +207,10 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
             if sc.longitude_deg is not None:  # station-kept geostationary: a point fixed to the rotating Earth
                 out[sc.name] = DatedStationTrajectory(0.0, sc.longitude_deg, GEOSTATIONARY_ALTITUDE_M,
                                                       scenario.ephemeris.epoch(), times_s)
+            elif sc.orbit_file is not None and sc.orbit_file.kind == "oem":  # the truth follows the file
+                from liaison_cli.scenario.orbit_files import oem_truth_lu
+
+                out[sc.name] = model.trajectory(oem_truth_lu(sc, model.epoch_tdb_s, times_s), times_tu)
             else:
                 out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
                                                        times_tu), times_tu)
@@ -567,4 +574,5 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         initial_error_sigma=_initial_error_sigma(scenario),
         dynamics=model,
         manoeuvres=manoeuvres,
+        observed=observed_measurements(scenario, channels, times_s, model),
     )

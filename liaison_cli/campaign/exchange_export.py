@@ -1,0 +1,186 @@
+"""`liaison export`: one run of a result folder as CCSDS files. Per estimated spacecraft an OEM of the truth and
+one of the EKF's estimate with its 6x6 covariance at every epoch (km, km/s), and a TDM of the run's observed
+measurements; KVN, XML or both.
+
+The result folder keeps error norms, not states, so the run is recomputed from the scenario the folder
+records (summary.parquet's provenance), its seed and the run index: runs are reproducible by design, and the
+recomputed run's position errors are checked against the stored ones before anything is written.
+
+Frames and time tags (docs/exchange.md): a dated scenario is written in geocentric ICRF (REF_FRAME ICRF,
+CENTER_NAME EARTH) with TDB tags, the time of its ephemeris grid; a CRTBP scenario in its Earth-Moon rotating
+frame (REF_FRAME EARTH_MOON_ROTATING, barycentre-centred, km and km/s) with MET tags from t0.
+"""
+
+from dataclasses import dataclass, replace
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU, TU_S, VU_KM_S
+from liaison_cli.errors import ExchangeFileError, UnreadableFileError
+from liaison_cli.exchange import library
+from liaison_cli.exchange.frames import CRTBP_CENTRE, CRTBP_FRAME
+from liaison_cli.exchange.oem import Ephemeris, oem_message
+from liaison_cli.exchange.tdm import Track, tdm_message
+from liaison_cli.exchange.timetags import met_tags, tdb_tags
+from liaison_cli.scenario.observed import channel_track
+from liaison_cli.scenario.schema import Scenario, validate_scenario
+from liaison_cli.scenario.setup import Problem, prepare_problem
+from liaison_cli.storage import read_metadata, write_text_atomic
+
+KM_PER_SCALED = np.array([LU_KM] * 3 + [VU_KM_S] * 3)  # scaled state -> km, km/s (both dynamics)
+STORED_ERROR_TOLERANCE_M = 1e-3  # float32 storage of errors of up to ~1e4 m: a relative 1e-7 is ~1 mm
+CRTBP_COMMENTS = (
+    f"Earth-Moon CRTBP rotating frame: origin the barycentre, x from the Earth to the Moon, z along the Moon's "
+    f"orbit normal; mu = {MU:.10f}",
+    f"km and km/s from the CRTBP units: 1 LU = {LU_KM:.1f} km, 1 TU = {TU_S:.6f} s; velocity relative to the "
+    "rotating axes",
+    "MET: elapsed time from the scenario's t0, 0000-001T00:00:00 = t0 (the CRTBP has no date)",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class RecomputedRun:
+    """One run again: truth and estimate (m, 6 n_sc) and covariance (m, 6 n_sc, 6 n_sc) in scaled units, the
+    observed measurements (m, C) in filter units; healthy_steps: epochs 0 .. healthy_steps - 1 are before any
+    failure."""
+
+    problem: Problem
+    run: int
+    truth: np.ndarray
+    estimate: np.ndarray
+    covariance: np.ndarray
+    y_obs: np.ndarray
+    healthy_steps: int
+    position_error_m: np.ndarray  # (m, n_sc)
+
+
+def result_scenario(result_dir) -> Scenario:
+    """The scenario a result folder ran (summary.parquet's scenario_effective: file paths already absolute)."""
+    summary = Path(result_dir) / "summary.parquet"
+    if not summary.is_file():
+        raise ExchangeFileError(f"{result_dir}: not a liaison result folder (no summary.parquet)")
+    try:
+        meta = read_metadata(summary)
+    except Exception as exc:  # noqa: BLE001 - a damaged table
+        raise UnreadableFileError(f"{summary}: cannot read its provenance ({type(exc).__name__})") from None
+    effective = {k: v for k, v in meta["scenario_effective"].items() if k != "topology"}
+    return validate_scenario(effective, f"{summary} (scenario_effective)")
+
+
+def recompute_run(problem: Problem, run: int) -> RecomputedRun:
+    """Run `run` of the problem again with the EKF's forward record kept."""
+    from liaison_cli.estimation.estimators import ekf_with_record
+
+    if problem.scenario.estimator != "ekf":
+        raise ExchangeFileError(f"{problem.scenario.name}: export needs the EKF (estimator: ekf), whose covariance "
+                                f"is kept per epoch; this result used {problem.scenario.estimator}")
+    if problem.scenario.filter.initial_batch_hours is not None:
+        raise ExchangeFileError(f"{problem.scenario.name}: export of an EKF started from an initial batch "
+                                "(filter.initial_batch_hours) is not supported: its first hours are a batch solution")
+    inputs = draw_run_inputs(problem, run)
+    arrays = problem.filter if inputs.filter_params is None else replace(problem.filter,
+                                                                         model_params=inputs.filter_params)
+    history, states, matrices = ekf_with_record(arrays, inputs.x0_hat, inputs.y_obs, inputs.truth, True)
+    n_dyn = 6 * problem.n_spacecraft
+    healthy = len(problem.times_s) if history.ok else history.fail_step
+    error_m = np.linalg.norm(history.err[:, :n_dyn].reshape(len(problem.times_s), -1, 6)[:, :, :3], axis=2) * M_PER_LU
+    return RecomputedRun(problem, run, inputs.truth[:, :n_dyn], states[:, 0, :n_dyn],
+                         matrices[:, 1, :n_dyn, :n_dyn], inputs.y_obs, healthy, error_m)
+
+
+def check_against_stored(result_dir, recomputed: RecomputedRun) -> float:
+    """The largest difference (m) between the recomputed run's position errors and timeseries.parquet's."""
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(Path(result_dir) / "timeseries.parquet", columns=["run", "position_error_m"],
+                          filters=[("run", "=", recomputed.run)])
+    stored = table.column("position_error_m").to_numpy().astype(float)
+    if len(stored) != recomputed.position_error_m.size:
+        raise ExchangeFileError(f"{result_dir}: run {recomputed.run} is not in timeseries.parquet")
+    steps = recomputed.healthy_steps
+    here = recomputed.position_error_m.reshape(-1)
+    n_sc = recomputed.position_error_m.shape[1]
+    return float(np.max(np.abs(stored[: steps * n_sc] - here[: steps * n_sc])))
+
+
+def _time_frame(problem: Problem):
+    """(tags, frame, centre, time system, comments) of the problem's epochs."""
+    scenario = problem.scenario
+    if scenario.dynamics == "ephemeris":
+        epoch_s = problem.dynamics.epoch_tdb_s
+        return (tdb_tags(epoch_s + problem.times_s), "ICRF", "EARTH", "TDB",
+                (f"liaison scenario {scenario.name}: geocentric ICRF, TDB (the ephemeris time of the run)",))
+    return met_tags(problem.times_s), CRTBP_FRAME, CRTBP_CENTRE, "MET", CRTBP_COMMENTS
+
+
+def ephemerides(recomputed: RecomputedRun) -> dict[str, Ephemeris]:
+    """{file stem: Ephemeris}: '<spacecraft>_truth' and '<spacecraft>_estimate' (with covariance)."""
+    problem = recomputed.problem
+    tags, frame, centre, time_system, comments = _time_frame(problem)
+    steps = recomputed.healthy_steps
+    seconds = problem.times_s[:steps]
+    out = {}
+    for i, name in enumerate(problem.spacecraft):
+        block = slice(6 * i, 6 * i + 6)
+        note = f"run {recomputed.run} of seed {problem.scenario.monte_carlo.seed}"
+        out[f"{name}_truth"] = Ephemeris(name, name, centre, frame, time_system, tags[:steps], seconds,
+                                         recomputed.truth[:steps, block] * KM_PER_SCALED,
+                                         comments=(*comments, f"truth, {note}"))
+        covariances = {k: recomputed.covariance[k, block, block] * np.outer(KM_PER_SCALED, KM_PER_SCALED)
+                       for k in range(steps)}
+        out[f"{name}_estimate"] = Ephemeris(name, name, centre, frame, time_system, tags[:steps], seconds,
+                                            recomputed.estimate[:steps, block] * KM_PER_SCALED,
+                                            covariances=covariances,
+                                            comments=(*comments, f"EKF estimate (after each epoch's update), {note}"))
+    return out
+
+
+def tracks(recomputed: RecomputedRun) -> tuple[list[Track], list[str]]:
+    """The run's observed measurements as TDM tracks, and the channels that have no TDM keyword."""
+    problem = recomputed.problem
+    tags, _, _, time_system, _ = _time_frame(problem)
+    out, skipped = [], []
+    for c, channel in enumerate(problem.channels):
+        form = channel_track(problem.scenario, channel)
+        if form is None:
+            skipped.append(f"{channel.label} on {channel.link_label}")
+            continue
+        keyword, factor, participants, paths = form
+        seen = np.flatnonzero(np.isfinite(recomputed.y_obs[: recomputed.healthy_steps, c]))
+        if not len(seen):
+            continue
+        values = recomputed.y_obs[seen, c] * channel.scale_si * factor
+        out.append(Track(participants, paths, keyword, time_system, [tags[k] for k in seen],
+                         problem.times_s[seen], values, (f"liaison {channel.label} on {channel.link_label}",)))
+    return out, skipped
+
+
+def export_run(result_dir, run: int, formats: tuple, out_dir) -> dict:
+    """Write the run's OEMs and TDM into out_dir; returns what was written and checked."""
+    scenario = result_scenario(result_dir)
+    if scenario.measurements is not None:
+        run = 0
+    problem = prepare_problem(scenario)
+    recomputed = recompute_run(problem, run)
+    difference_m = check_against_stored(result_dir, recomputed)
+    if difference_m > STORED_ERROR_TOLERANCE_M:
+        raise ExchangeFileError(f"{result_dir}: run {run} recomputed differs from the stored run by "
+                                f"{difference_m:.3g} m in position error; the folder's scenario or its files changed")
+    created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
+    messages = {f"{stem}.oem": oem_message(eph, created) for stem, eph in ephemerides(recomputed).items()}
+    track_list, skipped = tracks(recomputed)
+    comments = [f"liaison scenario {scenario.name}, run {run}, seed {scenario.monte_carlo.seed}"]
+    comments += [f"not written (no TDM keyword): {s}" for s in skipped]
+    if track_list:
+        messages["measurements.tdm"] = tdm_message(track_list, created, comments)
+    written = []
+    for name, message in messages.items():
+        for data_format in formats:
+            path = Path(out_dir) / (name if data_format == "kvn" else f"{name}.xml")
+            write_text_atomic(library.message_text(message, data_format), path)
+            written.append(path.name)
+    return {"scenario": scenario.name, "run": run, "files": written, "skipped": skipped,
+            "stored_difference_m": difference_m, "epochs": recomputed.healthy_steps}

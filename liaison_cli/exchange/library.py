@@ -1,0 +1,57 @@
+"""The ccsds-ndm library behind one door: loaded only when a CCSDS file is read or written, refused in one line
+(with the install command) when it is not installed."""
+
+from pathlib import Path
+
+from liaison_cli.errors import ExchangeFileError
+
+INSTALL_HINT = "pip install 'liaison[ccsds]' (or: pip install ccsds-ndm)"
+FORMATS = ("kvn", "xml")
+
+
+def _ndm_io():
+    try:
+        from ccsds_ndm.ndm_io import NdmIo
+    except ImportError:
+        raise ExchangeFileError(f"CCSDS files need the ccsds-ndm library, which is not installed: {INSTALL_HINT}") \
+            from None
+    return NdmIo()
+
+
+def read_message(path, kind: str):
+    """The message object of a CCSDS file (KVN or XML, detected), checked to be an `kind` ('OEM', 'OPM',
+    'TDM'). A file that cannot be read or parsed raises ExchangeFileError naming it."""
+    path = Path(path)
+    io = _ndm_io()
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ExchangeFileError(f"{path}: cannot read the {kind}: {getattr(exc, 'strerror', None) or exc}") from None
+    try:
+        message = io.from_string(text)
+    except Exception as exc:  # noqa: BLE001 - the library raises many types for a malformed file
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ExchangeFileError(f"{path}: malformed CCSDS message ({detail[:200]})") from None
+    found = type(message).__name__.upper()
+    if not found.startswith(kind):
+        raise ExchangeFileError(f"{path}: is a {found.removesuffix('TYPE')}, expected a CCSDS {kind}")
+    return message
+
+
+def message_text(message, data_format: str) -> str:
+    """The message as KVN or XML text."""
+    from ccsds_ndm.mapping import NDMFileFormats
+
+    io = _ndm_io()
+    if data_format not in FORMATS:
+        raise ExchangeFileError(f"format {data_format!r}: allowed {', '.join(FORMATS)}")
+    return io.to_string(message, NDMFileFormats.KVN if data_format == "kvn" else NDMFileFormats.XML)
+
+
+def models():
+    """The ccsds-ndm dataclasses of the NDM/XML 4.0 schema (OEM 3.0, OPM 3.0, TDM 2.0) as two modules."""
+    _ndm_io()
+    from ccsds_ndm.models.ndmxml4 import ndmxml_4_0_0_common_4_0 as common
+    from ccsds_ndm.models.ndmxml4 import ndmxml_4_0_0_master_4_0 as master
+
+    return common, master

@@ -1,0 +1,77 @@
+"""A dated spacecraft's truth from an OEM, or its initial state from an OPM (scenario key orbit: {oem: FILE} /
+{opm: FILE}): the file's states in geocentric ICRF (from ICRF, GCRF or EME2000; Earth-centred), on the
+scenario's TDB grid, in the estimators' scaled units. Every problem is one line naming the file."""
+
+import numpy as np
+
+from liaison_cli.dynamics.ephemeris_model import SCALE
+from liaison_cli.errors import ExchangeFileError
+from liaison_cli.exchange.frames import DATED_FRAMES, EARTH_CENTRES, to_icrf
+from liaison_cli.exchange.interpolation import METHODS, interpolate_states
+
+DATED_TIME_SYSTEMS = ("TDB", "TT", "UTC")
+EPOCH_TOLERANCE_S = 1e-3  # an OPM epoch this close to the scenario epoch is the scenario epoch
+
+
+def _check_frame(path, centre: str, frame: str, time_system: str) -> None:
+    if centre.upper() not in EARTH_CENTRES:
+        raise ExchangeFileError(f"{path}: CENTER_NAME = {centre}: not supported; allowed: {', '.join(EARTH_CENTRES)}")
+    if frame.upper() not in DATED_FRAMES:
+        raise ExchangeFileError(f"{path}: REF_FRAME = {frame}: not supported for a dated scenario; allowed: "
+                                f"{', '.join(DATED_FRAMES)}")
+    if time_system not in DATED_TIME_SYSTEMS:
+        raise ExchangeFileError(f"{path}: TIME_SYSTEM = {time_system}: not supported for a dated scenario; allowed: "
+                                f"{', '.join(DATED_TIME_SYSTEMS)}")
+
+
+def _pick(path, records, spacecraft):
+    wanted = spacecraft.orbit_file.object_name
+    names = [r.object_name for r in records]
+    if wanted is None and len(records) == 1:
+        return records[0]
+    wanted = wanted or spacecraft.name
+    if wanted not in names:
+        raise ExchangeFileError(f"{path}: no object {wanted!r} (spacecraft {spacecraft.name!r}); the file holds "
+                                f"{', '.join(names)}; name one with orbit: {{object_name: ...}}")
+    return records[names.index(wanted)]
+
+
+def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndarray:
+    """(m, 6) scaled geocentric ICRF states at epoch_tdb_s + times_s, interpolated in the spacecraft's OEM."""
+    from liaison_cli.exchange.oem import read_oem
+
+    path = spacecraft.orbit_file.oem
+    ephemeris = _pick(path, read_oem(path), spacecraft)
+    _check_frame(path, ephemeris.centre, ephemeris.frame, ephemeris.time_system)
+    if ephemeris.interpolation not in METHODS:
+        raise ExchangeFileError(f"{path}: INTERPOLATION = {ephemeris.interpolation}: not supported; allowed: "
+                                f"{', '.join(METHODS)}")
+    needed = ephemeris.degree + 1 if ephemeris.interpolation == "LAGRANGE" else 2
+    if len(ephemeris.seconds) < needed:
+        raise ExchangeFileError(f"{path}: {len(ephemeris.seconds)} state lines, {ephemeris.interpolation} of "
+                                f"degree {ephemeris.degree} needs {needed}")
+    at_s = epoch_tdb_s + np.asarray(times_s, dtype=float)
+    first, last = ephemeris.seconds[0], ephemeris.seconds[-1]
+    if at_s[0] < first - EPOCH_TOLERANCE_S or at_s[-1] > last + EPOCH_TOLERANCE_S:
+        raise ExchangeFileError(
+            f"{path}: the OEM covers {ephemeris.tags[0]} to {ephemeris.tags[-1]} ({ephemeris.time_system}), not the "
+            f"scenario's span ({(at_s[0] - first) / 86400:+.4f} d to {(at_s[-1] - last) / 86400:+.4f} d "
+            "from its ends)")
+    at_s = np.clip(at_s, first, last)
+    states = interpolate_states(ephemeris.seconds, ephemeris.states_km, at_s, ephemeris.interpolation,
+                                ephemeris.degree)
+    return to_icrf(states, ephemeris.frame.upper()) / SCALE
+
+
+def opm_state_lu(spacecraft, epoch_tdb_s: float) -> np.ndarray:
+    """(6,) scaled geocentric ICRF state of the spacecraft's OPM, whose epoch must be the scenario's."""
+    from liaison_cli.exchange.opm import read_opm
+
+    path = spacecraft.orbit_file.opm
+    record = read_opm(path)
+    _check_frame(path, record.centre, record.frame, record.time_system)
+    if abs(record.seconds - epoch_tdb_s) > EPOCH_TOLERANCE_S:
+        raise ExchangeFileError(f"{path}: EPOCH = {record.tag} ({record.time_system}) is "
+                                f"{record.seconds - epoch_tdb_s:+.3f} s from the scenario's epoch; allowed: "
+                                f"within {EPOCH_TOLERANCE_S:g} s")
+    return to_icrf(record.state_km[None, :], record.frame.upper())[0] / SCALE
