@@ -331,9 +331,13 @@ def errors(
     check_runs: int = typer.Option(0, "--check-runs", min=0, help="Monte Carlo runs for the check (0: none)"),
 ):
     """Error budget: the EKF's error split by source (LinCov along the truth), with an optional MC check."""
-    from liaison_cli.campaign.error_budget import error_budget, monte_carlo_check, part_of, select_sources, shares
+    import pandas as pd
+
+    from liaison_cli.campaign.error_budget import (SOURCES, consistency, error_budget, monte_carlo_check, part_of,
+                                                   select_sources, shares)
     from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-    from liaison_cli.report.error_budget import budget_table, draw_budget, format_shares, shares_frame
+    from liaison_cli.report.error_budget import (budget_table, draw_budget, format_consistency, format_shares,
+                                                 shares_frame)
     from liaison_cli.scenario.schema import read_scenario_text, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
@@ -352,12 +356,19 @@ def errors(
     typer.echo(f"{scenario.name}: share of the mean-square error by source (LinCov along the truth, "
                f"{scenario.duration_days:g} d)")
     typer.echo(table, nl=False)
-    checks = monte_carlo_check(problem, budget, check_runs, chosen) if check_runs else []
+    settle_s = scenario.settle_days() * SECONDS_PER_DAY
+    checks = monte_carlo_check(problem, budget, check_runs, chosen, settle_s) if check_runs else []
     if checks:
         typer.echo(f"Monte Carlo ({check_runs} runs of the EKF) over LinCov, mean-square error after t0:")
         for row in checks:
             typer.echo(f"  {row['sources']:<32}{row['spacecraft']:<10}{row['quantity']:<10}"
                        f"{row['monte_carlo_over_lincov']:8.3f}")
+    consistency_rows = consistency(budget, settle_s)
+    nees_share = checks[0]["nees_in_band_share_settled"] if checks and chosen == SOURCES else None
+    for row in consistency_rows:
+        row["nees_in_band_share_settled"] = float("nan") if nees_share is None else nees_share
+    consistency_text = format_consistency(consistency_rows, scenario.settle_days(), nees_share, check_runs)
+    typer.echo(consistency_text, nl=False)
     meta = {"package": "liaison", "scenario": scenario.name, "scenario_yaml": text,
             "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
     out_dir = output or Path("results") / f"{scenario.name}-errors"
@@ -366,7 +377,8 @@ def errors(
         write_parquet_atomic(shares_frame(rows_all, rows_late), stage / "shares.parquet", meta)
         if checks:
             write_parquet_atomic(shares_frame(checks), stage / "monte_carlo_check.parquet", meta)
-        write_text_atomic(table, stage / "shares.md")
+        write_parquet_atomic(pd.DataFrame(consistency_rows), stage / "consistency.parquet", meta)
+        write_text_atomic(table + "\n" + consistency_text, stage / "shares.md")
         draw_budget(budget, part_of, stage / "error_budget.png", f"Error budget: {scenario.name}")
     typer.echo(f"results: {out_dir}")
 
@@ -501,26 +513,71 @@ def tables002(
     span_days: float = typer.Option(9.885, "--span", help="grid cell of the histograms: span (days)"),
     interval_s: float = typer.Option(1800, "--interval", help="grid cell of the histograms: interval (s)"),
 ):
-    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, plus histograms."""
-    from liaison_cli.report.nrho002 import clock_table, draw_histograms, drms_table, format_tables, per_run_metrics
+    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms."""
+    from liaison_cli.report.nrho002 import (clock_table, consistency_table, draw_histograms, drms_table,
+                                            format_consistency, format_tables, per_run_metrics)
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
     metrics = per_run_metrics(sweep_dir)
-    drms, clocks = drms_table(metrics), clock_table(metrics)
-    text = format_tables(drms, clocks)
+    drms, clocks, consistency = drms_table(metrics), clock_table(metrics), consistency_table(sweep_dir)
+    text = format_tables(drms, clocks) + "\n" + format_consistency(consistency)
     typer.echo(text, nl=False)
     out_dir = output or sweep_dir / "tables002"
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"package": "liaison", "source": str(sweep_dir), "metric": "p90 over runs with status ok"}
     paths = [out_dir / "drms_p90.parquet", out_dir / "clock_p90.parquet", out_dir / "per_run.parquet",
-             out_dir / "tables.md"]
+             out_dir / "consistency.parquet", out_dir / "tables.md"]
     write_parquet_atomic(drms, paths[0], meta)
     write_parquet_atomic(clocks, paths[1], meta)
     write_parquet_atomic(metrics, paths[2], meta)
-    write_text_atomic(text, paths[3])
+    write_parquet_atomic(consistency, paths[3], meta)
+    write_text_atomic(text, paths[4])
     paths += draw_histograms(metrics, span_days, interval_s, out_dir)
     for path in paths:
         typer.echo(f"wrote {path}")
+
+
+@app.command("tune")
+@user_errors
+def tune(
+    scenarios: list[Path] = typer.Argument(..., metavar="SCENARIO...", help="scenario YAML files (labelled by "
+                                           "file stem)"),
+    ladder: str = typer.Option(None, "--ladder", help="process-noise rungs in m/s^2, a comma list "
+                               "[default: 1e-10,1e-9,1e-8,1e-7,1e-6,1e-5]"),
+    runs: int = typer.Option(20, "--runs", min=1, help="Monte Carlo runs per rung"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    work: Path = typer.Option(Path("results/tune"), "--work", help="folder of the rungs' sweeps (resumed, reused)"),
+    table: Path = typer.Option(Path("results/tune/consistency.md"), "--table",
+                               help="the Markdown table to write; the Parquet goes beside it (.parquet)"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bars"),
+):
+    """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder."""
+    from liaison_cli.campaign.tuning import TuningCase, parse_ladder, rule_text, tune as run_tuning
+    from liaison_cli.report.tuning import format_ladder, format_table
+    from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+
+    _check_runs(runs)
+    rungs = parse_ladder(ladder)
+    if table.suffix != ".md" or table.is_dir():
+        raise LiaisonError(f"--table {table}: allowed: a Markdown file path ending in .md (the Parquet goes beside it)")
+    loaded = _load_study(scenarios)
+    cases = [TuningCase(name, scenario, text, str(path)) for path, (name, scenario, text) in zip(scenarios, loaded)]
+    frame = run_tuning(cases, rungs, runs, work, jobs, progress=not quiet and sys.stderr.isatty(),
+                       on_case=None if quiet else lambda label: typer.echo(f"tune: {label}", err=True))
+    typer.echo(format_ladder(frame))
+    settle = sorted({(case.scenario.settle_days(), case.label) for case in cases})
+    other = [f"{label} {days:g} d" for days, label in settle if days != 1.0]
+    settle_note = "filter.settle_days; 1 d" + (f" except {', '.join(other)}" if other else "")
+    command = " ".join(["liaison tune", *map(str, scenarios), f"--runs {runs}"]
+                       + ([f"--ladder {ladder}"] if ladder else []) + [f"--table {table}"])
+    markdown = format_table(frame, rule_text(rungs, runs), command, settle_note)
+    meta = {"package": "liaison", "version": __version__, "command": command, "rule": rule_text(rungs, runs),
+            "scenarios_yaml": {case.label: case.text for case in cases},
+            "seeds": {case.label: case.scenario.monte_carlo.seed for case in cases}}
+    table.parent.mkdir(parents=True, exist_ok=True)
+    write_parquet_atomic(frame, table.with_suffix(".parquet"), meta)
+    write_text_atomic(markdown, table)
+    typer.echo(f"wrote {table} and {table.with_suffix('.parquet')}")
 
 
 plot_app = typer.Typer(no_args_is_help=True, help="Figures from result folders (PNG + SVG).")
