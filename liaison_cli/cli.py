@@ -553,7 +553,7 @@ def tune(
 ):
     """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder."""
     from liaison_cli.campaign.tuning import TuningCase, parse_ladder, rule_text, tune as run_tuning
-    from liaison_cli.report.tuning import format_ladder, format_table
+    from liaison_cli.report.tuning import format_ladder, format_table, paper_tuned_notes
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
     _check_runs(runs)
@@ -570,7 +570,7 @@ def tune(
     settle_note = "filter.settle_days; 1 d" + (f" except {', '.join(other)}" if other else "")
     command = " ".join(["liaison tune", *map(str, scenarios), f"--runs {runs}"]
                        + ([f"--ladder {ladder}"] if ladder else []) + [f"--table {table}"])
-    markdown = format_table(frame, rule_text(rungs, runs), command, settle_note)
+    markdown = format_table(frame, rule_text(rungs, runs), command, settle_note, paper_tuned_notes())
     meta = {"package": "liaison", "version": __version__, "command": command, "rule": rule_text(rungs, runs),
             "scenarios_yaml": {case.label: case.text for case in cases},
             "seeds": {case.label: case.scenario.monte_carlo.seed for case in cases}}

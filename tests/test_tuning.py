@@ -55,15 +55,16 @@ def test_the_rule_takes_the_smallest_rung_passing_both_tests_then_the_sigma_test
 
 
 def test_every_rung_gives_every_spacecraft_the_rung_value():
-    """The ladder's grid removes the lunar orbiter's own 1e-6 m/s^2: at each rung both spacecraft's process
-    noise in the filter is the rung's."""
-    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    """The ladder's grid removes the lunar orbiter's own 1e-6 m/s^2 (eml2_lunar): at each rung both spacecraft's
+    process noise in the filter is the rung's."""
+    scenario, _ = load_scenario(SCENARIOS / "eml2_lunar.yaml")
     grid = ladder_grid(scenario, (1e-9, 1e-8))
     assert grid == [("filter.process_noise_accel_m_s2", [1e-9, 1e-8]),
                     ("spacecraft.1.process_noise_accel_m_s2", [None])]
-    rung = apply_overrides(scenario, {key: values[-1] for key, values in grid})
-    ratio_q = prepare_problem(rung).filter.Q.diagonal() / prepare_problem(scenario).filter.Q.diagonal()
-    assert ratio_q[:6] == pytest.approx([(1e-8 / 1e-7) ** 2] * 6)  # EML2: the filter default 1e-7 before
+    rung = apply_overrides(scenario, {"duration_days": 1, **{key: values[-1] for key, values in grid}})
+    shipped = apply_overrides(scenario, {"duration_days": 1})
+    ratio_q = prepare_problem(rung).filter.Q.diagonal() / prepare_problem(shipped).filter.Q.diagonal()
+    assert ratio_q[:6] == pytest.approx([(1e-8 / 1e-7) ** 2] * 6)  # EML2: the filter's 1e-7 before
     assert ratio_q[6:12] == pytest.approx([(1e-8 / 1e-6) ** 2] * 6)  # Lunar: its own 1e-6 before
 
 
@@ -99,10 +100,10 @@ def test_tune_chooses_the_matched_rung_writes_the_table_and_reuses_its_runs(tmp_
     assert rungs.loc[1e-5, "nees_above_band_share"] < 0.05  # below the band: pessimistic, not optimistic
     chosen = frame[frame.chosen]
     assert set(chosen.snc_m_s2) == {1e-9} and set(chosen.verdict) == {VERDICT_MET}
-    assert set(frame[frame.setting == "shipped"].snc_m_s2) == {1e-7, 1e-6}  # EML2 filter default, Lunar its own
+    assert set(frame[frame.setting == "shipped"].snc_m_s2) == {1e-10}  # smoke's own per-spacecraft values
     markdown = table.read_text()
     assert "Written by `liaison tune" in markdown and f"at least {NEES_IN_BAND_MIN:g}" in markdown
-    assert "| matched_smoke | Lunar | 1e-06 |" in markdown and "rule met (lowest rung: smaller not tried)" in markdown
+    assert "| matched_smoke | Lunar | 1e-10 |" in markdown and "rule met (lowest rung: smaller not tried)" in markdown
     manifests = sorted(work.rglob("manifest.jsonl"))
     assert len(manifests) == 2  # the ladder's sweep and the shipped settings' (not a rung)
     before = {p: p.read_bytes() for p in manifests}

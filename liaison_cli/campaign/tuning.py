@@ -24,7 +24,8 @@ The rule, for one EKF scenario:
 - Batch least squares has no process noise: its scenarios get the shipped row only ('batch: no SNC').
 The campaigns are sweeps (campaign.sweep) in a work folder, one per scenario and ladder (plus one for the
 shipped settings when they are not a rung): an interrupted `tune` resumes, and a second one reuses every
-finished run.
+finished run. The ladder's sweep starts from the scenario set on the lowest rung (ladder_base), so a scenario
+whose shipped process noise alone changed keeps its ladder's runs.
 """
 
 from dataclasses import dataclass
@@ -32,11 +33,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
 from liaison_cli.errors import LiaisonError
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.storage import resumable_output
 
 SNC_KEY = "filter.process_noise_accel_m_s2"
@@ -97,6 +99,13 @@ def ladder_grid(scenario: Scenario, ladder) -> list[tuple[str, list]]:
     return grid
 
 
+def ladder_base(scenario: Scenario, ladder) -> Scenario:
+    """The scenario on the ladder's lowest rung (ladder_grid applied): the base of the ladder's sweep, so the
+    sweep (and its finished runs) stays the same when only the shipped process noise changes."""
+    return apply_overrides(scenario, {key: values[0] for key, values in ladder_grid(scenario, ladder)},
+                           f"{scenario.name} on the ladder")
+
+
 def shipped_snc(scenario: Scenario) -> dict:
     """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's)."""
     default = scenario.filter.process_noise_accel_m_s2
@@ -154,9 +163,10 @@ class TuningCase:
     source: str
 
 
-def _run_point_sweep(case: TuningCase, grid, runs: int, folder: Path, jobs: int, progress: bool):
-    """One sweep (resumable, in `folder`/<plan key>) -> (plan, runs table)."""
-    plan = plan_sweep([(case.scenario, case.text, case.source)], grid, runs, f"tune-{case.label}")
+def _run_point_sweep(case: TuningCase, base: Scenario, grid, runs: int, folder: Path, jobs: int, progress: bool):
+    """One sweep of `base` over `grid` (resumable, in `folder`/<plan key>) -> (plan, runs table)."""
+    text = case.text if base is case.scenario else yaml.safe_dump(base.model_dump(mode="json", exclude_none=True))
+    plan = plan_sweep([(base, text, case.source)], grid, runs, f"tune-{case.label}")
     out_dir = folder / plan.key()
     with sweep_lock(out_dir), resumable_output(out_dir, False, plan.key()) as work_dir:
         result = run_sweep(plan, work_dir, jobs=jobs, progress=progress)
@@ -171,7 +181,8 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
     folder = work / case.label
     ladder_stats, shipped_stats = [], None
     if scenario.estimator == "ekf":
-        plan, table = _run_point_sweep(case, ladder_grid(scenario, ladder), runs, folder, jobs, progress)
+        plan, table = _run_point_sweep(case, ladder_base(scenario, ladder), [(SNC_KEY, list(ladder))], runs, folder,
+                                       jobs, progress)
         stats = rung_statistics(table)
         shipped_hash = scenario_hash(scenario)
         for point in plan.points:
@@ -180,7 +191,7 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
             if point.point_hash == shipped_hash:  # the shipped settings are this rung: no second campaign
                 shipped_stats = mine
     if shipped_stats is None:
-        _, table = _run_point_sweep(case, [], runs, folder, jobs, progress)
+        _, table = _run_point_sweep(case, scenario, [], runs, folder, jobs, progress)
         shipped_stats = rung_statistics(table)
         shipped_stats = shipped_stats[shipped_stats.spacecraft.isin(estimated)]
     chosen, verdict = choose(ladder_stats) if ladder_stats else (None, VERDICT_BATCH)

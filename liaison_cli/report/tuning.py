@@ -3,10 +3,18 @@ noise's error RMS, sigma RMS, their ratio and NEES-in-band share after the settl
 the rung the rule chose (campaign.tuning states the rule). Formats only."""
 
 import math
+from importlib.resources import files
 
 import pandas as pd
+import yaml
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.campaign.tuning import VERDICT_BATCH
+
+
+def paper_tuned_notes() -> dict:
+    """{scenario: note} of the scenarios kept tuned to a paper (data/paper_tuned.yaml says why, measured)."""
+    return yaml.safe_load(files("liaison_cli.report").joinpath("data/paper_tuned.yaml").read_text())
 
 
 def _ratio(value: float) -> str:
@@ -16,11 +24,12 @@ def _ratio(value: float) -> str:
 
 
 def _cells(row) -> list[str]:
-    """SNC, position error RMS, sigma RMS, position and velocity error/sigma, NEES in band, runs ok."""
+    """SNC ('-' for a batch: it has none), position error RMS, sigma RMS, position and velocity error/sigma,
+    NEES in band, runs ok."""
     if row is None:
         return ["-"] * 7
     share = row["nees_in_band_share"]
-    return [f"{row['snc_m_s2']:.0e}", f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
+    return ["-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}", f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
             _ratio(row["position_error_to_sigma"]), _ratio(row["velocity_error_to_sigma"]),
             "-" if not math.isfinite(share) else f"{100 * share:.0f} %", f"{row['runs_ok']}/{row['runs']}"]
 
@@ -30,7 +39,7 @@ def _verdict(rows: pd.DataFrame, chosen, notes: dict) -> str:
     verdict = first["verdict"]
     if chosen is not None and bool(chosen.iloc[0]["lowest_rung"]):
         verdict += " (lowest rung: smaller not tried)"
-    if chosen is not None and first["verdict"] != "batch: no SNC":
+    if chosen is not None:
         verdict += "; shipped = chosen" if _same_as_chosen(rows, chosen) else ""
     note = notes.get(first["scenario"])
     return verdict + (f"; {note}" if note else "")
