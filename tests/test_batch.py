@@ -80,10 +80,11 @@ def test_raw_dual_one_way_puts_both_clocks_on_both_channels(tmp_path):
     consistent (normalised innovations of RMS about 1)."""
     path = edited_scenario(tmp_path, "clock_one_way_eml2_lunar.yaml", "observables: [range, pseudorange]",
                            "observables: [range, dual_one_way]")
+    lunar = "    elements: {a_km: 9000, e: 0.4, i_deg: 60, raan_deg: 0, argp_deg: 0, ta_deg: 0}\n"
+    assert path.read_text().count(lunar) == 1
     text = path.read_text().replace(
-        "    process_noise_accel_m_s2: 1.0e-6   # as in eml2_lunar.yaml",
-        "    process_noise_accel_m_s2: 1.0e-6\n    clock: {preset: csac, initial_offset_sigma_s: 1.0e-6, "
-        "initial_frequency_sigma: 1.0e-10}").replace("duration_days: 10", "duration_days: 2")
+        lunar, lunar + "    clock: {preset: csac, initial_offset_sigma_s: 1.0e-6, initial_frequency_sigma: 1.0e-10}\n"
+    ).replace("duration_days: 10", "duration_days: 2")
     path.write_text(text)
     scenario, _ = load_scenario(path)
     problem = prepare_problem(scenario)

@@ -81,7 +81,8 @@ def format_ladder(table: pd.DataFrame) -> str:
     lines = [f"{'scenario':<32}{'S/C':<12}{'SNC m/s^2':>10}{'pos err/σ':>11}{'vel err/σ':>11}{'NEES in band':>14}"
              f"{'runs ok':>9}"]
     for row in table.to_dict("records"):
-        snc = f"{row['snc_m_s2']:.0e}" + ("*" if row["chosen"] else (" s" if row["setting"] == "shipped" else ""))
+        value = "-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}"
+        snc = value + ("*" if row["chosen"] else (" s" if row["setting"] == "shipped" else ""))
         share = row["nees_in_band_share"]
         lines.append(f"{row['scenario']:<32}{row['spacecraft']:<12}{snc:>10}{_ratio(row['position_error_to_sigma']):>11}"
                      f"{_ratio(row['velocity_error_to_sigma']):>11}"
