@@ -110,3 +110,31 @@ def test_tune_chooses_the_matched_rung_writes_the_table_and_reuses_its_runs(tmp_
     again = cli(*args)
     assert again.returncode == 0, again.stderr
     assert {p: p.read_bytes() for p in manifests} == before and table.read_text() == markdown
+
+
+def test_the_reference_table_covers_every_shipped_scenario_and_the_rule_is_applied():
+    """results/reference/consistency.md (written by `liaison tune`) is the shipped files' table: one entry per
+    scenario of scenarios/ and scenarios/003/, its shipped process noise the file's own, and every EKF scenario
+    carries the rule's choice except those kept tuned to a paper (report/data/paper_tuned.yaml), whose notes
+    are in the Markdown."""
+    from liaison_cli.campaign.tuning import shipped_snc
+    from liaison_cli.report.tuning import paper_tuned_notes
+    from tests.conftest import REPO
+
+    table = pd.read_parquet(REPO / "results" / "reference" / "consistency.parquet")
+    markdown = (REPO / "results" / "reference" / "consistency.md").read_text()
+    paths = sorted(SCENARIOS.glob("*.yaml")) + sorted((SCENARIOS / "003").glob("*.yaml"))
+    assert set(table.scenario) == {path.stem for path in paths}
+    kept = paper_tuned_notes()
+    for path in paths:
+        scenario, _ = load_scenario(path)
+        rows = table[table.scenario == path.stem]
+        shipped = rows[rows.setting == "shipped"].set_index("spacecraft").snc_m_s2.to_dict()
+        assert shipped == shipped_snc(scenario), path.stem
+        chosen = rows[rows.chosen]
+        if scenario.estimator == "batch":
+            assert chosen.empty
+        elif path.stem in kept:
+            assert kept[path.stem] in markdown and set(shipped.values()) != set(chosen.snc_m_s2), path.stem
+        else:
+            assert set(shipped.values()) == set(chosen.snc_m_s2), path.stem

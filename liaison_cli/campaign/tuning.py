@@ -59,7 +59,8 @@ def rule_text(ladder, runs: int) -> str:
     """The rule in one paragraph, with this invocation's ladder and run count (the table's header)."""
     rungs = ", ".join(f"{v:g}" for v in ladder)
     return (f"Rule: sigma_a (m/s^2, every estimated spacecraft alike, per-spacecraft values removed) takes each "
-            f"rung of {{{rungs}}}; {runs} Monte Carlo runs per rung (common random numbers), statistics after the "
+            f"rung of {{{rungs}}}; {runs} Monte Carlo runs per rung over the scenario's full arc (common random "
+            f"numbers), statistics after the "
             f"settle time over the runs that finished. A rung passes the sigma test when every run finished and every "
             f"estimated spacecraft's campaign error RMS / sigma RMS is at most {CONSISTENCY_RATIO_LIMIT:g} for position "
             f"and velocity, and the NEES test when the mean share of epochs whose whole-state NEES lies in its 95 % "
