@@ -330,7 +330,8 @@ def errors(
                                 "(initial, noise, process, bias, measurement_model, dynamics_model)"),
     check_runs: int = typer.Option(0, "--check-runs", min=0, help="Monte Carlo runs for the check (0: none)"),
 ):
-    """Error budget: the EKF's error split by source (LinCov along the truth), with an optional MC check."""
+    """Error budget: the EKF's error split by source (LinCov along the truth) and its consistency after the
+    settle time (budget error RMS / filter sigma RMS), with an optional MC check (adds the NEES-in-band share)."""
     import pandas as pd
 
     from liaison_cli.campaign.error_budget import (SOURCES, consistency, error_budget, monte_carlo_check, part_of,
