@@ -29,7 +29,8 @@ CASES = {
     "bad_type": (GOOD.replace("runs: 2", "runs: many"), ["monte_carlo.runs", "'many'", "integer"]),
     "infinite_sigma": (GOOD.replace("sigma_m: 150", "sigma_m: .inf"), ["noise.sigma_m", "inf", "finite number"]),
     "nan_interval": (GOOD.replace("interval_s: 187.5", "interval_s: .nan"), ["measurement.interval_s", "finite"]),
-    "infinite_snc": (GOOD.replace("process_noise_accel_m_s2: 1.0e-6", "process_noise_accel_m_s2: .inf"),
+    "infinite_snc": (GOOD.replace("process_noise_accel_m_s2: 1.0e-10   # per spacecraft",
+                                  "process_noise_accel_m_s2: .inf   # per spacecraft"),
                      ["spacecraft[1].process_noise_accel_m_s2", "finite"]),
 }
 

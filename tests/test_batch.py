@@ -80,10 +80,11 @@ def test_raw_dual_one_way_puts_both_clocks_on_both_channels(tmp_path):
     consistent (normalised innovations of RMS about 1)."""
     path = edited_scenario(tmp_path, "clock_one_way_eml2_lunar.yaml", "observables: [range, pseudorange]",
                            "observables: [range, dual_one_way]")
+    lunar = "    elements: {a_km: 9000, e: 0.4, i_deg: 60, raan_deg: 0, argp_deg: 0, ta_deg: 0}\n"
+    assert path.read_text().count(lunar) == 1
     text = path.read_text().replace(
-        "    process_noise_accel_m_s2: 1.0e-6   # as in eml2_lunar.yaml",
-        "    process_noise_accel_m_s2: 1.0e-6\n    clock: {preset: csac, initial_offset_sigma_s: 1.0e-6, "
-        "initial_frequency_sigma: 1.0e-10}").replace("duration_days: 10", "duration_days: 2")
+        lunar, lunar + "    clock: {preset: csac, initial_offset_sigma_s: 1.0e-6, initial_frequency_sigma: 1.0e-10}\n"
+    ).replace("duration_days: 10", "duration_days: 2")
     path.write_text(text)
     scenario, _ = load_scenario(path)
     problem = prepare_problem(scenario)
@@ -248,6 +249,41 @@ def test_sweep_and_tables002_give_both_tables(tmp_path):
     for column in ("autonomous_RR", "autonomous_NORR", "earth_RR", "earth_NORR"):
         assert np.isfinite(drms[f"{column}_drms_p90_m"]).all()
     assert (out / "tables002" / "drms_histograms.png").stat().st_size > 10_000
+    consistency = pd.read_parquet(out / "tables002" / "consistency.parquet")
+    assert len(consistency) == 4 * 3 and (consistency.runs_ok == 3).all()  # 4 scenarios x 3 spacecraft
+    assert consistency.position_error_to_sigma.between(0.2, 3.0).all() and consistency.nees_in_band_share.notna().all()
+    assert "| 1 T | 60 min | autonomous RR | Gateway | 3/3 |" in proc.stdout
+
+
+def test_tables002_consistency_pools_the_runs_that_finished_and_marks_a_ratio_above_the_limit(tmp_path):
+    """A hand-made sweep of two runs: Anchor1's settled errors 3 and 4 m against sigma 1 m give
+    sqrt((9 + 16) / 2) = 3.54 (marked '!', not consistent); Gateway's 1 m against 2 m give 0.5. A third run,
+    diverged for one spacecraft, is left out for both (as the DRMS tables leave it out)."""
+    import json
+
+    import pandas as pd
+
+    from liaison_cli.report.nrho002 import consistency_table, format_consistency
+
+    rows = []
+    for run, status, anchor_error in ((0, "ok", 3.0), (1, "ok", 4.0), (2, "diverged", 100.0)):
+        for name, error, sigma in (("Anchor1", anchor_error, 1.0), ("Gateway", 1.0, 2.0)):
+            rows.append({"point": 0, "scenario": "nrho_gateway_anchors", "batch.span_days": 6.59,
+                         "measurement.interval_s": 3600, "run": run, "spacecraft": name,
+                         "status": status if name == "Anchor1" else "ok", "rms_position_prediction_m": 1.0,
+                         "rms_position_settled_m": error, "sigma_position_settled_m": sigma,
+                         "rms_velocity_settled_m_s": error * 1e-3, "sigma_velocity_settled_m_s": sigma * 1e-3,
+                         "frac_nees_in_band_settled": 0.9})
+    pd.DataFrame(rows).to_parquet(tmp_path / "runs.parquet")
+    text = (SCENARIOS / "nrho_gateway_anchors.yaml").read_text()
+    (tmp_path / "sweep.json").write_text(json.dumps({"scenarios_yaml": {"nrho_gateway_anchors": text}}))
+    table = consistency_table(tmp_path).set_index("spacecraft")
+    assert table.loc["Anchor1", "position_error_to_sigma"] == pytest.approx(math.sqrt(12.5))
+    assert table.loc["Gateway", "velocity_error_to_sigma"] == pytest.approx(0.5)
+    assert list(table.runs_ok) == [2, 2] and list(table.consistent) == [False, True]
+    text = format_consistency(table.reset_index())
+    assert "| 1 T | 60 min | autonomous RR | Anchor1 | 2/3 | 3.536 | 1.000 | 3.54 ! | 3.54 ! | 90 % |" in text
+    assert "1 of 2 rows inconsistent" in text
 
 
 @pytest.mark.parametrize("old,new,fragments", [

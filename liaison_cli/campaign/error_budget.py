@@ -13,6 +13,8 @@ Sources (names a user may select):
   the change of the dynamics-model mean when the filter's C_R is off by one sigma (linear in it).
 Random parts add in variance; deterministic parts add as mean errors, whose square (cross terms included)
 enters the second moment once. Units out: m^2 and (m/s)^2 per spacecraft, summed over the three axes.
+Consistency (`consistency`): after the settle time, the budget's total error RMS against the filter's own sigma
+RMS, per spacecraft; the Monte Carlo check adds the runs' share of epochs with the NEES in its band.
 The budget is the ungated EKF's: LinCov ignores filter.residual_gate_sigma (estimation.lincov says why);
 the Monte Carlo check runs the scenario's EKF, gate included.
 """
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, fraction, nees_run_band
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
@@ -210,30 +213,51 @@ def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> 
     return x0, y, truth
 
 
-def monte_carlo_second_moment(problem: Problem, runs: int, sources=SOURCES) -> np.ndarray:
-    """Mean over runs of the squared error, (m, n_sc, 2) in m^2 and (m/s)^2, with only `sources` on."""
+def _histories(problem: Problem, runs: int, sources):
+    """The EKF's history of each run with only `sources` on (a diverged run: BudgetError)."""
     if problem.clocks:
         raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
     f = problem.filter
     model_y = filter_model_along_truth(_filter_truth(problem), problem.measurements_true, f.known_states,
                                        f.channel_kind, f.channel_ends, f.channel_flags)
-    total = np.zeros((problem.n_steps, problem.n_spacecraft, 2))
     for run in range(runs):
         x0, y, truth = _source_inputs(problem, run, model_y, sources)
         history = estimate("ekf", f, x0, y, truth)
         if not history.ok:
             raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {run} diverged ({history.reason})")
+        yield history
+
+
+def _monte_carlo(problem: Problem, runs: int, sources, settle_s: float) -> tuple[np.ndarray, float]:
+    """(mean over runs of the squared error, (m, n_sc, 2) in m^2 and (m/s)^2; mean over runs of the share of
+    epochs from `settle_s` on whose whole-state NEES lies in its 95 % chi-square band)."""
+    low, high = nees_run_band(problem.filter.n_nees)
+    settled = problem.times_s >= settle_s
+    total = np.zeros((problem.n_steps, problem.n_spacecraft, 2))
+    in_band = []
+    for history in _histories(problem, runs, sources):
         total += _per_spacecraft(history.err**2, problem.n_spacecraft)
-    return total / runs
+        nees = np.asarray(history.nees)[settled]
+        nees = nees[np.isfinite(nees)]
+        in_band.append(fraction((nees >= low) & (nees <= high)))
+    return total / runs, float(np.mean(in_band)) if in_band else float("nan")
 
 
-def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURCES) -> list[dict]:
+def monte_carlo_second_moment(problem: Problem, runs: int, sources=SOURCES) -> np.ndarray:
+    """Mean over runs of the squared error, (m, n_sc, 2) in m^2 and (m/s)^2, with only `sources` on."""
+    return _monte_carlo(problem, runs, sources, 0.0)[0]
+
+
+def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURCES, settle_s: float = 0.0
+                      ) -> list[dict]:
     """MC over LinCov of the time-mean squared error after t0, per spacecraft and quantity: first with every
-    chosen source on, then each alone. A ratio of 1 within Monte Carlo noise validates the budget."""
+    chosen source on, then each alone. A ratio of 1 within Monte Carlo noise validates the budget. Each row
+    also has the runs' mean share of epochs after `settle_s` whose NEES lies in its 95 % band
+    (nees_in_band_share_settled: the filter's consistency with those sources on)."""
     use = problem.times_s > 0.0
     rows = []
     for group in (tuple(sources), *[(s,) for s in sources]):
-        mc = monte_carlo_second_moment(problem, runs, group)
+        mc, nees_share = _monte_carlo(problem, runs, group, settle_s)
         parts = [v for k, v in budget.parts.items() if part_of(k) in group]
         lin = sum(parts) if parts else np.zeros_like(budget.total)
         for i, name in enumerate(problem.spacecraft):
@@ -242,5 +266,26 @@ def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURC
                 rows.append({"sources": ",".join(group), "spacecraft": name, "quantity": quantity,
                              "monte_carlo_m2": float(mc[use, i, j].mean()), "lincov_m2": float(expected),
                              "monte_carlo_over_lincov": float(mc[use, i, j].mean() / expected) if expected > 0
-                             else float("nan"), "runs": runs})
+                             else float("nan"), "runs": runs, "nees_in_band_share_settled": nees_share})
+    return rows
+
+
+def consistency(budget: Budget, settle_s: float) -> list[dict]:
+    """Per spacecraft over the epochs from `settle_s` on: the error RMS the budget predicts (the root of the
+    time-mean of its total second moment, every source on) and the filter's sigma RMS (root of the time-mean
+    of its trace(P)), of position (m) and velocity (m/s), their ratio (error_to_sigma: analysis.metrics' campaign
+    ratio, for an infinite campaign), and `consistent`: both ratios within CONSISTENCY_RATIO_LIMIT."""
+    settled = budget.times_s >= settle_s
+    rows = []
+    for i, name in enumerate(budget.spacecraft):
+        row = {"spacecraft": name, "settle_s": float(settle_s)}
+        for j, (kind, unit) in enumerate((("position", "m"), ("velocity", "m_s"))):
+            error = float(np.sqrt(max(budget.total[settled, i, j].mean(), 0.0)))
+            sigma = float(np.sqrt(budget.filter_variance[settled, i, j].mean()))
+            row[f"error_rms_{kind}_{unit}"] = error
+            row[f"sigma_rms_{kind}_{unit}"] = sigma
+            row[f"{kind}_error_to_sigma"] = error / sigma if sigma > 0 else float("nan")
+        row["consistent"] = bool(row["position_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT
+                                 and row["velocity_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT)
+        rows.append(row)
     return rows

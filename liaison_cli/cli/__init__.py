@@ -16,6 +16,7 @@ from liaison_cli.cli import (  # noqa: F401  (imported to register their command
     geometry,
     scenario_files,
     exchange,
+    tuning,
 )
 
 __all__ = ["app", "main"]

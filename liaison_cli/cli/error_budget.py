@@ -21,10 +21,15 @@ def errors(
     check_runs: int = typer.Option(0, "--check-runs", min=0, help="Monte Carlo runs for the check (0: none)"),
     as_json: bool = json_option(),
 ):
-    """Error budget: the EKF's error split by source (LinCov along the truth), with an optional MC check."""
-    from liaison_cli.campaign.error_budget import error_budget, monte_carlo_check, part_of, select_sources, shares
+    """Error budget: the EKF's error split by source (LinCov along the truth) and its consistency after the
+    settle time (budget error RMS / filter sigma RMS), with an optional MC check (adds the NEES-in-band share)."""
+    import pandas as pd
+
+    from liaison_cli.campaign.error_budget import (SOURCES, consistency, error_budget, monte_carlo_check, part_of,
+                                                   select_sources, shares)
     from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-    from liaison_cli.report.error_budget import budget_table, draw_budget, format_shares, shares_frame
+    from liaison_cli.report.error_budget import (budget_table, draw_budget, format_consistency, format_shares,
+                                                 shares_frame)
     from liaison_cli.scenario.schema import read_scenario_text, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
@@ -40,9 +45,16 @@ def errors(
     budget = error_budget(problem)
     rows_all, rows_late = shares(budget), shares(budget, SECONDS_PER_DAY)
     table = format_shares(rows_all, rows_late)
-    checks = monte_carlo_check(problem, budget, check_runs, chosen) if check_runs else []
+    settle_s = scenario.settle_days() * SECONDS_PER_DAY
+    checks = monte_carlo_check(problem, budget, check_runs, chosen, settle_s) if check_runs else []
+    consistency_rows = consistency(budget, settle_s)
+    nees_share = checks[0]["nees_in_band_share_settled"] if checks and chosen == SOURCES else None
+    for row in consistency_rows:
+        row["nees_in_band_share_settled"] = float("nan") if nees_share is None else nees_share
+    consistency_text = format_consistency(consistency_rows, scenario.settle_days(), nees_share, check_runs)
     if not as_json:
         _print_budget(scenario, table, checks, check_runs)
+        typer.echo(consistency_text, nl=False)
     meta = {"package": "liaison", "scenario": scenario.name, "scenario_yaml": text,
             "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
     out_dir = output or Path("results") / f"{scenario.name}-errors"
@@ -51,7 +63,8 @@ def errors(
         write_parquet_atomic(shares_frame(rows_all, rows_late), stage / "shares.parquet", meta)
         if checks:
             write_parquet_atomic(shares_frame(checks), stage / "monte_carlo_check.parquet", meta)
-        write_text_atomic(table, stage / "shares.md")
+        write_parquet_atomic(pd.DataFrame(consistency_rows), stage / "consistency.parquet", meta)
+        write_text_atomic(table + "\n" + consistency_text, stage / "shares.md")
         draw_budget(budget, part_of, stage / "error_budget.png", f"Error budget: {scenario.name}")
     if as_json:
         from liaison_cli.report.json_summary import errors_document

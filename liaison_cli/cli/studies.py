@@ -159,23 +159,25 @@ def tables002(
     span_days: float = typer.Option(9.885, "--span", help="grid cell of the histograms: span (days)"),
     interval_s: float = typer.Option(1800, "--interval", help="grid cell of the histograms: interval (s)"),
 ):
-    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, plus histograms."""
-    from liaison_cli.report.nrho002 import clock_table, draw_histograms, drms_table, format_tables, per_run_metrics
+    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms."""
+    from liaison_cli.report.nrho002 import (clock_table, consistency_table, draw_histograms, drms_table,
+                                            format_consistency, format_tables, per_run_metrics)
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
     metrics = per_run_metrics(sweep_dir)
-    drms, clocks = drms_table(metrics), clock_table(metrics)
-    text = format_tables(drms, clocks)
+    drms, clocks, consistency = drms_table(metrics), clock_table(metrics), consistency_table(sweep_dir)
+    text = format_tables(drms, clocks) + "\n" + format_consistency(consistency)
     typer.echo(text, nl=False)
     out_dir = output or sweep_dir / "tables002"
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"package": "liaison", "source": str(sweep_dir), "metric": "p90 over runs with status ok"}
     paths = [out_dir / "drms_p90.parquet", out_dir / "clock_p90.parquet", out_dir / "per_run.parquet",
-             out_dir / "tables.md"]
+             out_dir / "consistency.parquet", out_dir / "tables.md"]
     write_parquet_atomic(drms, paths[0], meta)
     write_parquet_atomic(clocks, paths[1], meta)
     write_parquet_atomic(metrics, paths[2], meta)
-    write_text_atomic(text, paths[3])
+    write_parquet_atomic(consistency, paths[3], meta)
+    write_text_atomic(text, paths[4])
     paths += draw_histograms(metrics, span_days, interval_s, out_dir)
     for path in paths:
         typer.echo(f"wrote {path}")

@@ -95,3 +95,30 @@ def shares_frame(rows, late=None) -> pd.DataFrame:
         for column in ("position_share", "velocity_share"):
             frame[f"{column}_after_day1"] = [other.loc[(r.spacecraft, r.part), column] for r in frame.itertuples()]
     return frame
+
+
+def format_consistency(rows: list[dict], settle_days: float, nees_share: float | None = None,
+                       check_runs: int = 0) -> str:
+    """Per spacecraft after the settle time: the budget's error RMS, the filter's sigma RMS and their ratio
+    for position and velocity ('!' above the limit), and the check runs' NEES-in-band share when there were
+    check runs; a closing line names the inconsistent rows."""
+    from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+
+    def ratio(value):
+        return f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
+
+    nees = (f"; NEES in its 95 % band at {100 * nees_share:.1f} % of those epochs (mean of the {check_runs} check "
+            "runs)" if nees_share is not None else "; NEES in band: needs --check-runs (LinCov has no single run)")
+    lines = [f"consistency after {settle_days:g} d (error RMS from the budget, every source on / filter sigma RMS"
+             f"{nees}):",
+             "| spacecraft | position error RMS m | sigma RMS m | err/σ | velocity error RMS mm/s | sigma RMS mm/s "
+             "| err/σ |", "|---|---|---|---|---|---|---|"]
+    for row in rows:
+        lines.append(f"| {row['spacecraft']} | {row['error_rms_position_m']:.1f} | {row['sigma_rms_position_m']:.1f} | "
+                     f"{ratio(row['position_error_to_sigma'])} | {1e3 * row['error_rms_velocity_m_s']:.3f} | "
+                     f"{1e3 * row['sigma_rms_velocity_m_s']:.3f} | {ratio(row['velocity_error_to_sigma'])} |")
+    bad = [row["spacecraft"] for row in rows if not row["consistent"]]
+    if bad:
+        lines.append(f"! inconsistent ({', '.join(bad)}): error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's "
+                     "sigma RMS (consistency.parquet: consistent)")
+    return "\n".join(lines) + "\n"

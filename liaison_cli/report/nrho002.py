@@ -6,6 +6,10 @@ content (kept in sweep.json): Earth-based when it has ground stations, RR when a
 Metrics, per run: DRMS = the mean over the constellation of each spacecraft's prediction RMS (002 Eq. 37-39,
 the 3 h after the span); clock RMS = each anchor's synchronisation error RMS over the sync window and over
 the prediction after it. Tables give the 90th percentile over the runs that finished ('ok').
+Consistency (consistency_table): per grid cell, case and spacecraft, the error RMS against the batch's own
+sigma RMS after the settle time and the NEES-in-band share, from the sweep's per-run summary columns. A sweep
+keeps no per-epoch series: the error and sigma curves of one cell come from `liaison run` on its scenario
+(timeseries.parquet).
 """
 
 import json
@@ -14,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
 from liaison_cli.errors import LiaisonError, UnreadableFileError
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.schema import validate_scenario
@@ -86,6 +91,71 @@ def per_run_metrics(sweep_dir) -> pd.DataFrame:
                     row[f"clock_{which}_{item.spacecraft}_ns"] = float(value)
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+CONSISTENCY_COLUMNS = ("rms_position_settled_m", "sigma_position_settled_m", "rms_velocity_settled_m_s",
+                       "sigma_velocity_settled_m_s", "frac_nees_in_band_settled")
+
+
+def consistency_table(sweep_dir) -> pd.DataFrame:
+    """Per (span, interval, case, measurements, spacecraft), over the runs that finished ('ok' for every
+    spacecraft, as in the DRMS tables) and the epochs after the scenario's settle time (filter.settle_days):
+    the error RMS and sigma RMS of position (m) and velocity (m/s) (root of the mean square over the runs),
+    their ratios (analysis.metrics.campaign_error_to_sigma), the mean share of epochs whose NEES lies in its
+    95 % band, and `consistent`: both ratios within CONSISTENCY_RATIO_LIMIT. NaN (not consistent) for a sweep
+    written before liaison recorded these columns."""
+    sweep_dir = Path(sweep_dir)
+    runs, meta = _read(sweep_dir)
+    classes = _classes(meta)
+    for column in CONSISTENCY_COLUMNS:
+        if column not in runs:
+            runs[column] = np.nan
+    healthy = runs.groupby(["point", "run"]).status.transform(lambda status: (status == "ok").all())
+    runs = runs.assign(run_ok=healthy)
+    rows = []
+    for (point, name), group in runs.groupby(["point", "spacecraft"], sort=True):
+        first = group.iloc[0]
+        case, measurements = classes[first.scenario]
+        ok = group[group.run_ok]
+        row = {"point": int(point), "scenario": first.scenario, "case": case, "measurements": measurements,
+               "span_days": float(first[SPAN_KEY]), "span_periods": float(first[SPAN_KEY]) / NRHO_PERIOD_DAYS,
+               "interval_s": float(first[INTERVAL_KEY]), "spacecraft": name, "runs": len(group), "runs_ok": len(ok)}
+        for kind, unit in (("position", "m"), ("velocity", "m_s")):
+            errors = ok[f"rms_{kind}_settled_{unit}"].dropna().to_numpy(dtype=float)
+            sigmas = ok[f"sigma_{kind}_settled_{unit}"].dropna().to_numpy(dtype=float)
+            row[f"error_rms_{kind}_{unit}"] = float(np.sqrt(np.mean(errors**2))) if errors.size else np.nan
+            row[f"sigma_rms_{kind}_{unit}"] = float(np.sqrt(np.mean(sigmas**2))) if sigmas.size else np.nan
+            row[f"{kind}_error_to_sigma"] = campaign_error_to_sigma(errors, sigmas)
+        share = ok.frac_nees_in_band_settled.dropna()
+        row["nees_in_band_share"] = float(share.mean()) if len(share) else np.nan
+        row["consistent"] = bool(row["position_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT
+                                 and row["velocity_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def format_consistency(table: pd.DataFrame) -> str:
+    """The consistency table as Markdown, one row per grid cell, case and spacecraft; '!' marks a ratio above
+    the limit, and a closing line counts the inconsistent rows."""
+    def ratio(value):
+        return "-" if value != value else f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
+
+    lines = ["Consistency after the settle time (filter.settle_days): error RMS and the batch's sigma RMS of the "
+             "3-D position error over the runs that finished, error/σ of position and velocity (! above "
+             f"{CONSISTENCY_RATIO_LIMIT:g}: inconsistent), share of epochs whose NEES lies in its 95 % band", "",
+             "| span | interval | case | S/C | runs ok | position error RMS m | σ RMS m | pos err/σ | vel err/σ "
+             "| NEES in band |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for row in table.itertuples():
+        share = "-" if row.nees_in_band_share != row.nees_in_band_share else f"{100 * row.nees_in_band_share:.0f} %"
+        lines.append(f"| {row.span_periods:.2g} T | {row.interval_s / 60:g} min | {row.case} {row.measurements} | "
+                     f"{row.spacecraft} | {row.runs_ok}/{row.runs} | {row.error_rms_position_m:.3f} | "
+                     f"{row.sigma_rms_position_m:.3f} | {ratio(row.position_error_to_sigma)} | "
+                     f"{ratio(row.velocity_error_to_sigma)} | {share} |")
+    bad = int((~table.consistent).sum()) if len(table) else 0
+    if bad:
+        lines.append(f"\n! {bad} of {len(table)} rows inconsistent: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the "
+                     "sigma RMS (consistency.parquet: consistent)")
+    return "\n".join(lines) + "\n"
 
 
 def _p90(values) -> float:

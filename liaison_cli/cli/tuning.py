@@ -1,0 +1,55 @@
+"""`liaison tune`: each scenario's consistency at its shipped process noise, and the SNC a stated rule chooses."""
+
+import sys
+from pathlib import Path
+
+import typer
+
+from liaison_cli import __version__
+from liaison_cli.cli.common import check_runs, user_errors
+from liaison_cli.cli.root import app
+from liaison_cli.cli.studies import _load_study
+from liaison_cli.errors import LiaisonError
+
+
+@app.command("tune")
+@user_errors
+def tune(
+    scenarios: list[Path] = typer.Argument(..., metavar="SCENARIO...", help="scenario YAML files (labelled by "
+                                           "file stem)"),
+    ladder: str = typer.Option(None, "--ladder", help="process-noise rungs in m/s^2, a comma list "
+                               "[default: 1e-10,1e-9,1e-8,1e-7,1e-6,1e-5]"),
+    runs: int = typer.Option(20, "--runs", min=1, help="Monte Carlo runs per rung"),
+    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    work: Path = typer.Option(Path("results/tune"), "--work", help="folder of the rungs' sweeps (resumed, reused)"),
+    table: Path = typer.Option(Path("results/tune/consistency.md"), "--table",
+                               help="the Markdown table to write; the Parquet goes beside it (.parquet)"),
+    quiet: bool = typer.Option(False, "--quiet", help="no progress bars"),
+):
+    """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder."""
+    from liaison_cli.campaign.tuning import TuningCase, parse_ladder, rule_text, tune as run_tuning
+    from liaison_cli.report.tuning import format_ladder, format_table, paper_tuned_notes
+    from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+
+    check_runs(runs)
+    rungs = parse_ladder(ladder)
+    if table.suffix != ".md" or table.is_dir():
+        raise LiaisonError(f"--table {table}: allowed: a Markdown file path ending in .md (the Parquet goes beside it)")
+    loaded = _load_study(scenarios)
+    cases = [TuningCase(name, scenario, text, str(path)) for path, (name, scenario, text) in zip(scenarios, loaded)]
+    frame = run_tuning(cases, rungs, runs, work, jobs, progress=not quiet and sys.stderr.isatty(),
+                       on_case=None if quiet else lambda label: typer.echo(f"tune: {label}", err=True))
+    typer.echo(format_ladder(frame))
+    settle = sorted({(case.scenario.settle_days(), case.label) for case in cases})
+    other = [f"{label} {days:g} d" for days, label in settle if days != 1.0]
+    settle_note = "filter.settle_days; 1 d" + (f" except {', '.join(other)}" if other else "")
+    command = " ".join(["liaison tune", *map(str, scenarios), f"--runs {runs}"]
+                       + ([f"--ladder {ladder}"] if ladder else []) + [f"--table {table}"])
+    markdown = format_table(frame, rule_text(rungs, runs), command, settle_note, paper_tuned_notes())
+    meta = {"package": "liaison", "version": __version__, "command": command, "rule": rule_text(rungs, runs),
+            "scenarios_yaml": {case.label: case.text for case in cases},
+            "seeds": {case.label: case.scenario.monte_carlo.seed for case in cases}}
+    table.parent.mkdir(parents=True, exist_ok=True)
+    write_parquet_atomic(frame, table.with_suffix(".parquet"), meta)
+    write_text_atomic(markdown, table)
+    typer.echo(f"wrote {table} and {table.with_suffix('.parquet')}")

@@ -1,0 +1,96 @@
+"""The consistency table `liaison tune` writes: per scenario and estimated spacecraft, the shipped process
+noise's error RMS, sigma RMS, their ratio and NEES-in-band share after the settle time, beside the same for
+the rung the rule chose (campaign.tuning states the rule). Formats only."""
+
+import math
+from importlib.resources import files
+
+import pandas as pd
+import yaml
+
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.campaign.tuning import VERDICT_BATCH
+
+
+def paper_tuned_notes() -> dict:
+    """{scenario: note} of the scenarios kept tuned to a paper (data/paper_tuned.yaml says why, measured)."""
+    return yaml.safe_load(files("liaison_cli.report").joinpath("data/paper_tuned.yaml").read_text())
+
+
+def _ratio(value: float) -> str:
+    if not math.isfinite(value):
+        return "-"
+    return f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
+
+
+def _cells(row) -> list[str]:
+    """SNC ('-' for a batch: it has none), position error RMS, sigma RMS, position and velocity error/sigma,
+    NEES in band, runs ok."""
+    if row is None:
+        return ["-"] * 7
+    share = row["nees_in_band_share"]
+    return ["-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}", f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
+            _ratio(row["position_error_to_sigma"]), _ratio(row["velocity_error_to_sigma"]),
+            "-" if not math.isfinite(share) else f"{100 * share:.0f} %", f"{row['runs_ok']}/{row['runs']}"]
+
+
+def _verdict(rows: pd.DataFrame, chosen, notes: dict) -> str:
+    first = rows.iloc[0]
+    verdict = first["verdict"]
+    if chosen is not None and bool(chosen.iloc[0]["lowest_rung"]):
+        verdict += " (lowest rung: smaller not tried)"
+    if chosen is not None:
+        verdict += "; shipped = chosen" if _same_as_chosen(rows, chosen) else ""
+    note = notes.get(first["scenario"])
+    return verdict + (f"; {note}" if note else "")
+
+
+def _same_as_chosen(rows: pd.DataFrame, chosen: pd.DataFrame) -> bool:
+    shipped = rows[rows.setting == "shipped"].set_index("spacecraft").snc_m_s2
+    value = float(chosen.iloc[0]["snc_m_s2"])
+    return bool((shipped == value).all())
+
+
+def format_table(table: pd.DataFrame, rule: str, command: str, settle_note: str, notes: dict | None = None) -> str:
+    """Markdown: the header (what wrote it, the rule, the columns) and one row per scenario and spacecraft.
+    notes: {scenario: text} appended to its verdict (e.g. a scenario kept tuned to a paper)."""
+    notes = notes or {}
+    lines = ["# Consistency of the shipped scenarios, and process noise chosen by a rule", "",
+             f"Written by `{command}`; do not edit by hand.", "", rule, "",
+             f"Statistics after the settle time ({settle_note}), over the runs that finished: error RMS and sigma "
+             "RMS of the 3-D position error (m; sigma of the norm, sqrt(sx^2 + sy^2 + sz^2)), their ratio for "
+             f"position and velocity (! above {CONSISTENCY_RATIO_LIMIT:g}: inconsistent), and the mean share of "
+             "epochs whose whole-state NEES lies in its 95 % chi-square band (the same for every spacecraft of a "
+             "scenario). SNC in m/s^2; a shipped value per spacecraft where they differ.", ""]
+    kept = [label for label in table.scenario.unique() if label in notes]
+    if kept:
+        lines += [f"Kept tuned to a paper, not to the rule: {', '.join(kept)} (why, and the rule's value: their "
+                  "verdicts).", ""]
+    lines += ["| scenario | S/C | shipped SNC | err RMS m | σ RMS m | pos err/σ | vel err/σ | NEES in band | runs ok "
+              "| chosen SNC | err RMS m | σ RMS m | pos err/σ | vel err/σ | NEES in band | runs ok | verdict |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for label, rows in table.groupby("scenario", sort=False):
+        chosen = rows[rows.chosen]
+        verdict = _verdict(rows, chosen if len(chosen) else None, notes)
+        for i, shipped in enumerate(rows[rows.setting == "shipped"].to_dict("records")):
+            mine = chosen[chosen.spacecraft == shipped["spacecraft"]]
+            rule_row = mine.iloc[0].to_dict() if len(mine) else None
+            lines.append(f"| {label} | {shipped['spacecraft']} | " + " | ".join(_cells(shipped)) + " | "
+                         + " | ".join(_cells(rule_row)) + f" | {verdict if i == 0 else ''} |")
+    return "\n".join(lines) + "\n"
+
+
+def format_ladder(table: pd.DataFrame) -> str:
+    """Plain text for the terminal: every rung's ratios and NEES share, per scenario and spacecraft."""
+    lines = [f"{'scenario':<32}{'S/C':<12}{'SNC m/s^2':>10}{'pos err/σ':>11}{'vel err/σ':>11}{'NEES in band':>14}"
+             f"{'runs ok':>9}"]
+    for row in table.to_dict("records"):
+        value = "-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}"
+        snc = value + ("*" if row["chosen"] else (" s" if row["setting"] == "shipped" else ""))
+        share = row["nees_in_band_share"]
+        lines.append(f"{row['scenario']:<32}{row['spacecraft']:<12}{snc:>10}{_ratio(row['position_error_to_sigma']):>11}"
+                     f"{_ratio(row['velocity_error_to_sigma']):>11}"
+                     f"{('-' if not math.isfinite(share) else f'{100 * share:.0f} %'):>14}"
+                     f"{str(row['runs_ok']) + '/' + str(row['runs']):>9}")
+    lines.append("s: shipped settings; *: the rung the rule chose")
+    return "\n".join(lines)

@@ -1,0 +1,140 @@
+"""Issue 26 item 2: process noise chosen by a stated consistency rule (`liaison tune`, campaign/tuning.py)."""
+
+from types import SimpleNamespace
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.cli import app
+from liaison_cli.campaign.tuning import (
+    NEES_IN_BAND_MIN,
+    VERDICT_MET,
+    VERDICT_NONE,
+    VERDICT_SIGMA_ONLY,
+    choose,
+    ladder_grid,
+    parse_ladder,
+)
+from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.setup import prepare_problem
+from tests.conftest import SCENARIOS, assert_one_line_error
+
+# smoke.yaml made consistent by construction: initial errors drawn from the filter's P0, the filter's
+# measurement model the truth's (no light time), judged after 0.25 d. The truth has no process noise, so a
+# small SNC leaves the filter matched and a large one makes it pessimistic (NEES below its band).
+MATCHED_SMOKE = ("measurement:\n  interval_s: 187.5\n", "measurement:\n  interval_s: 187.5\n  light_time: false\n"
+                 "initial_error: {draw: from_covariance}\nfilter: {settle_days: 0.25}\n")
+
+
+def cli(*args):
+    """The CLI in this process (exit code, stderr), as tests/test_faults.py calls it."""
+    result = CliRunner().invoke(app, [str(a) for a in args])
+    if result.exception is not None and not isinstance(result.exception, SystemExit):
+        raise result.exception
+    return SimpleNamespace(returncode=result.exit_code, stderr=result.stderr, stdout=result.stdout)
+
+
+def _stats(ratio: float, nees: float, runs_ok: int = 20) -> pd.DataFrame:
+    """One rung's statistics for two spacecraft with the given ratios and NEES-in-band share."""
+    return pd.DataFrame([{"spacecraft": name, "runs": 20, "runs_ok": runs_ok, "position_error_to_sigma": ratio,
+                          "velocity_error_to_sigma": ratio, "nees_in_band_share": nees} for name in ("A", "B")])
+
+
+def test_the_rule_takes_the_smallest_rung_passing_both_tests_then_the_sigma_test_then_none():
+    over, under = CONSISTENCY_RATIO_LIMIT + 0.1, CONSISTENCY_RATIO_LIMIT - 0.1
+    good, poor = NEES_IN_BAND_MIN + 0.05, NEES_IN_BAND_MIN - 0.05
+    assert choose([(1e-9, _stats(over, good)), (1e-8, _stats(under, poor)), (1e-7, _stats(under, good)),
+                   (1e-6, _stats(under, good))]) == (1e-7, VERDICT_MET)
+    assert choose([(1e-9, _stats(over, poor)), (1e-8, _stats(under, poor)), (1e-7, _stats(under, poor))]) == (
+        1e-8, VERDICT_SIGMA_ONLY)
+    assert choose([(1e-9, _stats(over, good)), (1e-8, _stats(float("nan"), good))]) == (None, VERDICT_NONE)
+    # A rung with a diverged run fails, however good the runs that finished look.
+    assert choose([(1e-9, _stats(under, good, runs_ok=19)), (1e-8, _stats(under, good))]) == (1e-8, VERDICT_MET)
+
+
+def test_every_rung_gives_every_spacecraft_the_rung_value():
+    """The ladder's grid removes the lunar orbiter's own 1e-6 m/s^2 (eml2_lunar): at each rung both spacecraft's
+    process noise in the filter is the rung's."""
+    scenario, _ = load_scenario(SCENARIOS / "eml2_lunar.yaml")
+    grid = ladder_grid(scenario, (1e-9, 1e-8))
+    assert grid == [("filter.process_noise_accel_m_s2", [1e-9, 1e-8]),
+                    ("spacecraft.1.process_noise_accel_m_s2", [None])]
+    rung = apply_overrides(scenario, {"duration_days": 1, **{key: values[-1] for key, values in grid}})
+    shipped = apply_overrides(scenario, {"duration_days": 1})
+    ratio_q = prepare_problem(rung).filter.Q.diagonal() / prepare_problem(shipped).filter.Q.diagonal()
+    assert ratio_q[:6] == pytest.approx([(1e-8 / 1e-7) ** 2] * 6)  # EML2: the filter's 1e-7 before
+    assert ratio_q[6:12] == pytest.approx([(1e-8 / 1e-6) ** 2] * 6)  # Lunar: its own 1e-6 before
+
+
+def test_ladder_values_are_sorted_and_bad_ones_refused():
+    assert parse_ladder("1e-7,1e-9") == (1e-9, 1e-7)
+    for text, fragment in (("1e-9,abc", "'abc' is not a number"), ("1e-9,-1e-8", "not a positive finite"),
+                           ("1e-9,1e-9", "repeated"), ("1e-9,inf", "not a positive finite")):
+        proc = cli("tune", SCENARIOS / "smoke.yaml", "--ladder", text, "--runs", "1")
+        assert_one_line_error(proc, "--ladder", [fragment])
+
+
+def test_a_table_path_that_is_not_markdown_is_one_line(tmp_path):
+    proc = cli("tune", SCENARIOS / "smoke.yaml", "--table", tmp_path / "out.txt", "--runs", "1")
+    assert_one_line_error(proc, "--table", ["ending in .md"])
+
+
+def test_tune_chooses_the_matched_rung_writes_the_table_and_reuses_its_runs(tmp_path):
+    """A filter matched to its truth passes both tests at a small SNC (rule met there); at 1e-5 m/s^2 it is
+    pessimistic: its NEES falls below the band and the NEES test fails. The table and Parquet say so; a second
+    `tune` computes nothing (every run is in the sweeps' manifests) and writes the same table."""
+    text = (SCENARIOS / "smoke.yaml").read_text()
+    assert MATCHED_SMOKE[0] in text
+    path = tmp_path / "matched_smoke.yaml"
+    path.write_text(text.replace(*MATCHED_SMOKE))
+    table, work = tmp_path / "consistency.md", tmp_path / "work"
+    args = ("tune", path, "--ladder", "1e-9,1e-5", "--runs", "12", "--jobs", "1", "--work", work, "--table", table)
+    proc = cli(*args)
+    assert proc.returncode == 0, proc.stderr
+    frame = pd.read_parquet(table.with_suffix(".parquet"))
+    rungs = frame[frame.setting == "rung"].drop_duplicates("snc_m_s2").set_index("snc_m_s2")
+    assert rungs.loc[1e-9, "nees_in_band_share"] >= NEES_IN_BAND_MIN
+    assert rungs.loc[1e-5, "nees_in_band_share"] < NEES_IN_BAND_MIN
+    assert rungs.loc[1e-5, "nees_above_band_share"] < 0.05  # below the band: pessimistic, not optimistic
+    chosen = frame[frame.chosen]
+    assert set(chosen.snc_m_s2) == {1e-9} and set(chosen.verdict) == {VERDICT_MET}
+    assert set(frame[frame.setting == "shipped"].snc_m_s2) == {1e-10}  # smoke's own per-spacecraft values
+    markdown = table.read_text()
+    assert "Written by `liaison tune" in markdown and f"at least {NEES_IN_BAND_MIN:g}" in markdown
+    assert "| matched_smoke | Lunar | 1e-10 |" in markdown and "rule met (lowest rung: smaller not tried)" in markdown
+    manifests = sorted(work.rglob("manifest.jsonl"))
+    assert len(manifests) == 2  # the ladder's sweep and the shipped settings' (not a rung)
+    before = {p: p.read_bytes() for p in manifests}
+    again = cli(*args)
+    assert again.returncode == 0, again.stderr
+    assert {p: p.read_bytes() for p in manifests} == before and table.read_text() == markdown
+
+
+def test_the_reference_table_covers_every_shipped_scenario_and_the_rule_is_applied():
+    """results/reference/consistency.md (written by `liaison tune`) is the shipped files' table: one entry per
+    scenario of scenarios/ and scenarios/003/, its shipped process noise the file's own, and every EKF scenario
+    carries the rule's choice except those kept tuned to a paper (report/data/paper_tuned.yaml), whose notes
+    are in the Markdown."""
+    from liaison_cli.campaign.tuning import shipped_snc
+    from liaison_cli.report.tuning import paper_tuned_notes
+    from tests.conftest import REPO
+
+    table = pd.read_parquet(REPO / "results" / "reference" / "consistency.parquet")
+    markdown = (REPO / "results" / "reference" / "consistency.md").read_text()
+    paths = sorted(SCENARIOS.glob("*.yaml")) + sorted((SCENARIOS / "003").glob("*.yaml"))
+    assert set(table.scenario) == {path.stem for path in paths}
+    kept = paper_tuned_notes()
+    for path in paths:
+        scenario, _ = load_scenario(path)
+        rows = table[table.scenario == path.stem]
+        shipped = rows[rows.setting == "shipped"].set_index("spacecraft").snc_m_s2.to_dict()
+        assert shipped == shipped_snc(scenario), path.stem
+        chosen = rows[rows.chosen]
+        if scenario.estimator == "batch":
+            assert chosen.empty
+        elif path.stem in kept:
+            assert kept[path.stem] in markdown and set(shipped.values()) != set(chosen.snc_m_s2), path.stem
+        else:
+            assert set(shipped.values()) == set(chosen.snc_m_s2), path.stem
