@@ -125,6 +125,8 @@ def study004(
               "judged before a manoeuvre where there is one; settled = after each "
               "scenario's settle time; consistent = error/σ RMS at most 1.5 in position and velocity."]
     header += [f"Filter ({name}): {tuning(scenario)}{_initial_batch_text(scenario)}" for name, scenario, _ in loaded]
+    header.append("Written by `liaison study004 " + " ".join([*map(str, scenarios or []), f"--runs {runs}"]
+                                                            + [f"--grid {text}" for text in grid or []]) + "`")
     if axes:
         header.append(f"Grid over {', '.join(keys)} (overrides the files' values)")
     table = "\n".join(header) + "\n\n" + format_table(summary, keys) + "\n" + format_rankings(
