@@ -8,6 +8,7 @@ from pydantic import ConfigDict, Field, model_validator
 from liaison_cli.scenario.schema_rules import at_least, equals, given, schema_rules, when
 from liaison_cli.scenario.spec_base import StrictModel
 
+
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 
 

@@ -9,6 +9,7 @@ from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.schema_rules import each, equals, given, negate, not_given, schema_rules, when
 from liaison_cli.scenario.spec_base import UNIQUE, StrictModel
 
+
 ObservableName = Literal[tuple(OBSERVABLES)]
 _DIFFERENCES = [name for name, spec in OBSERVABLES.items() if spec.needs_second_receiver]  # tdoa, fdoa
 

@@ -14,6 +14,7 @@ from liaison_cli.orbits.families import FAMILIES
 from liaison_cli.scenario.radio_settings import RangingLinkFile
 from liaison_cli.scenario.scenario_model import Scenario
 
+
 MAX_SCENARIO_BYTES = 1 << 20  # a scenario or link file (the shipped ones are < 5 kB)
 
 

@@ -14,6 +14,7 @@ from liaison_cli.scenario.schema_rules import (
     all_of, any_of, equals, given, not_given, one_of, schema_rules, together, when)
 from liaison_cli.scenario.spec_base import NAME_PATTERN, UNIQUE, StrictModel, allowed_names
 
+
 KEPLERIAN_ORBIT = "lunar_keplerian"
 ICRF_STATE_ORBIT = "icrf_state"
 DEPARTURE_ORBIT = "departure"

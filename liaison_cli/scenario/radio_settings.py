@@ -12,6 +12,7 @@ from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_r
 from liaison_cli.scenario.schema_rules import all_of, any_of, equals, given, not_given, one_of, schema_rules, when
 from liaison_cli.scenario.spec_base import StrictModel
 
+
 class LinkLegSpec(StrictModel):
     """One direction of a crosslink (000 Table 2): EIRP, free-space loss and G/T give C/N0 and Es/N0."""
 

@@ -20,6 +20,7 @@ from liaison_cli.scenario.schema_rules import (
     all_of, any_of, each, equals, given, negate, not_given, schema_rules, together, when)
 from liaison_cli.scenario.spec_base import NAME_PATTERN, UNIQUE, StrictModel
 
+
 # Epochs per run (t0 included): a run holds ~1.0-1.5 kB per epoch (measured peak RSS, 2-3 spacecraft: truth,
 # measurements, the filter's histories), so 500,000 epochs stay under ~0.75 GB per worker process; 100x the
 # largest shipped scenario (4,609 epochs: 10 d at 187.5 s).

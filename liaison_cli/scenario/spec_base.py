@@ -3,6 +3,7 @@ ones named, numbers finite), the name pattern, and the JSON Schema words the sec
 
 from pydantic import BaseModel, ConfigDict, model_validator
 
+
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 UNIQUE = {"uniqueItems": True}  # the JSON Schema word for a list the loader refuses repeats in
 
