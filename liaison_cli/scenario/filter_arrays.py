@@ -76,12 +76,14 @@ def _channels(scenario: Scenario) -> list[Channel]:
 
 def state_layout(scenario: Scenario) -> StateLayout:
     """Spacecraft blocks, then clocks, then link biases (estimated, or considered last)."""
+    estimator = scenario.estimator_descriptor()
     blocks = [StateBlock(BLOCK_SPACECRAFT, 6, name) for name in scenario.spacecraft_names()]
-    if scenario.estimator != "batch":  # the batch solves for orbits; clocks are synchronised by clock_sync
+    if estimator.carries_clocks:  # else clocks are synchronised apart from the estimator, by clock_sync
         blocks += [StateBlock(BLOCK_CLOCK, 2, sc.name) for sc in scenario.spacecraft
                    if sc.role == "estimated" and sc.clock is not None]
-    blocks += [StateBlock(BLOCK_CONSTANT, 3, f"dv {sc.name}") for sc in scenario.spacecraft if sc.manoeuvre]
-    if scenario.filter.bias != "ignore":
+    if estimator.carries_manoeuvres:
+        blocks += [StateBlock(BLOCK_CONSTANT, 3, f"dv {sc.name}") for sc in scenario.spacecraft if sc.manoeuvre]
+    if scenario.filter.bias != "ignore" and estimator.carries_biases:
         consider = scenario.filter.bias == "consider"
         blocks += [StateBlock(BLOCK_CONSTANT, 1, f"bias {i}", consider) for i in range(len(scenario.links))]
     return StateLayout(tuple(blocks))

@@ -7,7 +7,8 @@ from typing import Literal
 from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-from liaison_cli.estimation.estimators import estimator_names
+from liaison_cli.estimation.estimator import Estimator
+from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimators_that, get_estimator
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
 from liaison_cli.scenario.estimation_settings import (
@@ -28,6 +29,9 @@ MAX_EPOCHS = 500_000
 # The smoother's forward record per run (three n x n matrices per epoch), per worker process: 2 GiB leaves
 # room for two workers and the rest of a run on a 24 GiB machine.
 SMOOTHER_RECORD_MAX_BYTES = 2 * 2**30
+# The JSON Schema's view of the estimators' descriptors: each one's own settings section, and who runs dated.
+_OWN_SECTIONS = [(e.name, e.settings_section) for e in ESTIMATORS.values() if e.settings_section is not None]
+_UNDATED_ESTIMATORS = [e.name for e in ESTIMATORS.values() if "ephemeris" not in e.dynamics]
 
 
 class Scenario(StrictModel):
@@ -35,9 +39,9 @@ class Scenario(StrictModel):
 
     model_config = ConfigDict(json_schema_extra=schema_rules(
         any_of(given("links"), given("topology")),
-        together(equals("estimator", "batch"), "batch"),
+        *(together(equals("estimator", name), section) for name, section in _OWN_SECTIONS),
         when(equals("dynamics", "ephemeris"),
-             all_of(given("ephemeris"), negate(equals("estimator", "batch")),
+             all_of(given("ephemeris"), negate(equals("estimator", *_UNDATED_ESTIMATORS)),
                     each("spacecraft", negate(equals("orbit", KEPLERIAN_ORBIT)))),
              all_of(not_given("ephemeris"), each("spacecraft", negate(equals("orbit", *DATED_ONLY_ORBITS))),
                     each("ground_stations", not_given("site")))),
@@ -59,8 +63,8 @@ class Scenario(StrictModel):
     dynamics: Literal["crtbp", "ephemeris"] = Field("crtbp", description="crtbp: the Earth-Moon CRTBP, undated; "
                                                     "ephemeris: DE421 point masses + SRP from ephemeris.epoch_utc")
     ephemeris: EphemerisSpec | None = Field(None, description="dynamics: ephemeris: the epoch and SRP")
-    estimator: Literal[tuple(estimator_names())] = Field("ekf", description="ekf: the extended Kalman filter; "
-                                                         "batch: least squares (with a batch section)")
+    estimator: Literal[tuple(ESTIMATORS)] = Field(DEFAULT_ESTIMATOR, description="; ".join(
+        f"{e.name}: {e.summary}" for e in ESTIMATORS.values()))
     batch: BatchSpec | None = Field(None, description="estimator: batch: its span and settings")
     clock_sync: ClockSyncSpec | None = Field(None, description="clock synchronisation by a polynomial fit to "
                                              "dual_one_way_derived clock offsets")
@@ -106,6 +110,7 @@ class Scenario(StrictModel):
             for observable in link.observables:
                 self._check_observable(i, link, observable, receiver)
         self._check_station_priority()
+        self._check_estimator()
         self._check_manoeuvres()
         self._check_batch()
         self._check_smoother()
@@ -150,9 +155,9 @@ class Scenario(StrictModel):
         transitions)."""
         if self.filter.smoother == "none":
             return
-        if self.estimator == "batch":
-            raise ValueError("filter.smoother = 'rts' smooths an EKF pass; estimator: batch is already a "
-                             "smoothing solution (use one or the other)")
+        if not self.estimator_descriptor().smoother:
+            raise ValueError(f"filter.smoother = 'rts' smooths a filter's pass; estimator: {self.estimator} takes no "
+                             f"smoother (allowed with estimator: {' / '.join(estimators_that('smoother'))})")
         if self.filter.bias == "consider":
             raise ValueError("filter.smoother = 'rts' with filter.bias = 'consider': not supported (estimate or "
                              "ignore the bias)")
@@ -163,11 +168,49 @@ class Scenario(StrictModel):
         if moving:
             raise ValueError(f"filter.smoother = 'rts' with a manoeuvre ({moving[0]!r}): not supported")
 
+    def estimator_descriptor(self) -> Estimator:
+        """The chosen estimator's descriptor: what it carries and supports (estimation.estimator)."""
+        return get_estimator(self.estimator)
+
+    def _check_estimator(self):
+        """What the chosen estimator carries and supports, asked of its descriptor: its own settings section
+        (given exactly when it is chosen), clock-timed observables, considered biases, the residual gate."""
+        for name, section in _OWN_SECTIONS:
+            given_section = getattr(self, section) is not None
+            if (self.estimator == name) != given_section:
+                raise ValueError(f"key 'estimator' = {self.estimator!r} "
+                                 f"{'with' if given_section else 'without'} a '{section}' section: estimator: {name} "
+                                 f"and a '{section}' section go together (give both or neither)")
+        estimator = self.estimator_descriptor()
+        if not estimator.carries_clocks:
+            self._check_no_clock_states(estimator)
+        if self.filter.bias == "estimate" and not estimator.carries_biases:
+            raise ValueError(f"filter.bias = 'estimate' with estimator: {self.estimator}, which carries no bias "
+                             f"states; allowed with estimator: {' / '.join(estimators_that('carries_biases'))}")
+        if self.filter.bias == "consider" and not estimator.consider:
+            raise ValueError(f"filter.bias = 'consider' with estimator: {self.estimator}, which has no consider "
+                             f"treatment (it would estimate the bias); allowed: bias estimate or ignore, or estimator: "
+                             f"{' / '.join(estimators_that('consider'))}")
+        if self.filter.residual_gate_sigma is not None and not estimator.residual_gate:
+            raise ValueError(f"filter.residual_gate_sigma = {self.filter.residual_gate_sigma:g} gates the EKF's "
+                             f"pre-fit innovations; the {self.estimator} estimator (estimator: {self.estimator}) has "
+                             "no residual gate: remove the key or use estimator: "
+                             f"{' / '.join(estimators_that('residual_gate'))}")
+
+    def _check_no_clock_states(self, estimator: Estimator):
+        for i, link in enumerate(self.links):
+            for observable in link.observables:
+                spec = OBSERVABLES[observable]
+                if spec.needs_receiver_clock or any(
+                        spec.channel_clock_coefficients(c) != (0.0, 0.0) and c != spec.clock_offset_channel
+                        for c in range(len(spec.channels))):
+                    raise ValueError(f"links[{i}] measures {observable!r}, whose value carries clock states: the "
+                                     f"{estimator.name} estimator solves for orbits only; use dual_one_way_derived "
+                                     "(range + clock offset, synchronised by clock_sync) or the "
+                                     f"{' / '.join(estimators_that('carries_clocks'))}")
+
     def _check_batch(self):
-        if (self.estimator == "batch") != (self.batch is not None):
-            raise ValueError(f"key 'estimator' = {self.estimator!r} "
-                             f"{'without' if self.batch is None else 'with'} a 'batch' section: estimator: batch "
-                             "and a 'batch' section go together (give both or neither)")
+        """The batch section's spans against the scenario's epochs."""
         if self.batch is None:
             return
         end_days = self.batch.end_days()
@@ -184,19 +227,6 @@ class Scenario(StrictModel):
         if self.batch.span_days * SECONDS_PER_DAY < 2.0 * self.measurement.interval_s:
             raise ValueError(f"batch.span_days = {self.batch.span_days:g} is shorter than two measurement "
                              f"intervals ({self.measurement.interval_s:g} s)")
-        for i, link in enumerate(self.links):
-            for observable in link.observables:
-                spec = OBSERVABLES[observable]
-                if spec.needs_receiver_clock or any(
-                        spec.channel_clock_coefficients(c) != (0.0, 0.0) and c != spec.clock_offset_channel
-                        for c in range(len(spec.channels))):
-                    raise ValueError(f"links[{i}] measures {observable!r}, whose value carries clock states: the "
-                                     "batch estimator solves for orbits only; use dual_one_way_derived (range + "
-                                     "clock offset, synchronised by clock_sync) or the ekf")
-        if self.filter.residual_gate_sigma is not None:
-            raise ValueError(f"filter.residual_gate_sigma = {self.filter.residual_gate_sigma:g} gates the EKF's "
-                             "pre-fit innovations; the batch estimator (estimator: batch) has no residual gate: "
-                             "remove the key or use estimator: ekf")
 
     def _check_second_receiver(self, i, link, known):
         """Three-end channels (TDoA, FDoA) and the links that carry them."""
@@ -222,8 +252,10 @@ class Scenario(StrictModel):
         for i, sc in enumerate(self.spacecraft):
             if sc.manoeuvre is None:
                 continue
-            if self.estimator != "ekf":
-                raise ValueError(f"spacecraft[{i}].manoeuvre: the ekf solves for manoeuvres (estimator: ekf)")
+            if not self.estimator_descriptor().carries_manoeuvres:
+                solvers = " / ".join(estimators_that("carries_manoeuvres"))
+                raise ValueError(f"spacecraft[{i}].manoeuvre: the {solvers} solves for manoeuvres (estimator: "
+                                 f"{solvers}); estimator: {self.estimator} does not")
             last = self.duration_days - self.measurement.interval_s / SECONDS_PER_DAY
             if not sc.manoeuvre.epoch_days <= last + 1e-9:
                 raise ValueError(f"spacecraft[{i}].manoeuvre.epoch_days = {sc.manoeuvre.epoch_days:g} is outside the "
@@ -284,8 +316,9 @@ class Scenario(StrictModel):
             raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} plus {self.duration_days:g} d is "
                              "outside DE421 (1899-07-29 to 2053-10-09)")
         self._check_earth_orientation()
-        if self.estimator != "ekf":
-            raise ValueError("dynamics: ephemeris runs the ekf today (estimator: ekf)")
+        if self.dynamics not in self.estimator_descriptor().dynamics:
+            runners = " / ".join(name for name, e in ESTIMATORS.items() if self.dynamics in e.dynamics)
+            raise ValueError(f"dynamics: {self.dynamics} runs the {runners} today (estimator: {runners})")
         timed = [o for link in self.links for o in link.observables if not OBSERVABLES[o].light_time_from_states]
         if self.measurement.light_time and timed:
             raise ValueError(f"dynamics: ephemeris takes measurement.light_time: true for tdoa / fdoa only; "
