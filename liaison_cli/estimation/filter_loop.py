@@ -58,7 +58,7 @@ def channel_states(x, known_k, ends):
 def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
     """H (n,) = 0 but the partials of the estimated ends at their state offsets (ends sharing a block add)."""
     H[:] = 0.0
-    for i in range(6):  # element loops: see _time_update
+    for i in range(6):  # element loops: see time_update
         if ends[END_RECEIVER_STATE] >= 0:
             H[ends[END_RECEIVER_STATE] + i] += g_receiver[i]
         if ends[END_TRANSMITTER_STATE] >= 0:
@@ -105,8 +105,8 @@ def apply_burn_rows(M, burns, k):
 
 
 @njit(cache=True, inline="always")
-def _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
-                 substeps, y, work):
+def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
+                substeps, y, work):
     """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11). y (42,) and
     work (5, 42): scratch for the state + STM propagation."""
     for b in range(block_kind.shape[0]):
@@ -239,7 +239,7 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     work_block = np.empty((6, 6))
     work_nees = np.empty((n_nees, n_nees))
     z_nees = np.empty(n_nees)
-    for i in range(n):  # element loop: see _time_update
+    for i in range(n):  # element loop: see time_update
         err[0, i] = x_hat[i] - truth[0, i]
     for i in range(n):
         sig[0, i] = np.sqrt(P[i, i])
@@ -251,8 +251,8 @@ def run_ekf(x0_hat, P0, Q, truth, y_obs, known_states, channel_kind, channel_end
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        _time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
-                     (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+        time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
+                    (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)

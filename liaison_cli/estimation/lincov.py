@@ -27,12 +27,12 @@ from numba import njit
 
 from liaison_cli.estimation.ekf import predict_covariance_blocks, predict_covariance_into, update_scalar_into
 from liaison_cli.estimation.filter_loop import (
-    _time_update,
     apply_burn_covariance,
     apply_burn_rows,
     apply_burns,
     channel_states,
     scatter_partials,
+    time_update,
 )
 from liaison_cli.measurements.registry import predict
 
@@ -144,14 +144,14 @@ def lincov_along_truth(truth, y_true, known_states, channel_kind, channel_ends, 
             apply_burn_rows(S, burns, k - 1)
             apply_burn_rows(mu_meas.reshape((n, 1)), burns, k - 1)
             apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k - 1)
-            _time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
-                         (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+            time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
+                        (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
             d_dyn = truth[k] - x_bar + d_dyn_extra
             for b in range(block_kind.shape[0]):
                 if block_kind[b] != 0:  # clocks and constants: only the stated drifts
                     for i in range(block_start[b], block_start[b] + block_size[b]):
                         d_dyn[i] = d_dyn_extra[i]
-                        if block_kind[b] == 2:  # constants: identity transition (_time_update leaves it out)
+                        if block_kind[b] == 2:  # constants: identity transition (time_update leaves it out)
                             Phi[i, i] = 1.0
             P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
                                                  block_size), P

@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 
-from liaison_cli.dynamics.constants import M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
+from liaison_cli.dynamics.constants import GEOSTATIONARY_ALTITUDE_M, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.dynamics.ground_station import GroundStationTrajectory
 from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
 from liaison_cli.measurements.registry import OBSERVABLES
@@ -58,7 +58,6 @@ def link_observables(link) -> list:
     return [obs for name, obs in OBSERVABLES.items() if name in link.observables]
 
 
-GEOSTATIONARY_ALTITUDE_M = 35786.03e3  # radius 42,164.17 km above the WGS84 equator (sidereal-day orbit)
 
 
 def _flown(scenario: Scenario, model, spacecraft, state0, times_tu) -> np.ndarray:
