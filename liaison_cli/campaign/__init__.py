@@ -1,2 +1,4 @@
 """Running studies: one Monte Carlo run as a work unit (worker), the fan-out (runner, backends), seeding,
-resumable sweeps (sweep, grid), Parquet results, the error budget and the 003 / 004 studies."""
+resumable sweeps (sweep, grid), Parquet results, the error budget, and the studies that compute: the 003 /
+004 studies, Turan et al.'s Table 3 (table3), the formation geometry (geometry) and a scenario's
+observability (observability_study). report/ formats and draws what they return."""
