@@ -117,7 +117,7 @@ def test_two_compared_scenarios_with_one_name_are_refused(tmp_path):
 def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
     """A partial list used to exempt the unnamed stations from the one-observation rule. Now the priority
     is Madrid (named), then Goldstone and Canberra (file order): one station per epoch, the first that sees."""
-    from liaison_cli.scenario.setup import _station_priority
+    from liaison_cli.scenario.truth import apply_station_priority
 
     stations = "".join(f"  - {{name: {n}, latitude_deg: 35, longitude_deg: {lon}}}\n"
                        for n, lon in (("Goldstone", 0), ("Madrid", 120), ("Canberra", 240)))
@@ -129,7 +129,7 @@ def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
                     + text[end:])
     scenario, _ = load_scenario(path)
     sees = np.array([[1, 1, 1, 0, 1, 0], [1, 0, 0, 1, 1, 0], [1, 1, 1, 1, 0, 1]], dtype=bool)  # per station
-    kept = np.array(_station_priority(scenario, list(sees)))
+    kept = np.array(apply_station_priority(scenario, list(sees)))
     assert kept.sum(axis=0).tolist() == [1, 1, 1, 1, 1, 1]  # one observation wherever some station sees
     assert kept.argmax(axis=0).tolist() == [1, 0, 0, 1, 1, 2]  # Madrid, then Goldstone, then Canberra
 
@@ -140,7 +140,7 @@ def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
 def test_observability_on_every_shipped_scenario_works_or_is_one_line():
     """It used to raise KeyError on stations, known spacecraft, departures. CRTBP scenarios get their inputs
     (known participants as given trajectories); dated ones are refused in one line."""
-    from liaison_cli.report.observability_report import check_supported, known_inputs, scenario_inputs
+    from liaison_cli.campaign.observability_study import check_supported, known_inputs, scenario_inputs
 
     paths = sorted(p for p in SCENARIOS.rglob("*.yaml") if "links" not in p.parts)
     refusals = 0

@@ -10,7 +10,7 @@ from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.measurements.range import geometric_range_gradient
 from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.report.observability_report import scenario_inputs
+from liaison_cli.campaign.observability_study import scenario_inputs
 from tests.conftest import SCENARIOS, run_cli
 
 SIGMA_RANGE = 150.0 / (LU_KM * 1e3)

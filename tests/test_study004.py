@@ -93,10 +93,10 @@ def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
 
 def test_the_low_energy_transfer_scenario_carries_its_manoeuvre():
     """The scenario is valid and its Delta-v block sits after the transmitter's, burning on day 47.6."""
-    from liaison_cli.scenario.setup import _layout, burn_step
+    from liaison_cli.scenario.setup import burn_step, state_layout
 
     scenario, _ = load_scenario(SCENARIOS / "004" / "low_energy_transfer.yaml")
     tx = scenario.spacecraft[0]
     assert tx.manoeuvre is not None and burn_step(scenario, tx.manoeuvre) == round(47.6 * 86400 / 300)
-    layout = _layout(scenario)
+    layout = state_layout(scenario)
     assert layout.n == 9 and layout.blocks[1].owner == "dv TX"

@@ -16,7 +16,7 @@ from liaison_cli.measurements.range import FLAG_LIGHT_TIME
 from liaison_cli.measurements.registry import predict
 from liaison_cli.measurements.tdoa import FDOA, KIND_FDOA, KIND_TDOA, SECONDS_PER_LU, TDOA
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.scenario.setup import _visible
+from liaison_cli.scenario.truth import visible_epochs
 
 RX1 = np.array([0.05, 0.09, 0.0, -0.2, 0.1, 0.0])  # GEO-like distances, LU and LU/TU
 RX2 = np.array([-0.08, 0.04, 0.01, -0.1, -0.2, 0.01])
@@ -82,7 +82,7 @@ def test_a_transmitter_behind_the_moon_from_one_receiver_gives_no_measurement():
     trajectories = {name: SimpleNamespace(states=s) for name, s in tracks.items()}
     link = SimpleNamespace(receiver="RX1", transponder="TX", second_receiver="RX2", occultation=True)
     scenario = SimpleNamespace(ground_stations=[])
-    visible = _visible(scenario, link, trajectories, crtbp_model(MU), np.array([0.0, 1.0]))
+    visible = visible_epochs(scenario, link, trajectories, crtbp_model(MU), np.array([0.0, 1.0]))
     assert list(visible) == [False, True]
 
 
@@ -211,13 +211,14 @@ PAIRS = (("GEO130W", "GEO170W"), ("MaunaKea", "OwensValley"), ("L1A", "L1B"))
 def dated(tmp_path_factory):
     """The dated scenario's truth: trajectories, noise-free measurements and the filter's tables."""
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.scenario.setup import _truth_and_measurements, dynamics_model, prepare_problem
+    from liaison_cli.scenario.setup import dynamics_model, prepare_problem
+    from liaison_cli.scenario.truth import truth_and_measurements
 
     path = tmp_path_factory.mktemp("tdoa") / "wavefront.yaml"
     path.write_text(DATED)
     scenario, _ = load_scenario(path)
     model = dynamics_model(scenario)
-    times_s, trajectories, measured = _truth_and_measurements(scenario, model)
+    times_s, trajectories, measured = truth_and_measurements(scenario, model)
     return SimpleNamespace(scenario=scenario, model=model, times_s=times_s, trajectories=trajectories,
                            measured=measured, problem=prepare_problem(scenario))
 

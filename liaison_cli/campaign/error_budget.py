@@ -115,7 +115,7 @@ def _per_spacecraft(diag_lu, n_sc):
 
 
 def error_budget(problem: Problem) -> Budget:
-    if problem.scenario.estimator != "ekf":
+    if not problem.scenario.estimator_descriptor().error_budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")
     f = problem.filter
@@ -222,7 +222,7 @@ def _histories(problem: Problem, runs: int, sources):
                                        f.channel_kind, f.channel_ends, f.channel_flags)
     for run in range(runs):
         x0, y, truth = _source_inputs(problem, run, model_y, sources)
-        history = estimate("ekf", f, x0, y, truth)
+        history = estimate(problem.scenario.estimator, f, x0, y, truth)
         if not history.ok:
             raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {run} diverged ({history.reason})")
         yield history

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-J2000_JD = 2451545.0
-SECONDS_PER_DAY = 86400.0
+from liaison_cli.dynamics.constants import DE421_GM_KM3_S2, J2000_JD, SECONDS_PER_DAY
+
 
 # Our body codes: NAIF barycentre ids 1-9 (planet systems), 10 the Sun, 301 the Moon.
 BODY_MOON = 301
@@ -27,12 +27,7 @@ SEG_EMB = 2  # (0, 3)
 SEG_MOON = 10  # (3, 301)
 SEG_EARTH = 11  # (3, 399)
 
-# DE421 GM values (km^3/s^2): Folkner, Williams & Boggs (2009), IPN PR 42-178, Table 8; planets as systems.
-GM_KM3_S2 = {
-    399: 398600.436233, 301: 4902.800076, 10: 132712440040.944,
-    1: 22032.090000, 2: 324858.592000, 4: 42828.375214, 5: 126712764.800000, 6: 37940585.200000,
-    7: 5794548.600000, 8: 6836535.000000, 9: 977.000000,
-}
+GM_KM3_S2 = DE421_GM_KM3_S2  # the GM of each body code (dynamics.constants)
 
 
 def de421_path() -> str:

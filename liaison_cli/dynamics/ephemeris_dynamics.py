@@ -16,17 +16,14 @@ import math
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.constants import MOON_RADIUS_KM
+from liaison_cli.dynamics.constants import (
+    AU_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM, SOLAR_FLUX_1AU_W_M2, SPEED_OF_LIGHT_M_S, SUN_RADIUS_KM)
 from liaison_cli.dynamics.ephemeris import BODY_MOON, BODY_SUN, geocentric_state
 from liaison_cli.dynamics.rk8 import rk8_combine, rk8_stage_input
 
-AU_KM = 149597870.7
-SOLAR_FLUX_1AU_W_M2 = 1367.0  # gives P_1AU = 4.56e-6 N/m^2, the textbook value (Montenbruck & Gill 2000)
-SPEED_OF_LIGHT_M_S = 299792458.0
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
-R_SUN_KM = 696000.0
-R_EARTH_KM = 6378.1366
-R_MOON_KM = MOON_RADIUS_KM
+# The shadow's occulters and the Sun's disc, by their short names here.
+R_SUN_KM, R_EARTH_KM, R_MOON_KM = SUN_RADIUS_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM
 
 
 @njit(cache=True)

@@ -14,10 +14,11 @@ from functools import lru_cache
 
 import numpy as np
 
+from liaison_cli.dynamics.constants import MJD_OF_J2000
 from liaison_cli.dynamics.timescales import J2000_UTC, as_utc
 
 ARCSEC_RAD = np.pi / (180.0 * 3600.0)
-MJD_OF_J2000_UTC = 51544.5
+MJD_OF_J2000_UTC = MJD_OF_J2000  # J2000_UTC's day in the table's count
 
 
 @lru_cache(maxsize=1)

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics import dop853_tableau as _dop853
-from liaison_cli.dynamics.crtbp import _state_stm_rhs
+from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs
 
 # The tableau is vendored as literal floats (tools/vendor_dop853_tableau.py copied it from scipy's private
 # dop853_coefficients module): reading that file at import tied every command to a scipy internal, and
@@ -20,24 +20,6 @@ RK8_A = np.ascontiguousarray(_dop853.A, dtype=np.float64)
 RK8_B = np.ascontiguousarray(_dop853.B, dtype=np.float64)
 RK8_C = np.ascontiguousarray(_dop853.C, dtype=np.float64)
 STEP_FRACTION = 0.08
-
-
-@njit(cache=True, inline="always")
-def _derivative_into(state, mu, out):
-    """The CRTBP derivative (Eq. 6-8) written into out (6,): no allocation in the RK8 stages."""
-    x, y, z = state[0], state[1], state[2]
-    dx1 = x + mu
-    dx2 = x - 1.0 + mu
-    r1_2 = dx1 * dx1 + y * y + z * z
-    r2_2 = dx2 * dx2 + y * y + z * z
-    k1 = (1.0 - mu) / (r1_2 * np.sqrt(r1_2))
-    k2 = mu / (r2_2 * np.sqrt(r2_2))
-    out[0] = state[3]
-    out[1] = state[4]
-    out[2] = state[5]
-    out[3] = 2.0 * state[4] + x - k1 * dx1 - k2 * dx2
-    out[4] = -2.0 * state[3] + y - (k1 + k2) * y
-    out[5] = -(k1 + k2) * z
 
 
 @njit(cache=True, inline="always")
@@ -66,9 +48,9 @@ def _rk8_step(y, h, mu, a, b, k, tmp):
     for s in range(12):
         rk8_stage_input(y, h, a, k, s, tmp)
         if y.shape[0] == 6:
-            _derivative_into(tmp, mu, k[s])
+            derivative_into(tmp, mu, k[s])
         else:
-            _state_stm_rhs(tmp, mu, k[s])
+            state_stm_rhs(tmp, mu, k[s])
     rk8_combine(y, h, b, k)
 
 

@@ -21,9 +21,9 @@ from functools import lru_cache
 
 import numpy as np
 
-TT_MINUS_TAI_S = 32.184
+from liaison_cli.dynamics.constants import J2000_JD
+
 J2000_UTC = datetime(2000, 1, 1, 12, 0, 0, tzinfo=timezone.utc)
-J2000_JD = 2451545.0
 FIRST_LEAP_TABLE_DAY = (1972, 1, 1)
 
 

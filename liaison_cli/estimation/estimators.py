@@ -1,4 +1,5 @@
-"""Estimators behind one interface: `estimate(name, arrays, x0_hat, y_obs, truth) -> EstimateHistory`.
+"""Estimators behind one interface: `estimate(name, arrays, x0_hat, y_obs, truth) -> EstimateHistory`, each
+described once (estimation.estimator.Estimator) and registered in ESTIMATORS.
 
 `FilterArrays` is everything an estimator may use: the state layout, the a-priori and process-noise
 matrices, the channels (kind, ends, flags, modifiers, sigma), the known participants' states and the
@@ -13,6 +14,7 @@ import numpy as np
 from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
+from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, Dynamics, EkfSettings, SmootherRecord,
                                                 channels_of, dynamics_of)
@@ -270,13 +272,34 @@ def _prediction_rms(errors_ahead, kind, start):
     return np.array(out)
 
 
-ESTIMATORS = {"ekf": _ekf, "batch": _batch}
+EKF = Estimator(
+    name="ekf", summary="the extended Kalman filter", run=_ekf, carries_clocks=True, carries_biases=True,
+    carries_manoeuvres=True, dynamics=("crtbp", "ephemeris"), smoother=True, consider=True, residual_gate=True,
+    error_budget=True, initial_batch=True)
+# The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
+# apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
+BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",
+                  carries_biases=True)
+ESTIMATORS: dict[str, Estimator] = {estimator.name: estimator for estimator in (EKF, BATCH)}
+DEFAULT_ESTIMATOR = EKF.name
 
 
 def estimator_names() -> list[str]:
     return list(ESTIMATORS)
 
 
+def get_estimator(name: str) -> Estimator:
+    try:
+        return ESTIMATORS[name]
+    except KeyError:
+        raise ValueError(f"unknown estimator {name!r}; allowed: {', '.join(ESTIMATORS)}") from None
+
+
+def estimators_that(capability: str) -> list[str]:
+    """The names of the estimators whose descriptor has this capability (e.g. 'smoother'), for messages."""
+    return [name for name, estimator in ESTIMATORS.items() if getattr(estimator, capability)]
+
+
 def estimate(name: str, arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     """Run the named estimator over one run's inputs: x0_hat (n,), y_obs (m, C), truth (m, n)."""
-    return ESTIMATORS[name](arrays, x0_hat, y_obs, truth)
+    return ESTIMATORS[name].run(arrays, x0_hat, y_obs, truth)

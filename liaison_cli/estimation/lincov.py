@@ -30,12 +30,12 @@ from numba import njit
 from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_SPACECRAFT
 from liaison_cli.estimation.ekf import predict_covariance_blocks, predict_covariance_into, update_scalar_into
 from liaison_cli.estimation.filter_loop import (
-    time_update,
     apply_burn_covariance,
     apply_burn_rows,
     apply_burns,
     channel_states,
     scatter_partials,
+    time_update,
 )
 from liaison_cli.measurements.registry import predict
 

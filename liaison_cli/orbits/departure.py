@@ -15,9 +15,9 @@ Hyperbolic Kepler's equation e sinh F - F = n t is solved by Newton's method.
 
 import numpy as np
 
-from liaison_cli.dynamics.ephemeris import GM_KM3_S2
+from liaison_cli.dynamics.constants import DE421_GM_KM3_S2
 
-GM_EARTH_KM3_S2 = GM_KM3_S2[399]
+GM_EARTH_KM3_S2 = DE421_GM_KM3_S2[399]  # the dated model's Earth (dynamics.constants)
 # Where the departure model holds: the state is a two-body hyperbola from periapsis (no Moon, Sun or SRP).
 # Against the same periapsis state flown in the full DE421 model, the three 003 missions' hyperbolas are off
 # by at most 0.33 km and 0.08 m/s after 3 h (within 003's 1 km / 10 m/s a priori), but by 2.4 km after

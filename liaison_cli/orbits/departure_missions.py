@@ -26,12 +26,11 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from liaison_cli.dynamics.constants import WGS84_EQUATORIAL_RADIUS_KM
+from liaison_cli.dynamics.constants import OBLIQUITY_J2000_DEG, WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.dynamics.ephemeris import BODY_SUN, GM_KM3_S2, geocentric_state, load_window
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
 from liaison_cli.orbits.departure import asymptote_angles_deg
 
-OBLIQUITY_J2000_DEG = 23.4392911  # IAU 1976: the ecliptic pole in ICRF axes sets "prograde"
 CAPE_LATITUDE_DEG = 28.5
 
 

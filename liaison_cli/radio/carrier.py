@@ -23,9 +23,9 @@ All frequencies in Hz, powers-to-noise-density linear in Hz (not dB-Hz), outputs
 
 import math
 
-from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_KM_S
+from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_M_S
 
-C_M_S = SPEED_OF_LIGHT_KM_S * 1e3
+C_M_S = SPEED_OF_LIGHT_M_S  # the short name of this module's formulas
 TURNAROUND_S_BAND = 240.0 / 221.0  # S-band coherent transponder ratio (downlink / uplink carrier)
 
 

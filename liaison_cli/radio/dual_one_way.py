@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SPEED_OF_LIGHT_M_S = 299792458.0
+from liaison_cli.dynamics.constants import SPEED_OF_LIGHT_M_S
+
 
 DLL_WIDE = "wide (D >= pi Rc/B_fe)"
 DLL_NARROW = "narrow (Rc/B_fe < D < pi Rc/B_fe)"

@@ -1,3 +1,9 @@
-"""Scenario files: the validated configuration (schema, with the CCSDS file keys of exchange_specs), its
-translation into arrays (setup; a truth from an OEM or OPM in orbit_files, measurements from a TDM in observed)
-and the commented starting scenarios `liaison new` writes (templates.py, templates/)."""
+"""Scenario files: the validated configuration and its translation into arrays.
+
+The configuration is split by concern: participants, links, radio_settings (noise and link budgets),
+estimation_settings (filter, batch, clock sync, initial error, Monte Carlo), scenario_model (the whole
+`Scenario` and its cross-section rules), loading (read, validate, override), on spec_base, with the CCSDS file
+keys in exchange_specs; schema gathers them under one import, schema_rules and json_schema give the editor's
+JSON Schema. setup, dated and reference_states turn a scenario into the truth and the filter's arrays (a truth
+from an OEM or OPM in orbit_files, measurements from a TDM in observed); templates.py and templates/ hold the
+commented starting scenarios `liaison new` writes."""

@@ -22,7 +22,7 @@ LOADER_ONLY_RULES = (
     "site's coordinates are not contradicted",
     "observables: each has what it needs (an antenna_baseline_m on the receiver for los, the clocks a "
     "clock-timed observable reads, its noise sigma); the batch estimator takes no observable carrying clock "
-    "states; clock_sync needs a dual_one_way_derived link",
+    "states, no filter.bias: consider and no residual gate; clock_sync needs a dual_one_way_derived link",
     "time: measurement.interval_s fits in duration_days and gives at most 500,000 epochs per run; "
     "filter.settle_days ends before the last epoch; batch span plus prediction fit in duration_days, span at "
     "least two intervals, renewal_hours a whole number of intervals and no longer than the span; a manoeuvre "

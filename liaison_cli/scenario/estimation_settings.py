@@ -1,0 +1,170 @@
+"""Scenario estimation settings: the filter section, the batch estimator's, clock synchronisation, how each
+run's initial error is drawn, and the Monte Carlo runs and seed."""
+
+from typing import Literal
+
+from pydantic import ConfigDict, Field, model_validator
+
+from liaison_cli.scenario.schema_rules import at_least, equals, given, schema_rules, when
+from liaison_cli.scenario.spec_base import StrictModel
+
+
+MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
+
+
+# The residual gate's warm-up (FilterSpec.residual_gate_after), by default none: the gate applies from the
+# first measurement. Its spread sqrt(H P H' + R) carries the a-priori covariance, so the gate is wide while
+# the filter is uncertain and the a-priori transient is not edited away: measured at 5 sigma from the first
+# measurement, no clean measurement of any shipped scenario is rejected (2 runs each; the 004 cases from
+# their 1,000 km / 100 m/s a priori included). A warm-up, on the other hand, lets its outliers through, and
+# one accepted outlier can move the estimate beyond the gate, which then refuses the good data after it:
+# eml2_lunar with 1 % of measurements at 100 sigma, 10 runs, mean EML2 position RMS 647 m with no warm-up,
+# 819 m after 50, 26 km after 100 (one run edited 97.5 % of its data). A warm-up is for a P0 that
+# understates the initial error: with an initial error 20x P0 the gate from the first measurement locks out
+# (90 % of clean data rejected, 7 of 10 runs diverged); 200 accepted measurements were needed there.
+GATE_AFTER_DEFAULT = 0
+
+
+class FilterSpec(StrictModel):
+    """The estimator's settings: a priori, process noise, health checks, the filter's measurement models."""
+
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        when(equals("bias", "estimate", "consider"), given("bias_apriori_sigma_m"))))
+
+    initial_sigma_position_m: float = Field(1000.0, gt=0, description="a-priori 1-sigma per position axis (m)")
+    initial_sigma_velocity_m_s: float = Field(0.01, gt=0, description="a-priori 1-sigma per velocity axis (m/s)")
+    process_noise_accel_m_s2: float = Field(1e-7, ge=0, description="SNC white acceleration sigma_a of every "
+                                            "spacecraft (a spacecraft's own key overrides it) (m/s^2)")
+    process_noise_model: Literal["continuous_white_acceleration", "velocity_only"] = Field(
+        "continuous_white_acceleration", description="how sigma_a becomes Q per step dt: continuous white "
+        "acceleration (q = sigma_a^2 dt; Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis) or (sigma_a dt)^2 on "
+        "the velocities only (the form before issue 26)")
+    divergence_position_km: float = Field(1e4, gt=0, description="a run whose position error exceeds this is "
+                                          "stopped as diverged (km)")
+    divergence_nees_factor: float = Field(
+        100.0, ge=1, description="a run whose NEES stays above this many times its 99.9 % chi-square quantile "
+        "for divergence_window_days is diverged (dimensionless)")
+    divergence_window_days: float = Field(1.0, gt=0, description="see divergence_nees_factor (days)")
+    rk4_substeps: int = Field(4, ge=1, le=256, description="RK4 steps of the filter's propagation per "
+                              "measurement interval (count)")
+    range_model: Literal["geometric", "light_time"] = Field(
+        "geometric", description="filter's two-way range: geometric (paper Eq. 17) or light-time corrected"
+    )
+    bias: Literal["ignore", "estimate", "consider"] = Field(
+        "ignore", description="range bias per link: not modelled, estimated (augmented state) or considered"
+    )
+    bias_apriori_sigma_m: float | None = Field(None, gt=0, description="a-priori 1-sigma of each link's bias (m)")
+    underweighting: float = Field(
+        0.0, ge=0, le=10, description="Lear's underweighting beta of the EKF gain, K = P H' ((1+beta) H P H' + R)^-1: "
+        "keeps a large a-priori error from being corrected on a linearisation not yet good (e.g. 0.2) "
+        "(dimensionless)")
+    settle_days: float | None = Field(
+        None, ge=0, description="time after t0 from which consistency is judged (error RMS against sigma RMS, NEES "
+        "in its 95 % band): the a-priori transient is left out. Default (absent): 1 d, or half the scenario when it "
+        "is shorter than 2 d. From the papers' a priori (1 km, 1 cm/s) the halo and lunar filters settle within "
+        "the first day, and 1 d keeps the after-day-1 columns' meaning (days)")
+    residual_gate_sigma: float | None = Field(
+        None, gt=0, description="EKF residual editing (unit: standard deviations of the innovation): a scalar "
+        "measurement whose pre-fit innovation exceeds this many sqrt(H P H' + R) is rejected (no update) and "
+        "counted; absent or null: no gate. 5 rejects 5.7e-7 of clean Gaussian data, 3 rejects 0.27 % (sigma)")
+    residual_gate_after: int = Field(
+        GATE_AFTER_DEFAULT, ge=0, le=10**9, description="the gate applies once the filter has accepted this many "
+        "measurements (unit: scalar measurements, all links together); default 0: from the first, the a-priori "
+        "spread being part of the gate's; raise it only for a P0 that understates the initial error (count)")
+    smoother: Literal["none", "rts"] = Field(
+        "none", description="rts: also run the Rauch-Tung-Striebel fixed-interval smoother over each EKF pass "
+        "(smoothed errors and sigma in the outputs: 003's reconstructed trajectory); keeps three n x n matrices "
+        "per epoch in memory while a run is smoothed")
+    initial_batch_hours: float | None = Field(
+        None, gt=0, description="start the EKF from a batch least-squares solution (with the a priori as "
+        "information) over the first this many hours of data, handed over with its covariance at the window's "
+        "end; the EKF takes the measurements after it. For an a priori too poor for the EKF's first updates "
+        "(004's 1,000 km and 100 m/s per axis). Absent: the EKF starts from the a priori at t0 (h)")
+    initial_batch_max_hours: float | None = Field(
+        None, gt=0, description="the batch window doubles from initial_batch_hours up to this many hours until "
+        "the hand-over position 1-sigma (RSS) is below initial_batch_handover_sigma_km; absent: the window stays "
+        "at initial_batch_hours (h)")
+    initial_batch_handover_sigma_km: float = Field(
+        10.0, gt=0, description="hand over to the EKF once every spacecraft's position 1-sigma (RSS) at the "
+        "window's end is below this (or the window has reached initial_batch_max_hours) (km)")
+    initial_batch_max_iterations: int = Field(
+        30, ge=1, le=1000, description="Gauss-Newton iterations per batch window at most (count)")
+
+    @model_validator(mode="after")
+    def _batch_window_order(self):
+        if (self.initial_batch_max_hours is not None and self.initial_batch_hours is not None
+                and self.initial_batch_max_hours < self.initial_batch_hours):
+            raise ValueError(f"initial_batch_max_hours = {self.initial_batch_max_hours:g} is shorter than "
+                             f"initial_batch_hours = {self.initial_batch_hours:g}: allowed: at least as long")
+        if self.initial_batch_max_hours is not None and self.initial_batch_hours is None:
+            raise ValueError("initial_batch_max_hours needs initial_batch_hours (the first window)")
+        return self
+
+
+    @model_validator(mode="after")
+    def _bias_needs_apriori(self):
+        if self.bias != "ignore" and self.bias_apriori_sigma_m is None:
+            raise ValueError(f"bias {self.bias!r} needs 'bias_apriori_sigma_m' (the a-priori 1-sigma, m)")
+        return self
+
+
+class BatchSpec(StrictModel):
+    """The batch least-squares estimator (estimator: batch, 002 §3): one solve for the epoch state from the
+    measurements of the first `span_days`, predicted `prediction_hours` past the span (002's DRMS window).
+    The scenario's epochs end at span + prediction (duration_days must cover them)."""
+
+    model_config = ConfigDict(json_schema_extra=schema_rules(when(at_least("windows", 2), given("renewal_hours"))))
+
+    span_days: float = Field(gt=0, description="data span of the solve, from t0 (days)")
+    prediction_hours: float = Field(3.0, ge=0, description="prediction after the span for the DRMS metrics (h)")
+    max_iterations: int = Field(10, ge=1, le=100, description="Gauss-Newton iterations at most (count)")
+    tolerance_m: float = Field(1e-3, gt=0, description="converged when no position correction exceeds this (m)")
+    apriori: bool = Field(False, description="add the filter's initial covariance as a-priori information")
+    jacobian: Literal["first_iteration", "every_iteration"] = Field(
+        "first_iteration", description="STM from the first iteration's reference (frozen) or recomputed each time")
+    windows: int = Field(1, ge=1, le=1000, description="sliding windows, each span_days long (count)")
+    renewal_hours: float | None = Field(None, gt=0, description="window start spacing, a whole number of "
+                                        "measurement intervals (needed with windows > 1) (h)")
+
+    @model_validator(mode="after")
+    def _renewal(self):
+        if self.windows > 1 and self.renewal_hours is None:
+            raise ValueError(f"windows = {self.windows} needs 'renewal_hours' (the spacing of window starts)")
+        if self.renewal_hours is not None and self.renewal_hours / 24.0 > self.span_days:
+            raise ValueError(f"renewal_hours = {self.renewal_hours:g} is longer than the span ({self.span_days:g} d): "
+                             "windows would leave data unused")
+        return self
+
+    def end_days(self) -> float:
+        """The last window's span end plus its prediction."""
+        renewal_days = (self.renewal_hours or 0.0) / 24.0
+        return (self.windows - 1) * renewal_days + self.span_days + self.prediction_hours / 24.0
+
+
+class ClockSyncSpec(StrictModel):
+    """Synchronisation by a polynomial fit to the clock offsets of dual one-way links (002 §4), over a window
+    ending at the end of the data span (the batch span, else the scenario's end), then predicted."""
+
+    window_hours: float = Field(3.0, gt=0, description="length of the fit window, at least two measurement "
+                                "intervals (h)")
+    prediction_hours: float = Field(3.0, ge=0, description="prediction after the window (h)")
+    degree: int = Field(2, ge=0, le=3, description="polynomial degree, 2: a0 + a1 (t - t0) + a2 (t - t0)^2 "
+                        "(dimensionless)")
+
+
+class InitialErrorSpec(StrictModel):
+    """`fixed_sigma`: independent normal errors with the sigmas below (the paper's Monte Carlo);
+    `from_covariance`: drawn from the filter's own P0 (for NEES consistency checks)."""
+
+    draw: Literal["fixed_sigma", "from_covariance"] = Field("fixed_sigma", description="fixed_sigma: the sigmas "
+                                                            "below; from_covariance: the filter's P0")
+    sigma_position_m: float = Field(500.0, ge=0, description="fixed_sigma: 1-sigma per position axis (m)")
+    sigma_velocity_m_s: float = Field(0.001, ge=0, description="fixed_sigma: 1-sigma per velocity axis (m/s)")
+
+
+class MonteCarloSpec(StrictModel):
+    """How many runs, and the seed every run's random numbers derive from (with the run index)."""
+
+    runs: int = Field(ge=1, le=MAX_RUNS, description="Monte Carlo runs; `liaison run --runs` overrides (count)")
+    seed: int = Field(ge=0, description="master seed; a run's numbers depend on (scenario, seed, run index) only "
+                      "(integer)")

@@ -1,0 +1,310 @@
+"""Scenario -> the estimator's arrays: the state layout (spacecraft, clocks, Delta-v, link biases), P0 and Q,
+the measurement channels and their tables (ends, flags, bias and clock modifiers, sigmas), the batch's
+settings, and what each run draws (the truth clocks, the initial-error sigmas)."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from liaison_cli.dynamics.clock import clock_process_noise
+from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY, SPEED_OF_LIGHT_M_S, TU_S
+from liaison_cli.dynamics.model import DynamicsModel
+from liaison_cli.dynamics.trajectory import states_with_accelerations
+from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
+from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
+from liaison_cli.estimation.initial_batch import InitialBatchSettings
+from liaison_cli.estimation.process_noise import spacecraft_process_noise
+from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
+from liaison_cli.measurements.registry import OBSERVABLES
+from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.truth import burn_step, link_observables
+
+# The initial batch's Gauss-Newton stops when no position correction exceeds this: far below any hand-over
+# sigma, far above the round-off of a multi-day propagation.
+INITIAL_BATCH_TOLERANCE_M = 0.1
+
+
+MAX_MODIFIERS = 3  # per channel: a link bias and the two ends' clocks
+
+
+def per_axis_block_diagonal(n_sc: int, position_value: float, velocity_value: float) -> np.ndarray:
+    """(6 n_sc, 6 n_sc) diagonal with the position value on position axes, velocity on velocity axes."""
+    one = np.array([position_value] * 3 + [velocity_value] * 3)
+    return np.diag(np.tile(one, n_sc))
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One scalar measurement channel: the link it belongs to, its kind and labels, its modifiers."""
+
+    link: int
+    link_label: str
+    observable: str
+    kind: int
+    label: str
+    unit: str
+    scale_si: float
+    takes_range_bias: bool
+    clock_coefficients: tuple[float, float]
+    measures_clock_offset: bool = False
+
+
+@dataclass(frozen=True)
+class ClockTruth:
+    """A clock to simulate per run: its participant, its state offset in the filter (-1 when the estimator
+    does not carry it), its model in SI (diffusions, deterministic drifts mu1 s/s and mu2 1/s), and the
+    channels it enters (index, coefficient). Scale: seconds -> filter units (range and range-rate)."""
+
+    owner: str
+    state_start: int
+    sigma1: float
+    sigma2: float
+    initial_sigma: tuple[float, float]
+    scale: tuple[float, float]
+    channels: tuple[tuple[int, float], ...]
+    mu1: float = 0.0
+    mu2: float = 0.0
+
+
+def _channels(scenario: Scenario) -> list[Channel]:
+    out = []
+    for index, link in enumerate(scenario.links):
+        for observable in link_observables(link):
+            for position, kind in enumerate(observable.channels):
+                out.append(Channel(index, f"{link.receiver}->{link.transponder}", observable.name, kind.code,
+                                   kind.label, kind.unit, kind.scale_si, observable.takes_range_bias,
+                                   observable.channel_clock_coefficients(position),
+                                   position == observable.clock_offset_channel))
+    return out
+
+
+def state_layout(scenario: Scenario) -> StateLayout:
+    """Spacecraft blocks, then clocks, then link biases (estimated, or considered last)."""
+    estimator = scenario.estimator_descriptor()
+    blocks = [StateBlock(BLOCK_SPACECRAFT, 6, name) for name in scenario.spacecraft_names()]
+    if estimator.carries_clocks:  # else clocks are synchronised apart from the estimator, by clock_sync
+        blocks += [StateBlock(BLOCK_CLOCK, 2, sc.name) for sc in scenario.spacecraft
+                   if sc.role == "estimated" and sc.clock is not None]
+    if estimator.carries_manoeuvres:
+        blocks += [StateBlock(BLOCK_CONSTANT, 3, f"dv {sc.name}") for sc in scenario.spacecraft if sc.manoeuvre]
+    if scenario.filter.bias != "ignore" and estimator.carries_biases:
+        consider = scenario.filter.bias == "consider"
+        blocks += [StateBlock(BLOCK_CONSTANT, 1, f"bias {i}", consider) for i in range(len(scenario.links))]
+    return StateLayout(tuple(blocks))
+
+
+def _manoeuvres(scenario: Scenario, layout: StateLayout):
+    """burns (N, 3) for filter_loop.apply_burns, and per burn (Delta-v start, true Delta-v (3,) and its
+    a-priori sigma, scaled units) for the truth columns and the initial draw."""
+    burns, truths = [], []
+    for sc in scenario.spacecraft:
+        if sc.manoeuvre is None:
+            continue
+        start = layout.start_of(BLOCK_CONSTANT, f"dv {sc.name}")
+        burns.append((start, layout.start_of(BLOCK_SPACECRAFT, sc.name), burn_step(scenario, sc.manoeuvre)))
+        truths.append((start, np.array(sc.manoeuvre.delta_v_m_s) / M_S_PER_VU, sc.manoeuvre.apriori_sigma_m_s / M_S_PER_VU))
+    return np.array(burns, dtype=np.int64).reshape(-1, 3), tuple(truths)
+
+
+def _clock_scale() -> np.ndarray:
+    """Seconds -> LU for the phase, s/s -> LU/TU for the frequency (the filter keeps clocks in range units)."""
+    return np.array([SPEED_OF_LIGHT_M_S / M_PER_LU, SPEED_OF_LIGHT_M_S / M_S_PER_VU])
+
+
+def _apriori_sigmas(spacecraft, position_m: float, velocity_m_s: float) -> tuple[float, float]:
+    """A spacecraft's own a-priori sigmas where it gives them, else the scenario-wide ones."""
+    own_r, own_v = spacecraft.apriori_sigma_position_m, spacecraft.apriori_sigma_velocity_m_s
+    return (position_m if own_r is None else own_r), (velocity_m_s if own_v is None else own_v)
+
+
+def initial_error_sigma(scenario: Scenario) -> np.ndarray:
+    """(6 n_sc,) per-axis sigmas of the fixed_sigma initial error, scaled units."""
+    ie = scenario.initial_error
+    by_name = {sc.name: sc for sc in scenario.spacecraft}
+    out = []
+    for name in scenario.spacecraft_names():
+        sigma_r, sigma_v = _apriori_sigmas(by_name[name], ie.sigma_position_m, ie.sigma_velocity_m_s)
+        out += [sigma_r / M_PER_LU] * 3 + [sigma_v / M_S_PER_VU] * 3
+    return np.array(out)
+
+
+def _matrices(scenario: Scenario, layout: StateLayout):
+    """P0 and Q (n, n), block by block."""
+    n = layout.n
+    P0, Q = np.zeros((n, n)), np.zeros((n, n))
+    flt = scenario.filter
+    interval_s = scenario.measurement.interval_s
+    by_name = {sc.name: sc for sc in scenario.spacecraft}
+    for block, a in zip(layout.blocks, layout.starts):
+        s = slice(a, a + block.size)
+        if block.kind == BLOCK_SPACECRAFT:
+            sigma_r, sigma_v = _apriori_sigmas(by_name[block.owner], flt.initial_sigma_position_m,
+                                               flt.initial_sigma_velocity_m_s)
+            P0[s, s] = per_axis_block_diagonal(1, (sigma_r / M_PER_LU) ** 2, (sigma_v / M_S_PER_VU) ** 2)
+            # State-noise compensation (estimation.process_noise): white acceleration sigma_a.
+            own = by_name[block.owner].process_noise_accel_m_s2
+            sigma_a = flt.process_noise_accel_m_s2 if own is None else own
+            Q[s, s] = spacecraft_process_noise(sigma_a, interval_s, flt.process_noise_model, M_PER_LU, M_S_PER_VU)
+        elif block.kind == BLOCK_CLOCK:
+            clock = by_name[block.owner].clock
+            scale = _clock_scale()
+            P0[s, s] = np.diag((np.array([clock.initial_offset_sigma_s, clock.initial_frequency_sigma]) * scale) ** 2)
+            Q[s, s] = clock_process_noise(interval_s, clock.sigma1, clock.sigma2) * np.outer(
+                scale, scale)
+        elif block.owner.startswith("dv "):
+            sigma_lu = by_name[block.owner[3:]].manoeuvre.apriori_sigma_m_s / M_S_PER_VU
+            P0[s, s] = np.eye(3) * sigma_lu**2
+        else:
+            P0[s, s] = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
+    return P0, Q
+
+
+def _channel_tables(scenario: Scenario, channels, layout: StateLayout, index_of_known):
+    """channel_ends (C, 6), channel_flags (C,), channel_mod_index / _coeff (C, MAX_MODIFIERS)."""
+    n_channels = len(channels)
+    ends = np.full((n_channels, 6), -1, dtype=np.int64)
+    flags = np.zeros(n_channels, dtype=np.int64)
+    mod_index = np.full((n_channels, MAX_MODIFIERS), -1, dtype=np.int64)
+    mod_coeff = np.zeros((n_channels, MAX_MODIFIERS))
+    bias_start = layout.start_of(BLOCK_CONSTANT, "bias 0")
+    for c, ch in enumerate(channels):
+        link = scenario.links[ch.link]
+        for column, who in ((0, link.receiver), (2, link.transponder), (4, link.second_receiver)):
+            if who is None:
+                continue
+            state = layout.start_of(BLOCK_SPACECRAFT, who)
+            ends[c, column] = state
+            ends[c, column + 1] = -1 if state >= 0 else index_of_known[who]
+        flags[c] = OBSERVABLES[ch.observable].filter_flags(scenario.filter)
+        mods = []
+        if ch.takes_range_bias and bias_start >= 0:
+            mods.append((bias_start + ch.link, 1.0))
+        for who, coeff in zip((link.receiver, link.transponder), ch.clock_coefficients):
+            clock = layout.start_of(BLOCK_CLOCK, who)
+            if coeff != 0.0 and clock >= 0:
+                mods.append((clock, coeff))
+        for j, (index, coeff) in enumerate(mods):
+            mod_index[c, j], mod_coeff[c, j] = index, coeff
+    return ends, flags, mod_index, mod_coeff
+
+
+def _channel_sigmas(scenario: Scenario, channels) -> np.ndarray:
+    sigmas, done = [], set()
+    for ch in channels:
+        if (ch.link, ch.observable) in done:
+            continue
+        done.add((ch.link, ch.observable))
+        link = scenario.links[ch.link]
+        receiver = scenario.participant(link.receiver)
+        noise = link.noise.applied_to(scenario.noise) if link.noise is not None else scenario.noise
+        sigmas += OBSERVABLES[ch.observable].sigma(noise, receiver)
+    return np.array(sigmas)
+
+
+def clock_truths(scenario: Scenario, channels, layout: StateLayout) -> tuple[ClockTruth, ...]:
+    """Every clock that enters a channel (or the filter): simulated per run."""
+    out = []
+    for sc in scenario.spacecraft:
+        if sc.clock is None:
+            continue
+        start = layout.start_of(BLOCK_CLOCK, sc.name)
+        entries = []
+        for c, ch in enumerate(channels):
+            link = scenario.links[ch.link]
+            for who, coeff in zip((link.receiver, link.transponder), ch.clock_coefficients):
+                if who == sc.name and coeff != 0.0:
+                    entries.append((c, coeff))
+        if start < 0 and not entries:
+            continue
+        clock = sc.clock
+        out.append(ClockTruth(sc.name, start, clock.sigma1, clock.sigma2,
+                              (clock.initial_offset_sigma_s, clock.initial_frequency_sigma),
+                              tuple(_clock_scale()), tuple(entries), clock.mu1, clock.mu2))
+    return tuple(out)
+
+
+def _batch_arrays(scenario: Scenario, model: DynamicsModel, times_s, trajectories) -> BatchArrays | None:
+    """RK8 steps per interval along the estimated spacecraft's nominal paths, and the span's epoch count."""
+    spec = scenario.batch
+    if spec is None:
+        return None
+    positions = np.stack([trajectories[name].states[:, 0:3] for name in scenario.spacecraft_names()], axis=1)
+    counts = model.rk8_step_counts(positions, scenario.measurement.interval_s / TU_S)
+    interval_s = scenario.measurement.interval_s
+    n_use = int(np.floor(spec.span_days * SECONDS_PER_DAY / interval_s + 1e-9)) + 1
+    n_predict = int(np.floor(spec.prediction_hours * 3600.0 / interval_s + 1e-9))
+    renewal = int(round((spec.renewal_hours or 0.0) * 3600.0 / interval_s))
+    return BatchArrays(counts=counts, n_use=n_use, use_apriori=spec.apriori, max_iterations=spec.max_iterations,
+                       tolerance_lu=spec.tolerance_m / M_PER_LU,
+                       jacobian=JACOBIAN_EVERY if spec.jacobian == "every_iteration" else JACOBIAN_FIRST,
+                       n_predict=n_predict, windows=spec.windows, renewal_steps=renewal)
+
+
+def known_participant_states(scenario: Scenario, times_s, trajectories) -> tuple[np.ndarray, dict]:
+    """The filter's given states of known spacecraft and ground stations (m, K, 6 or 9) and each one's
+    index. A three-end light-time channel moves known ends over the light time: their rows carry
+    accelerations."""
+    known = [sc.name for sc in scenario.spacecraft if sc.role == "known"] + [st.name for st in scenario.ground_stations]
+    index_of_known = {name: i for i, name in enumerate(known)}
+    with_accelerations = any(OBSERVABLES[o].end_accelerations for link in scenario.links for o in link.observables)
+    known_states = np.zeros((len(times_s), len(known), 9 if with_accelerations else 6))
+    for name, i in index_of_known.items():
+        trajectory = trajectories[name]
+        known_states[:, i] = states_with_accelerations(trajectory) if with_accelerations else trajectory.states
+    return known_states, index_of_known
+
+
+@dataclass(frozen=True, eq=False)
+class EstimatorSetup:
+    """What prepare_problem takes from here: the estimator's arrays, the layout and channels they are built
+    on, and the manoeuvres' truth (Delta-v start, true Delta-v (3,), a-priori sigma, scaled units)."""
+
+    arrays: FilterArrays
+    layout: StateLayout
+    channels: tuple[Channel, ...]
+    manoeuvres: tuple
+
+
+def _initial_batch(scenario: Scenario) -> InitialBatchSettings | None:
+    """filter.initial_batch_*: the windows as epoch counts (estimation.initial_batch)."""
+    flt = scenario.filter
+    if flt.initial_batch_hours is None:
+        return None
+    interval_s = scenario.measurement.interval_s
+
+    def epochs(hours):
+        return int(round(hours * 3600.0 / interval_s)) + 1
+
+    return InitialBatchSettings(first_window=epochs(flt.initial_batch_hours),
+                                max_window=epochs(flt.initial_batch_max_hours or flt.initial_batch_hours),
+                                handover_sigma_lu=flt.initial_batch_handover_sigma_km / LU_KM,
+                                max_iterations=flt.initial_batch_max_iterations,
+                                tolerance_lu=INITIAL_BATCH_TOLERANCE_M / M_PER_LU)
+
+
+def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajectories) -> EstimatorSetup:
+    """The estimator's arrays of a scenario, along the truth's trajectories (the known participants' given
+    states, the batch's RK8 step counts)."""
+    known_states, index_of_known = known_participant_states(scenario, times_s, trajectories)
+    layout = state_layout(scenario)
+    burns, manoeuvres = _manoeuvres(scenario, layout)
+    channels = _channels(scenario)
+    P0, Q = _matrices(scenario, layout)
+    ends, flags, mod_index, mod_coeff = _channel_tables(scenario, channels, layout, index_of_known)
+    if model.rotating_frame:
+        flags |= FLAG_ROTATING_FRAME
+    flt = scenario.filter
+    arrays = FilterArrays(
+        layout=layout, P0=P0, Q=Q, known_states=known_states,
+        channel_kind=np.array([ch.kind for ch in channels], dtype=np.int64), channel_ends=ends,
+        channel_flags=flags, channel_mod_index=mod_index, channel_mod_coeff=mod_coeff,
+        sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.filter_params,
+        dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
+        divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting, burns=burns,
+        residual_gate_sigma=flt.residual_gate_sigma or 0.0, residual_gate_after=flt.residual_gate_after,
+        smoother=flt.smoother == "rts",
+        batch=_batch_arrays(scenario, model, times_s, trajectories),
+        initial_batch=_initial_batch(scenario),
+    )
+    return EstimatorSetup(arrays, layout, tuple(channels), manoeuvres)

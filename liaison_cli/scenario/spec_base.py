@@ -1,0 +1,35 @@
+"""What every scenario section shares: the strict base model (frozen, unknown keys refused with the allowed
+ones named, numbers finite), the name pattern, and the JSON Schema words the sections use."""
+
+from pydantic import BaseModel, ConfigDict, model_validator
+
+
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
+UNIQUE = {"uniqueItems": True}  # the JSON Schema word for a list the loader refuses repeats in
+
+
+def allowed_names(schema: dict, what: str) -> None:
+    """The JSON Schema's `enum` of a name a validator checks, for editors to offer; imported when the schema is
+    generated, as the validators import them when they check (a scenario without them need not)."""
+    if what == "mission":
+        from liaison_cli.orbits.departure_missions import departure_mission_names as names
+    else:
+        from liaison_cli.dynamics.dsn_sites import dsn_site_names as names
+    schema["enum"] = [*names(), None]
+
+
+class StrictModel(BaseModel):
+    # allow_inf_nan=False: every number in a scenario must be finite (.inf / .nan are refused, one line).
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _reject_unknown_keys(cls, data):
+        if isinstance(data, dict):
+            allowed = set(cls.model_fields)
+            unknown = sorted(str(k) for k in data if k not in allowed)
+            if unknown:
+                raise ValueError(
+                    f"unknown key {unknown[0]!r}; allowed keys here: {', '.join(sorted(allowed))}"
+                )
+        return data
