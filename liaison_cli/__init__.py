@@ -1,6 +1,8 @@
 """liaison: Monte Carlo campaigns for autonomous cislunar orbit determination (LiAISON)."""
 
+import ast
 import hashlib
+import json
 import os
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -15,16 +17,66 @@ COMPILED_PACKAGES = ("dynamics", "measurements", "estimation")
 
 
 def core_source_hash(packages=COMPILED_PACKAGES) -> str:
-    """Hash of the sources of `packages` (default: every compiled module). numba keys a cached function
-    on its own file only, so a change in a callee (say the RK4 step inlined into the filter loop) would
-    otherwise leave stale machine code in the cache."""
+    """Hash of the code of `packages` (default: every compiled module). numba keys a cached function on its
+    own file only, so a change in a callee (say the RK4 step inlined into the filter loop) would otherwise
+    leave stale machine code in the cache. Only the code counts (`code_digest`): an edited comment or
+    docstring keeps the key, so it does not cost everyone a full recompile."""
     digest = hashlib.sha256()
     root = Path(__file__).parent
+    memo = _DigestMemo()
     for package in packages:
         for path in sorted((root / package).glob("*.py")):
             digest.update(path.name.encode())
-            digest.update(path.read_bytes())
+            digest.update(memo.code_digest(path.read_bytes()).encode())
+    memo.save()
     return digest.hexdigest()[:16]
+
+
+def code_digest(source: bytes) -> str:
+    """sha256 of a module's syntax tree without docstrings or other bare string statements (comments and
+    layout never reach the tree; line numbers are left out of the dump)."""
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list):
+            kept = [s for s in body if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant)
+                                            and isinstance(s.value.value, str))]
+            node.body = kept or [ast.Pass()]
+    return hashlib.sha256(ast.dump(tree).encode()).hexdigest()
+
+
+class _DigestMemo:
+    """code_digest by the sha256 of a file's bytes, kept in `user_cache_dir()/code-digests.json`: parsing the
+    numeric core costs about 0.1 s, paid on every import otherwise. Keyed by content, so it cannot go stale;
+    an unreadable memo is only recomputed, and one that cannot be written is skipped."""
+
+    LIMIT = 400  # entries kept: a few checkouts' worth of the core's ~50 modules
+
+    def __init__(self):
+        self.path = Path(user_cache_dir()) / "code-digests.json"
+        try:
+            self.entries = dict(json.loads(self.path.read_text()))
+        except (OSError, ValueError, TypeError):
+            self.entries = {}
+        self.changed = False
+
+    def code_digest(self, source: bytes) -> str:
+        key = hashlib.sha256(source).hexdigest()
+        if not isinstance(self.entries.get(key), str):
+            self.entries[key] = code_digest(source)
+            self.changed = True
+        return self.entries[key]
+
+    def save(self) -> None:
+        if not self.changed:
+            return
+        from liaison_cli.storage import write_text_atomic
+
+        kept = dict(list(self.entries.items())[-self.LIMIT :])
+        try:
+            write_text_atomic(json.dumps(kept), self.path)
+        except OSError:
+            pass  # a read-only cache folder: the next import parses again
 
 
 def user_cache_dir() -> str:

@@ -2,7 +2,7 @@
 
 import pytest
 
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli, run_cli_in_process
 
 GOOD = (SCENARIOS / "smoke.yaml").read_text()
 
@@ -37,9 +37,11 @@ CASES = {
 
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_bad_scenario_gives_one_line_and_exit_2(tmp_path, case):
+    """In this process (the loader's message and user_errors' exit are the behaviour); the tests below
+    launch the real command for the same path: a missing file, YAML tags."""
     text, expected = CASES[case]
     path = _case(tmp_path, text)
-    proc = run_cli("run", path, "--output", tmp_path / "out")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out")
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     lines = proc.stderr.strip().splitlines()

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
 from liaison_cli.analysis.metrics import chi2_quantile
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import allan_deviation_model, simulate_clock
@@ -296,7 +296,7 @@ def test_tables002_consistency_pools_the_runs_that_finished_and_marks_a_ratio_ab
 ])
 def test_bad_002_input_is_one_line(tmp_path, old, new, fragments):
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", old, new)
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, fragments)
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, fragments)
 
 
 def test_sliding_windows_renew_the_solve_from_the_previous_one():
@@ -318,12 +318,12 @@ def test_sliding_windows_renew_the_solve_from_the_previous_one():
 def test_windows_without_renewal_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "  prediction_hours: 3\n",
                            "  prediction_hours: 3\n  windows: 3\n")
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["batch", "windows = 3 needs 'renewal_hours'"])
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, ["batch", "windows = 3 needs 'renewal_hours'"])
 
 
 def test_batch_section_without_the_batch_estimator_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "estimator: batch", "estimator: ekf")
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["key 'estimator' = 'ekf' with a 'batch' section"])
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, ["key 'estimator' = 'ekf' with a 'batch' section"])
 
 
 def test_tables002_and_errors_refuse_what_they_cannot_read(tmp_path):

@@ -145,7 +145,7 @@ def test_sigma_sweep_over_a_tone_scenario_keeps_the_carrier_sigmas():
 
 
 def test_budget_command_prints_tone_doppler_los_and_the_eq65_ratio(tmp_path):
-    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli, run_cli_in_process
 
     proc = run_cli("budget", SCENARIOS / "links" / "table2_tone_doppler.yaml")
     assert proc.returncode == 0, proc.stderr
@@ -156,4 +156,4 @@ def test_budget_command_prints_tone_doppler_los_and_the_eq65_ratio(tmp_path):
     bad = tmp_path / "bad_link.yaml"
     bad.write_text((SCENARIOS / "links" / "table2_tone_doppler.yaml").read_text()
                    .replace("  doppler_count_s: 1\n", "  doppler_count_s: 0\n"))
-    assert_one_line_error(run_cli("budget", bad), bad, ["carrier.doppler_count_s", "0", "greater than 0"])
+    assert_one_line_error(run_cli_in_process("budget", bad), bad, ["carrier.doppler_count_s", "0", "greater than 0"])

@@ -16,17 +16,55 @@ def test_numba_cache_dir_is_keyed_by_core_source():
     assert out.stdout.strip().endswith(liaison_cli.core_source_hash())
 
 
-def test_hash_covers_callees_of_the_filter_loop(tmp_path, monkeypatch):
-    # A change in crtbp.py alone (inlined into the filter loop) must change the key.
+def _core_copy(tmp_path, monkeypatch):
+    """A copy of the package that core_source_hash reads instead of the real one."""
     import shutil
     from pathlib import Path
 
     fake = tmp_path / "liaison_cli"
     shutil.copytree(Path(liaison_cli.__file__).parent, fake, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(liaison_cli, "__file__", str(fake / "__init__.py"))
+    return fake
+
+
+def test_hash_covers_callees_of_the_filter_loop(tmp_path, monkeypatch):
+    # A code change in crtbp.py alone (inlined into the filter loop) must change the key.
+    crtbp = _core_copy(tmp_path, monkeypatch) / "dynamics" / "crtbp.py"
     before = liaison_cli.core_source_hash()
-    (fake / "dynamics" / "crtbp.py").write_text((fake / "dynamics" / "crtbp.py").read_text() + "\n# changed\n")
+    crtbp.write_text(crtbp.read_text() + "\nEDITED_CONSTANT = 1.0\n")
     assert liaison_cli.core_source_hash() != before
+
+
+def test_a_changed_number_in_the_code_changes_the_key(tmp_path, monkeypatch):
+    crtbp = _core_copy(tmp_path, monkeypatch) / "dynamics" / "crtbp.py"
+    text = crtbp.read_text()
+    assert "0.5" in text
+    before = liaison_cli.core_source_hash()
+    crtbp.write_text(text.replace("0.5", "0.50001", 1))
+    assert liaison_cli.core_source_hash() != before
+
+
+def test_comments_and_docstrings_do_not_change_the_key(tmp_path, monkeypatch):
+    """Edited prose (a module, function or class docstring, a comment, blank lines that shift every line
+    number) keeps the compiled cache: only code is hashed."""
+    crtbp = _core_copy(tmp_path, monkeypatch) / "dynamics" / "crtbp.py"
+    text = crtbp.read_text()
+    before = liaison_cli.core_source_hash()
+    assert text.startswith('"""') and '    """' in text
+    edited = ('"""An edited module docstring."""\n\n# a new comment\n\n' + text.split('"""', 2)[2]).replace(
+        '    """', '    """Reworded. ', 1)
+    crtbp.write_text(edited + "\n# a comment at the end\n")
+    assert liaison_cli.core_source_hash() == before
+
+
+def test_code_digest_strips_prose_only():
+    from liaison_cli import code_digest
+
+    plain = b"def f(x):\n    return 2 * x\n"
+    documented = b'"""Module."""\n# note\n\ndef f(x):\n    """Twice x."""\n    return 2 * x  # why\n'
+    assert code_digest(documented) == code_digest(plain)
+    assert code_digest(b"def f(x):\n    return 3 * x\n") != code_digest(plain)
+    assert code_digest(b"def f(x):\n    return '2' * x\n") != code_digest(plain)  # a string in code counts
 
 
 def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):

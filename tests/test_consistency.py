@@ -11,7 +11,7 @@ from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, nees_run_band
 from liaison_cli.campaign import results as results_module
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
 
 MATCHED = {"initial_error.draw": "from_covariance", "measurement.light_time": False,
            "spacecraft.1.process_noise_accel_m_s2": 1e-7, "filter.settle_days": 0.25}
@@ -72,7 +72,7 @@ def test_run_prints_the_consistency_table_and_marks_an_inconsistent_spacecraft(t
 
 def test_a_settle_time_beyond_the_scenario_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "smoke.yaml", "monte_carlo:", "filter: {settle_days: 2}\nmonte_carlo:")
-    assert_one_line_error(run_cli("run", path, "--output", tmp_path / "out"), path,
+    assert_one_line_error(run_cli_in_process("run", path, "--output", tmp_path / "out"), path,
                           ["filter.settle_days = 2", "shorter than the scenario's 1.25 d"])
 
 

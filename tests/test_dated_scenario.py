@@ -4,7 +4,7 @@ errors agree with the error budget; dated bad input is one line."""
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.campaign.error_budget import error_budget
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU
@@ -44,7 +44,7 @@ def test_dated_scenario_runs_and_matches_its_error_budget():
 ])
 def test_bad_dated_input_is_one_line(tmp_path, old, new, fragments):
     path = edited_scenario(tmp_path, "eph_eml1_eml2_dsn.yaml", old, new)
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, fragments)
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, fragments)
 
 
 def test_dynamics_ephemeris_without_an_epoch_is_one_line(tmp_path):
@@ -53,7 +53,7 @@ def test_dynamics_ephemeris_without_an_epoch_is_one_line(tmp_path):
     end = text.index("spacecraft:")
     path = tmp_path / "bad.yaml"
     path.write_text(text[:start] + text[end:])
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["'dynamics' = 'ephemeris' needs an 'ephemeris'"])
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, ["'dynamics' = 'ephemeris' needs an 'ephemeris'"])
 
 
 def test_a_link_can_carry_its_own_noise():

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from conftest import assert_one_line_error, edited_scenario, run_cli
+from conftest import assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2
 from liaison_cli.orbits.departure import asymptote_angles_deg, asymptote_unit, departure_state_km
 from liaison_cli.orbits.departure_missions import DEPARTURE_MISSIONS, _heliocentric, derived_launch_targets
@@ -114,7 +114,7 @@ def test_a_departure_scenario_starts_on_its_hyperbola():
 ])
 def test_bad_departure_and_dsn_input_is_one_line(tmp_path, old, new, fragments):
     path = edited_scenario(tmp_path, "003/msl.yaml", old, new)
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, fragments)
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, fragments)
 
 
 def test_a_dsn_site_in_the_crtbp_is_one_line(tmp_path):
@@ -122,4 +122,4 @@ def test_a_dsn_site_in_the_crtbp_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "nrho_earth_station.yaml",
                            "{name: Canberra, latitude_deg: -35.4014, longitude_deg: 0.0, altitude_m: 680,",
                            "{name: Canberra, site: canberra,")
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, ["ground_stations[0].site", "dynamics: ephemeris"])
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, ["ground_stations[0].site", "dynamics: ephemeris"])

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, run_cli
+from conftest import SCENARIOS, assert_one_line_error, run_cli, run_cli_in_process
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.error_budget import consistency, error_budget, monte_carlo_check, part_of, shares
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
@@ -81,7 +81,7 @@ def test_unknown_source_is_one_line():
 
 def test_scenario_without_a_filter_section_is_one_line():
     path = SCENARIOS / "smoke.yaml"  # leaves the filter to its defaults
-    assert_one_line_error(run_cli("errors", path), path, ["key 'filter' is missing", "error budget"])
+    assert_one_line_error(run_cli_in_process("errors", path), path, ["key 'filter' is missing", "error budget"])
 
 
 def _matched_smoke(**extra):

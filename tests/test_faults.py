@@ -9,24 +9,14 @@ import socket
 import threading
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
-from liaison_cli.cli import app
 from liaison_cli.errors import ScenarioError
 from liaison_cli.scenario.schema import load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario
-
-
-def cli(*args):
-    """The CLI in this process; returns what assert_one_line_error reads (exit code, stderr)."""
-    result = CliRunner().invoke(app, [str(a) for a in args])
-    if result.exception is not None and not isinstance(result.exception, SystemExit):
-        raise result.exception  # a traceback the user would see: fail loudly with it
-    return SimpleNamespace(returncode=result.exit_code, stderr=result.stderr, stdout=result.stdout)
+from tests.conftest import run_cli_in_process as cli
 
 
 def refused(path, fragments):

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.campaign.error_budget import error_budget
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
@@ -60,5 +60,5 @@ def test_a_manoeuvre_outside_the_scenario_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "eml2_lunar.yaml", "    orbit: eml2_halo\n",
                            "    orbit: eml2_halo\n    manoeuvre: {epoch_days: 12, delta_v_m_s: [1, 0, 0], "
                            "apriori_sigma_m_s: 0.1}\n")
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path,
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path,
                           ["spacecraft[0].manoeuvre.epoch_days = 12", "outside the scenario"])

@@ -7,7 +7,7 @@ from liaison_cli.campaign.results import summary_table
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.report.compare import compare_rows
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 
 def _links(name):
@@ -43,7 +43,7 @@ BAD = {
 def test_bad_topology_is_one_line_exit_2(tmp_path, case):
     old, new, expected = BAD[case]
     path = edited_scenario(tmp_path, "c3_star_lunar_hub.yaml", old, new)
-    assert_one_line_error(run_cli("run", path, "--output", tmp_path / "o"), path, expected)
+    assert_one_line_error(run_cli_in_process("run", path, "--output", tmp_path / "o"), path, expected)
 
 
 def test_lunar_hub_beats_halo_hubs_and_mesh_beats_every_star():

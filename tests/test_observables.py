@@ -10,7 +10,7 @@ from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.measurements.los import azimuth_elevation, azimuth_elevation_gradients, los_sigma_rad
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.report.compare import compare_rows
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
 
 
 def test_los_partials_match_central_differences():
@@ -89,4 +89,4 @@ BAD_LINKS = {
 def test_observable_the_link_cannot_make_is_one_line_exit_2(tmp_path, case):
     old, new, expected = BAD_LINKS[case]
     path = edited_scenario(tmp_path, "mt_eml2_lunar_range_rate_los.yaml", old, new)
-    assert_one_line_error(run_cli("run", path, "--output", tmp_path / "o"), path, expected)
+    assert_one_line_error(run_cli_in_process("run", path, "--output", tmp_path / "o"), path, expected)

@@ -11,7 +11,7 @@ from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli, run_cli_in_process
 
 
 def test_a_non_finite_innovation_ends_the_run_as_diverged():
@@ -24,9 +24,10 @@ def test_a_non_finite_innovation_ends_the_run_as_diverged():
 
 
 @pytest.mark.parametrize("name", ["x/../../victim", "../up", "a/b", ".hidden", "a..b"])
-def test_sweep_name_must_be_plain(tmp_path, name):
-    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100,200", "--runs", "1", "--name", name,
-                   "--overwrite", cwd=tmp_path)
+def test_sweep_name_must_be_plain(tmp_path, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)  # refused before any work: in this process, run from tmp_path
+    proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100,200", "--runs", "1", "--name",
+                              name, "--overwrite")
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "--name" in proc.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written anywhere below the working folder
@@ -172,7 +173,7 @@ def test_a_corrupt_curve_given_to_plot_is_one_line_exit_4(tmp_path):
 @pytest.mark.parametrize("command", [["run", SCENARIOS / "smoke.yaml"], ["sweep", SCENARIOS / "smoke.yaml",
                                                                          "--sigma", "100"]])
 def test_runs_on_the_command_line_obey_the_scenario_cap(tmp_path, command):
-    proc = run_cli(*command, "--runs", "10000000", "--output", tmp_path / "o")
+    proc = run_cli_in_process(*command, "--runs", "10000000", "--output", tmp_path / "o")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "--runs 10000000" in proc.stderr and "1,000,000" in proc.stderr and not (tmp_path / "o").exists()
 

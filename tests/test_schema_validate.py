@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO, SCENARIOS, assert_one_line_error, run_cli
+from tests.conftest import REPO, SCENARIOS, assert_one_line_error, run_cli, run_cli_in_process
 from liaison_cli import __version__
 from liaison_cli.errors import ScenarioError
 from liaison_cli.scenario.json_schema import (
@@ -196,7 +196,7 @@ def test_schema_command_prints_and_writes_the_generated_schema(tmp_path):
     out = tmp_path / "new" / SCHEMA_FILE_NAME
     wrote = run_cli("schema", "--output", out)
     assert wrote.returncode == 0 and out.read_text(encoding="utf-8") == scenario_json_schema_text(), wrote.stderr
-    assert_one_line_error(run_cli("schema", "--output", tmp_path), tmp_path, ["a directory"])
+    assert_one_line_error(run_cli_in_process("schema", "--output", tmp_path), tmp_path, ["a directory"])
 
 
 def test_validate_passes_every_shipped_file_quickly():
@@ -243,7 +243,7 @@ def test_validate_gives_one_line_per_bad_file_and_exit_2(tmp_path):
 
 
 def test_a_directory_alone_is_one_line():
-    assert_one_line_error(run_cli("validate", SCENARIOS), SCENARIOS, ["a directory; allowed: a regular YAML file"])
+    assert_one_line_error(run_cli_in_process("validate", SCENARIOS), SCENARIOS, ["a directory; allowed: a regular YAML file"])
 
 
 def test_version_option_prints_the_package_version():

@@ -122,8 +122,8 @@ def test_the_smoother_in_a_campaign_is_consistent_and_better_than_the_filter():
 
 
 def test_the_smoother_is_refused_where_it_does_not_apply(tmp_path):
-    from tests.conftest import assert_one_line_error, edited_scenario, run_cli
+    from tests.conftest import assert_one_line_error, edited_scenario, run_cli_in_process
 
     path = edited_scenario(tmp_path, "bias_eml2_lunar.yaml", "  bias: consider", "  bias: consider\n  smoother: rts")
-    assert_one_line_error(run_cli("run", path, "--output", tmp_path / "o"), path,
+    assert_one_line_error(run_cli_in_process("run", path, "--output", tmp_path / "o"), path,
                           ["filter.smoother = 'rts' with filter.bias = 'consider'"])

@@ -59,3 +59,28 @@ def test_both_readings_of_003s_dsn_noise_set_every_ground_link():
     crosslinks = [link for link in text.links if not {link.receiver, link.transponder} & stations]
     assert [link.noise for link in crosslinks] == [link.noise for link in scenario.links
                                                    if not {link.receiver, link.transponder} & stations]
+
+
+def test_a_missions_cases_fly_its_trajectories_once(monkeypatch):
+    """The three cases differ only in their links: the study propagates (and corrects) a mission's
+    trajectories once, and a case read from the shared truth gets what it would have flown on its own."""
+    import numpy as np
+
+    from liaison_cli.campaign import study003
+    from liaison_cli.scenario import setup
+    from liaison_cli.scenario.schema import apply_overrides
+
+    scenario, _ = load_scenario(CASSINI)
+    short = apply_overrides(scenario, {"duration_days": 2})
+    flown = []
+    real = setup._trajectories
+    monkeypatch.setattr(setup, "_trajectories", lambda *args: flown.append(args[0].name) or real(*args))
+    summary, _, scenarios = study003.run_study([("cassini", short)], runs=1, jobs=1, progress=False)
+    assert len(flown) == 1 and len(summary) == 2 * len(CASES)
+    shared: dict = {}
+    setup.prepare_problem(scenarios[(0, "cassini", "full")], shared)
+    from_shared = setup.prepare_problem(scenarios[(0, "cassini", "liaison_only")], shared)
+    alone = setup.prepare_problem(scenarios[(0, "cassini", "liaison_only")])
+    assert len(flown) == 3  # the full set's flight, then the case alone; the shared one read the cache
+    assert np.array_equal(from_shared.truth, alone.truth)
+    assert np.array_equal(from_shared.measurements_true, alone.measurements_true, equal_nan=True)

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
@@ -62,7 +62,7 @@ def test_dop_is_the_inverse_gradient_and_favours_long_baselines():
 ])
 def test_bad_tdoa_input_is_one_line(tmp_path, old, new, fragments):
     path = edited_scenario(tmp_path, "004/eml2_halo.yaml", old, new)
-    assert_one_line_error(run_cli("run", path, "--runs", "1"), path, fragments)
+    assert_one_line_error(run_cli_in_process("run", path, "--runs", "1"), path, fragments)
 
 
 def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):

@@ -165,11 +165,12 @@ def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, pr
             base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
             if dsn_noise is not None:  # otherwise the file's own ground-link noise
                 base = with_dsn_noise(base, dsn_noise)
+            shared: dict = {}  # the cases differ only in links: their trajectories are flown once
             for case in CASES:
                 reduced = case_scenario(base, mission, case)
                 scenarios[(index, mission, case)] = reduced
                 campaign = run_campaign(reduced, runs=runs, jobs=jobs, progress=progress,
-                                        description=f"{mission} {case}")
+                                        description=f"{mission} {case}", truth_cache=shared)
                 result = _statistics(campaign, mission, case)
                 for part in (result.summary, result.history):
                     for key, value in point.items():

@@ -32,7 +32,8 @@ from liaison_cli.orbits.departure_missions import (
     parking_inclination_deg,
     periapsis_radius_km,
 )
-from liaison_cli.orbits.ephemeris_correction import ForceModel, multiple_shooting, patch_points_from_crtbp
+from liaison_cli.orbits.corrected_store import corrected_orbit
+from liaison_cli.orbits.ephemeris_correction import ForceModel
 from liaison_cli.scenario.reference_states import phased_state_lu
 
 THIRD_BODIES = (301, 10, 1, 2, 4, 5, 6, 7, 8, 9)  # Moon, Sun, the planets' systems
@@ -99,9 +100,7 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
     forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
     span_s = scenario.duration_days * SECONDS_PER_DAY
     spacing_s = min(scenario.ephemeris.node_spacing_days * SECONDS_PER_DAY, span_s)
-    times, nodes = patch_points_from_crtbp(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s,
-                                           forces)
-    corrected = multiple_shooting(times, nodes, forces)
+    corrected, _ = corrected_orbit(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s, forces)
     if not corrected.converged:
         raise OrbitCorrectionError(
             f"{scenario.name}: spacecraft {spacecraft.name!r}: multiple shooting of {spacecraft.orbit!r} over "
