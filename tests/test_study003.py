@@ -67,14 +67,14 @@ def test_a_missions_cases_fly_its_trajectories_once(monkeypatch):
     import numpy as np
 
     from liaison_cli.campaign import study003
-    from liaison_cli.scenario import setup
+    from liaison_cli.scenario import setup, truth
     from liaison_cli.scenario.schema import apply_overrides
 
     scenario, _ = load_scenario(CASSINI)
     short = apply_overrides(scenario, {"duration_days": 2})
     flown = []
-    real = setup._trajectories
-    monkeypatch.setattr(setup, "_trajectories", lambda *args: flown.append(args[0].name) or real(*args))
+    real = truth._trajectories
+    monkeypatch.setattr(truth, "_trajectories", lambda *args: flown.append(args[0].name) or real(*args))
     summary, _, scenarios = study003.run_study([("cassini", short)], runs=1, jobs=1, progress=False)
     assert len(flown) == 1 and len(summary) == 2 * len(CASES)
     shared: dict = {}

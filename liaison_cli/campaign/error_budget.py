@@ -140,7 +140,7 @@ def error_budget(problem: Problem) -> Budget:
         from liaison_cli.dynamics.ephemeris_model import with_cr_scaled
 
         off_by_sigma = list(args)
-        off_by_sigma[20] = with_cr_scaled(f.model_params, 1.0 + cr_sigma)
+        off_by_sigma[6] = f.dynamics()._replace(params=with_cr_scaled(f.model_params, 1.0 + cr_sigma))
         parts["cr"] = _per_spacecraft((run_lincov(*off_by_sigma)[4] - mu_dyn) ** 2, n_sc)
     total_mean = mu_meas + mu_dyn + bias_mean
     parts["deterministic_cross"] = _per_spacecraft(total_mean**2, n_sc) - sum(parts[k] for k in DETERMINISTIC)

@@ -74,7 +74,7 @@ def recompute_run(problem: Problem, run: int) -> RecomputedRun:
     """Run `run` of the problem again with the EKF's forward record kept."""
     from liaison_cli.estimation.estimators import ekf_with_record
 
-    if problem.scenario.estimator != "ekf":
+    if not problem.scenario.estimator_descriptor().smoother:  # the smoother's forward record holds P per epoch
         raise ExchangeFileError(f"{problem.scenario.name}: export needs the EKF (estimator: ekf), whose covariance "
                                 f"is kept per epoch; this result used {problem.scenario.estimator}")
     if problem.scenario.filter.initial_batch_hours is not None:

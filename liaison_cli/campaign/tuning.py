@@ -181,7 +181,7 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
     estimated = [sc.name for sc in scenario.spacecraft if sc.role == "estimated"]
     folder = work / case.label
     ladder_stats, shipped_stats = [], None
-    if scenario.estimator == "ekf":
+    if scenario.estimator_descriptor().process_noise:
         plan, table = _run_point_sweep(case, ladder_base(scenario, ladder), [(SNC_KEY, list(ladder))], runs, folder,
                                        jobs, progress)
         stats = rung_statistics(table)

@@ -20,7 +20,8 @@ class Estimator:
     What it supports: the scenario dynamics it runs with, the RTS smoother over its pass (filter.smoother),
     considered biases (filter.bias: consider), the residual gate (filter.residual_gate_sigma), the error
     budget (estimation.lincov mirrors its gain, so campaign.error_budget can split its error), a start from an
-    initial batch solution (filter.initial_batch_hours, estimation.initial_batch).
+    initial batch solution (filter.initial_batch_hours, estimation.initial_batch), process noise (the SNC that
+    `liaison tune` chooses; a batch has none).
     settings_section: the scenario section of its own settings, given exactly when it is chosen (None: the
     filter section only)."""
 
@@ -37,3 +38,4 @@ class Estimator:
     residual_gate: bool = False
     error_budget: bool = False
     initial_batch: bool = False
+    process_noise: bool = False

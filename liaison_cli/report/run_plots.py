@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.report.run_result import RunResult
 
-SECONDS_PER_DAY = 86400.0
 FAINT = {"color": "0.55", "alpha": 0.35, "linewidth": 0.7, "rasterized": True}
 HIGHLIGHT = "tab:blue"
 SIGMA_COLOUR = "tab:orange"
