@@ -69,8 +69,11 @@ COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first r
 
 
 def _announce_compilation() -> None:
-    """One line on stderr when numba starts compiling liaison code (a cache miss), so a new user knows why
-    the first run is slow. Loading from the cache is not compiling and stays silent."""
+    """One line on stderr (a `note:` of the `liaison` logger) when numba starts compiling liaison code (a cache
+    miss), so a new user knows why the first run is slow. Loading from the cache is not compiling and stays
+    silent."""
+    import logging
+
     from numba.core import event
 
     class Notice(event.Listener):
@@ -80,7 +83,7 @@ def _announce_compilation() -> None:
             function = getattr(ev.data.get("dispatcher"), "py_func", None)
             if not Notice.shown and getattr(function, "__module__", "").startswith("liaison_cli"):
                 Notice.shown = True
-                typer.echo(COMPILE_NOTICE, err=True)
+                logging.getLogger("liaison").warning(COMPILE_NOTICE)  # through -v's logger, as a note
 
         def on_end(self, ev):
             pass
