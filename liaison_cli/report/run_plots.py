@@ -54,6 +54,16 @@ def _save(fig, stem: Path) -> list[Path]:
     return paths
 
 
+def _other_runs_faint(ax, table, column: str, highlight: int):
+    """Every run but the highlighted one as a faint line of `column`; returns the highlighted run's rows and
+    their times in days."""
+    for run, group in table.groupby("run"):
+        if run != highlight:
+            ax.plot(_days(group.t_s), group[column], **FAINT)
+    chosen = table[table.run == highlight]
+    return chosen, _days(chosen.t_s)
+
+
 def _days(t_s) -> np.ndarray:
     return np.asarray(t_s, dtype=float) / SECONDS_PER_DAY
 
@@ -73,11 +83,7 @@ def _draw_errors(result: RunResult, highlight: int):
         for col, (error, sigma, unit) in enumerate((("position_error_m", "position_3sigma_m", "m"),
                                                     ("velocity_error_m_s", "velocity_3sigma_m_s", "m/s"))):
             ax = axes[row, col]
-            for run, group in mine.groupby("run"):
-                if run != highlight:
-                    ax.plot(_days(group.t_s), group[error], **FAINT)
-            chosen = mine[mine.run == highlight]
-            t = _days(chosen.t_s)
+            chosen, t = _other_runs_faint(ax, mine, error, highlight)
             ax.fill_between(t, 0, chosen[sigma], color=SIGMA_COLOUR, alpha=0.15, linewidth=0)
             ax.plot(t, chosen[sigma], color=SIGMA_COLOUR, linewidth=1.2, label=f"3σ (run {highlight})")
             ax.plot(t, chosen[error], color=HIGHLIGHT, linewidth=1.0, label=f"error, run {highlight}")
@@ -183,11 +189,7 @@ def _draw_clocks(result: RunResult, highlight: int):
         for col, (error, sigma, label) in enumerate((("phase_error_ns", "phase_sigma_ns", "phase (ns)"),
                                                      ("frequency_error", "frequency_sigma", "frequency (s/s)"))):
             ax = axes[row, col]
-            for run, group in mine.groupby("run"):
-                if run != highlight:
-                    ax.plot(_days(group.t_s), group[error], **FAINT)
-            chosen = mine[mine.run == highlight]
-            t = _days(chosen.t_s)
+            chosen, t = _other_runs_faint(ax, mine, error, highlight)
             ax.fill_between(t, -3 * chosen[sigma], 3 * chosen[sigma], color=SIGMA_COLOUR, alpha=0.2, linewidth=0,
                             label=f"±3σ (run {highlight})")
             ax.plot(t, chosen[error], color=HIGHLIGHT, linewidth=1.0, label=f"error, run {highlight}")
