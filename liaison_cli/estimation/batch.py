@@ -187,21 +187,31 @@ class BatchSolution:
     corrections: tuple
 
 
+def equilibrated_solve(lam, rhs):
+    """Lambda dx = N by Cholesky after symmetric scaling by D = diag(Lambda) (module docstring): (dx, Lambda^-1),
+    or (None, None) when Lambda is not positive definite."""
+    d = np.sqrt(np.diag(lam))
+    if not np.all(np.isfinite(d)) or np.any(d <= 0.0):
+        return None, None
+    try:
+        L = np.linalg.cholesky(lam / np.outer(d, d))
+    except np.linalg.LinAlgError:
+        return None, None
+    dx = np.linalg.solve(L.T, np.linalg.solve(L, rhs / d)) / d
+    L_inv = np.linalg.solve(L, np.eye(lam.shape[0]))
+    return dx, (L_inv.T @ L_inv) / np.outer(d, d)
+
+
 def _solve_equilibrated(lam, rhs):
-    """Cholesky solve of Lambda dx = N after scaling by D = diag(Lambda); returns dx, Lambda^-1, cond."""
+    """equilibrated_solve refused above CONDITION_LIMIT; returns dx, Lambda^-1, cond (equilibrated)."""
     d = np.sqrt(np.diag(lam))
     if not np.all(np.isfinite(d)) or np.any(d <= 0.0):
         return None, None, np.inf
-    scaled = lam / np.outer(d, d)
-    eig = np.linalg.eigvalsh(scaled)
+    eig = np.linalg.eigvalsh(lam / np.outer(d, d))
     cond = float(eig[-1] / eig[0]) if eig[0] > 0 else np.inf
     if not np.isfinite(cond) or cond > CONDITION_LIMIT:
         return None, None, cond
-    L = np.linalg.cholesky(scaled)
-    z = np.linalg.solve(L, rhs / d)
-    dx = np.linalg.solve(L.T, z) / d
-    L_inv = np.linalg.solve(L, np.eye(lam.shape[0]))
-    cov = (L_inv.T @ L_inv) / np.outer(d, d)
+    dx, cov = equilibrated_solve(lam, rhs)
     return dx, cov, cond
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.model import literal_entry
+from liaison_cli.estimation.batch import equilibrated_solve
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import channel_states, scatter_partials, time_update
 from liaison_cli.measurements.registry import kinds_mask, predict_for, residual
@@ -224,7 +225,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         if not (np.isfinite(cost) and np.all(np.isfinite(lam))):
             status = "non-finite residuals or partials"
             break
-        dx, cov = _solve(lam, rhs)
+        dx, cov = equilibrated_solve(lam, rhs)
         if dx is None:
             status = "normal equations not positive definite"
             break
@@ -233,7 +234,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
             corrections.append(float(np.max(np.abs(dx[position]))))
             lam, rhs, q_acc, weighted_ss, cost = linearise(x)
             status = INITIAL_BATCH_OK
-            _, cov = _solve(lam, rhs)
+            _, cov = equilibrated_solve(lam, rhs)
             break
         for _ in range(MAX_HALVINGS + 1):
             trial = linearise(x + dx)
@@ -248,7 +249,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         corrections.append(float(np.max(np.abs(dx[position]))))
         if _negligible(dx[position], cov, position, settings.tolerance_lu):
             status = INITIAL_BATCH_OK
-            _, cov = _solve(lam, rhs)  # the covariance at the solution
+            _, cov = equilibrated_solve(lam, rhs)  # the covariance at the solution
             break
     if status != INITIAL_BATCH_OK or cov is None:
         status = status if status != INITIAL_BATCH_OK else "normal equations not positive definite"
@@ -268,18 +269,3 @@ def _negligible(step, cov, position, tolerance_lu) -> bool:
     step there is noise, not progress."""
     sigma = np.sqrt(np.abs(np.diag(cov)[position]))
     return bool(np.max(np.abs(step)) < tolerance_lu or np.all(np.abs(step) < STEP_SIGMA_FRACTION * sigma))
-
-
-def _solve(lam, rhs):
-    """Lambda dx = N by Cholesky after equilibration by diag(Lambda) (positions and velocities differ by orders
-    of magnitude in information); (dx, Lambda^-1), or (None, None) when Lambda is not positive definite."""
-    d = np.sqrt(np.diag(lam))
-    if not np.all(d > 0.0):
-        return None, None
-    try:
-        L = np.linalg.cholesky(lam / np.outer(d, d))
-    except np.linalg.LinAlgError:
-        return None, None
-    dx = np.linalg.solve(L.T, np.linalg.solve(L, rhs / d)) / d
-    L_inv = np.linalg.solve(L, np.eye(lam.shape[0]))
-    return dx, (L_inv.T @ L_inv) / np.outer(d, d)
