@@ -3,7 +3,7 @@
 The coefficients are copied from scipy's private module scipy.integrate._ivp.dop853_coefficients once, here,
 so that liaison never reads a private scipy file at run time (a scipy release that moves it would otherwise
 break every command at import). repr() of a float round-trips exactly, so the vendored values equal scipy's
-bit for bit; tests/test_durability.py checks that against the installed scipy.
+bit for bit; tests/unit/storage/test_durability.py checks that against the installed scipy.
 
 Run from the repository root:  python tools/vendor_dop853_tableau.py
 """

@@ -135,7 +135,7 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
 def chi2_quantile(probability: float, dof: float) -> float:
     """The chi-square quantile with `dof` degrees of freedom: x with P(dof / 2, x / 2) = probability, P the
     regularised lower incomplete gamma function. Pure Python: importing scipy.special cost 50 ms at every
-    start. Against scipy.stats.chi2.ppf (tests/test_engine_parts.py): within 1e-11 relative for 1 to 120,000
+    start. Against scipy.stats.chi2.ppf (tests/unit/estimation/test_engine_parts.py): within 1e-11 relative for 1 to 120,000
     degrees of freedom and probabilities 1e-6 to 1 - 1e-6; within 1e-11 up to 1e7 degrees of freedom at the
     probabilities liaison asks for (0.025, 0.975, 0.999)."""
     if not 0.0 < probability < 1.0 or dof <= 0.0:

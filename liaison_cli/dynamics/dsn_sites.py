@@ -6,7 +6,7 @@ WGS84 geodetic latitude, longitude and height here, the form a scenario's ground
 
 Source: J. Astron. Space Sci. 40(2), 79 (2023), Table 1 (DSN antennas allocated to KPLO): DSS 14, 43, 63.
 They agree with the IAU Commission 4 list of DSN coordinates (ITRF2005, epoch 2003.0) to 0.07 m (DSS 14)
-and 0.11 m (DSS 43), far below the 10 m station noise of 003; tests/test_dsn_tracking.py keeps that check.
+and 0.11 m (DSS 43), far below the 10 m station noise of 003; tests/unit/measurements/test_dsn_tracking.py keeps that check.
 VLBA: NRAO's VLBA Observational Status Summary, Table 1 (WGS84 geodetic, degrees-minutes-seconds, metres).
 """
 

@@ -7,7 +7,7 @@ r_GCRF = Q(X, Y, s) R3(-ERA) W(x_p, y_p, s') r_ITRF (IERS Conventions 2010, the 
 - W: polar motion x_p, y_p from the same file, with the TIO locator s' (erfa.pom00, erfa.sp00).
 UTC -> TT as in dynamics.timescales. Beyond the IERS predictions the Earth orientation parameters are held
 (dynamics.iers_eop's rule). Stations agree with skyfield's, given the same IERS file, to 0.2 mm
-(tests/test_earth_rotation.py). Station coordinates are WGS84 geodetic (dynamics.ground_station).
+(tests/unit/dynamics/test_earth_rotation.py). Station coordinates are WGS84 geodetic (dynamics.ground_station).
 Units: km, rad, s.
 """
 

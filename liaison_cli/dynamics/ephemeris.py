@@ -7,7 +7,7 @@ no Python in the loop. Frame: ICRF axes; centre: the Earth (geocentric states, k
 seconds past J2000 (2000-01-01 12:00 TDB); `dynamics.timescales` converts calendar UTC to it.
 
 Geocentric states: a system barycentre or the Sun is [SSB -> body] - [SSB -> EMB] - [EMB -> Earth]; the Moon
-is [EMB -> Moon] - [EMB -> Earth]. Checked against skyfield on the same file (tests/test_ephemeris.py).
+is [EMB -> Moon] - [EMB -> Earth]. Checked against skyfield on the same file (tests/unit/dynamics/test_ephemeris.py).
 """
 
 import os

@@ -174,7 +174,7 @@ def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rto
     every shadow edge (penumbra and umbra of the Earth and the Moon, located as events): the conical
     shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at 864 s: 1.6 m after
     9 days; DOP853 without the restarts: 0.6 m). Tolerances rtol 1e-12, atol 1e-9 km; after 9 days with one
-    eclipse this truth is within 2.3 cm of itself at rtol 1e-13 (tests/test_ephemeris.py)."""
+    eclipse this truth is within 2.3 cm of itself at rtol 1e-13 (tests/unit/dynamics/test_ephemeris.py)."""
     from scipy.integrate import solve_ivp
 
     times_s = np.asarray(times_s, dtype=float)

@@ -24,7 +24,7 @@ MODEL_CRTBP = 0
 
 # Truth: compiled fixed-step RK4 of at most 10 s. Over 10 days it agrees with DOP853 at rtol 1e-13 to
 # 2.0 mm for the 9,000 km lunar orbiter (DOP853 at the former rtol 1e-12 is itself 2 cm off); see
-# tests/test_dynamics.py.
+# tests/unit/dynamics/test_dynamics.py.
 TRUTH_MAX_STEP_S = 10.0
 
 

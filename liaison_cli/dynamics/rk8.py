@@ -4,7 +4,7 @@ Sundman-type rule: the step never exceeds STEP_FRACTION of the local Kepler time
 nearer primary. Near the Moon at the perilune of an NRHO (r ~ 3,200 km) that is ~40 s; at apolune
 (70,000 km) ~1 h. The rule needs no adaptive integrator per run: the batch estimator and every Monte
 Carlo run of a scenario reuse one schedule computed on the nominal trajectory. Accuracy against DOP853 at
-rtol 1e-13 is tested in tests/test_batch.py.
+rtol 1e-13 is tested in tests/unit/estimation/test_batch.py.
 """
 
 import numpy as np

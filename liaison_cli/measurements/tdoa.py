@@ -40,7 +40,7 @@ not negligible: a GEO receiver's 0.224 m/s^2 over |Delta| < 0.096 s moves the FD
 Frame: (1)-(2) hold in an inertial frame. With FLAG_ROTATING_FRAME (the CRTBP frame, turning at 1 rad/TU
 about z) every end is first written in the inertial frame aligned with it at t: v + z x r and
 a + 2 z x v + z x (z x r) (straight lines in the rotating frame are not light rays: read as inertial, the
-CRTBP geometry of tests/test_tdoa.py is off by 55 ns, 17 m of path).
+CRTBP geometry of tests/unit/measurements/test_tdoa.py is off by 55 ns, 17 m of path).
 Solution: tau_1, then Delta, by fixed-point iteration of (1) (contraction |v| / c ~ 1e-5: four passes
 reach rounding). Partials: exact, the tangent of the same equations (implicit differentiation of (1) and
 (2)) taken one input direction at a time: scalar arithmetic on 3-tuples, no arrays.

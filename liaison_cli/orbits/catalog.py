@@ -38,7 +38,7 @@ CATALOG: dict[str, CatalogOrbit] = {
         # Sirbu & Leonardi 2023 (002), Table 1: the 9:2 lunar-synodic-resonant southern L2 NRHO (period
         # 1.5112 TU = 6.59 d in the paper's units), Gateway and two "floating anchors" on it, to the digits
         # printed. In our CRTBP constants the Gateway state returns within 66 km of itself after 1.5112 TU
-        # (tests/test_batch.py); the truth propagates the printed states as given.
+        # (tests/unit/estimation/test_batch.py); the truth propagates the printed states as given.
         CatalogOrbit("nrho_gateway", (1.0221, 0.0, -0.1821, 0.0, -0.1033, 0.0), 1.5112,
                      "Sirbu & Leonardi 2023, Table 1 (Gateway, 9:2 NRHO)"),
         CatalogOrbit("nrho_anchor_1", (1.01282, -0.03468, -0.14507, -0.04860, -0.06772, 0.20422), 1.5112,

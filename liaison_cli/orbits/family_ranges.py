@@ -1,7 +1,7 @@
 """The period and amplitude range of each family's default 30-member table, as data.
 
 Scenario validation checks a requested member against these numbers instead of generating or reading
-the family on disk. `tests/test_orbit_families.py` regenerates every family and checks that these
+the family on disk. `tests/unit/orbits/test_orbit_families.py` regenerates every family and checks that these
 values are still the tables' minima and maxima (update them when a family's definition changes).
 """
 

@@ -4,7 +4,7 @@
   (RMS angular) bandwidth of the received signal, and sigma_FOA >= 1 / (alpha sqrt(2 E/N0)) in rad/s with
   alpha the effective duration (RMS of 2 pi t); by the time-frequency duality this bound is in Hz (cycles/s),
   as the TOA bound with beta in rad/s is in seconds (checked against simulated ML estimators in
-  tests/test_dual_one_way.py). E/N0 = C/N0 * T for a coherent integration of T seconds.
+  tests/unit/radio/test_dual_one_way_radio.py). E/N0 = C/N0 * T for a coherent integration of T seconds.
   For a BPSK spreading code of chip period Tc the power spectrum is Tc sinc^2(f Tc), cut by the front-end
   filter at +-B_fe/2; beta is integrated numerically. A constant-envelope signal of duration T has
   alpha = pi T / sqrt(3).

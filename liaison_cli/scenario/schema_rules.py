@@ -2,7 +2,7 @@
 
 The loader (scenario.schema) checks these rules with its own one-line messages; the same rules are written
 into the generated JSON Schema as well, so that an editor flags a missing or stray key while the file is
-written. Each rule here mirrors one loader check and is tested against it (tests/test_schema_validate.py);
+written. Each rule here mirrors one loader check and is tested against it (tests/unit/scenario/test_schema_validate.py);
 rules that need more than one section, names, dates or arithmetic stay in the loader only (listed in
 scenario.json_schema.LOADER_ONLY_RULES).
 

@@ -3,7 +3,7 @@
 `python tests/golden/record.py` writes tests/golden/runs.json.gz: for each scenario, `liaison run
 --runs 2 --jobs 1 --float64` into a temporary folder, then per Parquet file and numeric column the sum,
 the sum of absolute values, the NaN count and every 37th value, plus the printed output, compared by
-tests/test_golden.py. First recorded at 432c588 (before the engine restructuring, which matched it to
+tests/golden/test_golden.py. First recorded at 432c588 (before the engine restructuring, which matched it to
 1e-9); re-recorded when the truth moved from scipy DOP853 (rtol 1e-12) to the compiled RK4 of at most
 10 s (issue 13). Against the 432c588 record that change moved the summary RMS columns by at most
 6.8e-6 relative (2.5 cm on the 3.7 km EML1-EML2 RMS), per-epoch errors by 4e-5 of their column's largest

@@ -4,7 +4,7 @@ the moving Moon, the uniform range bias, the filter's reduced force model and Le
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS
+from tests.conftest import SCENARIOS
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.dsn_sites import DSN_SITES_ECEF_M, dsn_site_geodetic, ecef_to_geodetic
 from liaison_cli.dynamics.ground_station import geodetic_to_body_km

@@ -8,13 +8,12 @@ off). These tests hold both: the completion answers, and answering loads none of
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 from typer.testing import CliRunner
 
 from liaison_cli.cli import app
 
-REPO = Path(__file__).resolve().parents[1]
+from tests.conftest import REPO
 HEAVY = ["pandas", "numba", "matplotlib", "pyarrow", "scipy", "liaison_cli.campaign", "liaison_cli.scenario.schema"]
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, run_cli, run_cli_in_process
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.error_budget import consistency, error_budget, monte_carlo_check, part_of, shares
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
@@ -85,7 +85,7 @@ def test_scenario_without_a_filter_section_is_one_line():
 
 
 def _matched_smoke(**extra):
-    """smoke.yaml with the filter matched to its truth (tests/test_consistency.py's MATCHED), plus `extra`."""
+    """smoke.yaml with the filter matched to its truth (tests/unit/campaign/test_consistency.py's MATCHED), plus `extra`."""
     scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
     return prepare_problem(apply_overrides(scenario, {
         "initial_error.draw": "from_covariance", "measurement.light_time": False,

@@ -276,7 +276,7 @@ def _written_sweep(tmp_path, runs=2):
     import json
 
     from liaison_cli.campaign.sweep import run_sweep
-    from tests.test_sweep import _smoke_plan
+    from tests.unit.campaign.test_sweep import _smoke_plan
 
     plan = _smoke_plan(runs=runs)
     full = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)

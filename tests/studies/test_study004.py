@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
 from liaison_cli.scenario.schema import apply_overrides, load_scenario

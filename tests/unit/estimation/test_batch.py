@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
 from liaison_cli.analysis.metrics import chi2_quantile
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import allan_deviation_model, simulate_clock

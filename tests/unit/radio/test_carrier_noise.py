@@ -18,7 +18,7 @@ from liaison_cli.radio.carrier import (
     two_way_doppler_sigma_m_s,
 )
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, sigma_from_link_budget
-from tests.test_orbits_radio import TABLE2_DOWN, TABLE2_UP
+from tests.unit.radio.test_ranging_budget import TABLE2_DOWN, TABLE2_UP
 
 
 class FirstOrderPll:

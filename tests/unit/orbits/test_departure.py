@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from conftest import assert_one_line_error, edited_scenario, run_cli_in_process
+from tests.conftest import assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2
 from liaison_cli.orbits.departure import asymptote_angles_deg, asymptote_unit, departure_state_km
 from liaison_cli.orbits.departure_missions import DEPARTURE_MISSIONS, _heliocentric, derived_launch_targets
@@ -90,7 +90,7 @@ def test_a_departure_scenario_starts_on_its_hyperbola():
     from liaison_cli.scenario.dated import dated_initial_state_lu, dated_model
     from liaison_cli.scenario.schema import load_scenario
 
-    from conftest import SCENARIOS
+    from tests.conftest import SCENARIOS
 
     scenario, _ = load_scenario(SCENARIOS / "003" / "msl.yaml")
     msl = next(sc for sc in scenario.spacecraft if sc.name == "MSL")

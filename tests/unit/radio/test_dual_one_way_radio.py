@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli
 from liaison_cli.radio.dual_one_way import (
     DLL_NARROW,
     DLL_VERY_NARROW,

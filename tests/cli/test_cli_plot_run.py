@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from liaison_cli.cli import app
 
-REPO = Path(__file__).resolve().parents[1]
+from tests.conftest import REPO
 SCENARIOS = REPO / "scenarios"
 TEMPLATES = REPO / "liaison_cli" / "scenario" / "templates"
 ALWAYS = {"errors", "nees", "innovations"}

@@ -55,7 +55,7 @@ def test_wide_numbers_keep_a_space_between_columns():
 
 def test_a_corrupt_manifest_line_in_the_middle_drops_only_itself(tmp_path):
     from liaison_cli.campaign.sweep import read_manifest, run_sweep
-    from tests.test_sweep import _smoke_plan
+    from tests.unit.campaign.test_sweep import _smoke_plan
 
     plan = _smoke_plan(runs=3)
     full = run_sweep(plan, tmp_path / "s", jobs=1, progress=False)

@@ -6,7 +6,7 @@ import pytest
 from liaison_cli.campaign import results as results_module
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.dynamics.clock import clock_process_noise, clock_transition, simulate_clock
-from liaison_cli.dynamics.constants import EARTH_POSITION_LU, LU_KM, MU, TU_S, WGS84_EQUATORIAL_RADIUS_KM
+from liaison_cli.dynamics.constants import EARTH_POSITION_LU, LU_KM, TU_S, WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.dynamics.ground_station import EARTH_RATE_IN_ROTATING_FRAME_RAD_TU, GroundStationTrajectory
 from liaison_cli.measurements.pseudorange import KIND_PSEUDORANGE
 from liaison_cli.measurements.range import FLAG_LIGHT_TIME

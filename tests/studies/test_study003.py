@@ -4,7 +4,7 @@ import re
 
 import pandas as pd
 
-from conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli
 from liaison_cli.campaign.study003 import CASES, case_scenario
 from liaison_cli.scenario.schema import load_scenario
 

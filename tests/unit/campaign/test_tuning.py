@@ -29,7 +29,7 @@ MATCHED_SMOKE = ("measurement:\n  interval_s: 187.5\n", "measurement:\n  interva
 
 
 def cli(*args):
-    """The CLI in this process (exit code, stderr), as tests/test_faults.py calls it."""
+    """The CLI in this process (exit code, stderr), as tests/cli/test_faults.py calls it."""
     result = CliRunner().invoke(app, [str(a) for a in args])
     if result.exception is not None and not isinstance(result.exception, SystemExit):
         raise result.exception

@@ -4,14 +4,13 @@ one line on standard error with the usual exit code (nothing on standard output)
 
 import json
 import re
-from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
 from liaison_cli.cli import app
 
-REPO = Path(__file__).resolve().parents[1]
+from tests.conftest import REPO
 SCENARIOS = REPO / "scenarios"
 DOC = REPO / "docs" / "json-output.md"
 

@@ -10,7 +10,6 @@ import copy
 import os
 import re
 import time
-from pathlib import Path
 
 import pytest
 
