@@ -164,15 +164,15 @@ def test_a_damaged_family_cache_is_rebuilt(tmp_path, monkeypatch, capsys):
     from liaison_cli.orbits.family_store import family_path, load_or_generate
 
     monkeypatch.setenv("LIAISON_ORBIT_CACHE_DIR", str(tmp_path))
-    good, cached = load_or_generate("l1_halo_north", 3)
-    path = family_path("l1_halo_north", 3)
+    good, cached = load_or_generate("l2_halo_south", 3)
+    path = family_path("l2_halo_south", 3)
     assert not cached and path.exists()
     path.write_bytes(path.read_bytes()[:200])
-    rebuilt, cached = load_or_generate("l1_halo_north", 3)
+    rebuilt, cached = load_or_generate("l2_halo_south", 3)
     assert not cached and np.array_equal(rebuilt.x0, good.x0)
     note = capsys.readouterr().err.strip().splitlines()
     assert len(note) == 1 and str(path) in note[0] and "damaged" in note[0] and "--regenerate" in note[0]
-    assert load_or_generate("l1_halo_north", 3)[1]  # the rebuilt file is read back
+    assert load_or_generate("l2_halo_south", 3)[1]  # the rebuilt file is read back
 
 
 def _loopback_server(kind: str) -> int:

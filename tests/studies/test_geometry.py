@@ -4,8 +4,7 @@
 from liaison_cli.campaign.geometry import geometry_study
 
 
-def test_longer_periods_give_less_observable_halo_pairs(tmp_path, monkeypatch):
-    monkeypatch.setenv("LIAISON_ORBIT_CACHE_DIR", str(tmp_path / "families"))
+def test_longer_periods_give_less_observable_halo_pairs():
     table = geometry_study("l1_halo_south", "l2_halo_south", count=3, interval_s=900.0)
     assert len(table) == 9
     longest = table.loc[(table.first_period_days + table.second_period_days).idxmax()]

@@ -14,27 +14,33 @@ SYNODIC_MONTH_DAYS = 29.530589
 
 
 @pytest.fixture(scope="module")
-def families(tmp_path_factory):
-    """Every family generated once into a private cache (the first call of each generates)."""
-    import os
-
+def families():
+    """Every family from the user's cache (generated there on the first use on a machine, as `liaison run`
+    would): the file names carry a hash of the orbit and dynamics code, so a cached table is exactly what
+    this code generates. Generating into an empty cache is tested on its own below."""
     from liaison_cli.orbits import family_store
 
-    cache = tmp_path_factory.mktemp("cache")
-    old = os.environ.get("LIAISON_ORBIT_CACHE_DIR")
-    os.environ["LIAISON_ORBIT_CACHE_DIR"] = str(cache)
-    try:
-        assert family_store.cached_families() == []
-        tables = {name: family_store.load_or_generate(name) for name in sorted(FAMILIES)}
-        again = {name: family_store.load_or_generate(name)[1] for name in FAMILIES}
-    finally:
-        if old is None:
-            os.environ.pop("LIAISON_ORBIT_CACHE_DIR")
-        else:
-            os.environ["LIAISON_ORBIT_CACHE_DIR"] = old
-    assert not tables["l2_nrho_south"][1] or tables["l2_nrho_north"][1] is False  # started from an empty cache
-    assert all(again.values())  # the second call reads the cache
-    return {name: frame for name, (frame, _) in tables.items()}, cache
+    tables = {name: family_store.load_or_generate(name)[0] for name in sorted(FAMILIES)}
+    return tables, family_store.cache_dir()
+
+
+def test_an_empty_cache_is_filled_and_then_read(tmp_path, monkeypatch, families):
+    """From an empty private cache: the first call generates (and writes the file), the second reads it, and
+    the table equals the one in the user's cache (generation is deterministic). The mirrored class is made
+    from the cached base class, not continued again."""
+    from liaison_cli.orbits import family_store
+
+    monkeypatch.setenv("LIAISON_ORBIT_CACHE_DIR", str(tmp_path))
+    assert family_store.cached_families() == []
+    made = {name: family_store.load_or_generate(name) for name in ("l2_halo_south", "l2_halo_north")}
+    assert not any(cached for _, cached in made.values())
+    assert len(family_store.cached_families()) == 2
+    for name, (table, _) in made.items():
+        again, cached = family_store.load_or_generate(name)
+        assert cached and np.array_equal(again.x0, table.x0) and np.array_equal(again.vz0, table.vz0)
+        for column in table.columns:
+            if table[column].dtype.kind == "f":
+                assert np.array_equal(table[column], families[0][name][column], equal_nan=True), (name, column)
 
 
 @pytest.mark.parametrize("name,fixed_x0", [("eml2_halo", 1.1785868), ("eml1_halo", 0.8614062)])
