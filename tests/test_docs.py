@@ -11,7 +11,7 @@ import time
 import pyarrow.parquet as pq
 import pytest
 
-from tests.conftest import REPO, SCENARIOS, run_cli
+from tests.conftest import REPO, SCENARIOS, run_cli_in_process
 
 DOCS = REPO / "docs"
 REFERENCE = REPO / "results" / "reference"
@@ -205,7 +205,7 @@ def _schema(path) -> set[str]:
 
 
 def test_run_tables_have_the_documented_columns(tmp_path):
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
     assert proc.returncode == 0, proc.stderr
     for stem in RUN_TABLES:
         assert _schema(tmp_path / "run" / f"{stem}.parquet") == expected_columns(stem, ALWAYS), stem
@@ -216,7 +216,7 @@ def test_smoother_and_gate_columns_are_documented(tmp_path):
     scenario = tmp_path / "smoothed.yaml"
     text = (SCENARIOS / "smoke.yaml").read_text()
     scenario.write_text(text + "filter: {smoother: rts, residual_gate_sigma: 5}\n")
-    proc = run_cli("run", scenario, "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
+    proc = run_cli_in_process("run", scenario, "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
     assert proc.returncode == 0, proc.stderr
     active = ALWAYS | {"`filter.smoother: rts`", "`filter.residual_gate_sigma` > 0"}
     for stem in ("summary", "timeseries"):
@@ -224,7 +224,7 @@ def test_smoother_and_gate_columns_are_documented(tmp_path):
 
 
 def test_sweep_tables_have_the_documented_columns(tmp_path):
-    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100,200", "--runs", "2", "--jobs", "1",
+    proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100,200", "--runs", "2", "--jobs", "1",
                    "--quiet", "--output", tmp_path / "sweep")
     assert proc.returncode == 0, proc.stderr
     for stem in ("runs", "curve"):
@@ -236,19 +236,19 @@ def test_sweep_tables_have_the_documented_columns(tmp_path):
 def test_batch_clock_and_study_columns_are_documented(tmp_path):
     """The columns that need slower scenarios: a batch with clock synchronisation, estimated clocks, table3
     and compare."""
-    proc = run_cli("run", SCENARIOS / "nrho_gateway_anchors.yaml", "--runs", "1", "--jobs", "1", "--quiet",
+    proc = run_cli_in_process("run", SCENARIOS / "nrho_gateway_anchors.yaml", "--runs", "1", "--jobs", "1", "--quiet",
                    "--output", tmp_path / "batch")
     assert proc.returncode == 0, proc.stderr
     active = ALWAYS | {"`estimator: batch`", "`clock_sync`"}
     assert _schema(tmp_path / "batch" / "summary.parquet") == expected_columns("summary", active)
-    proc = run_cli("run", SCENARIOS / "clock_one_way_eml2_lunar.yaml", "--runs", "1", "--jobs", "1", "--quiet",
+    proc = run_cli_in_process("run", SCENARIOS / "clock_one_way_eml2_lunar.yaml", "--runs", "1", "--jobs", "1", "--quiet",
                    "--output", tmp_path / "clock")
     assert proc.returncode == 0, proc.stderr
     assert _schema(tmp_path / "clock" / "clocks.parquet") == expected_columns("clocks", {"estimated clocks"})
-    proc = run_cli("table3", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "table3")
+    proc = run_cli_in_process("table3", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "table3")
     assert proc.returncode == 0, proc.stderr
     assert _schema(tmp_path / "table3" / "table3.parquet") == expected_columns("table3", ALWAYS)
-    proc = run_cli("compare", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--output", tmp_path / "compare")
+    proc = run_cli_in_process("compare", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--output", tmp_path / "compare")
     assert proc.returncode == 0, proc.stderr
     assert _schema(tmp_path / "compare" / "compare.parquet") == expected_columns("compare", ALWAYS)
 

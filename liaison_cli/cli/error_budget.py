@@ -79,7 +79,8 @@ def _print_budget(scenario, table: str, checks: list[dict], check_runs: int) -> 
                f"{scenario.duration_days:g} d)")
     typer.echo(table, nl=False)
     if checks:
-        typer.echo(f"Monte Carlo ({check_runs} runs of the EKF) over LinCov, mean-square error after t0:")
+        typer.echo(f"Monte Carlo ({check_runs} runs of the EKF) over LinCov, mean-square error after t0 "
+                   "(± its Monte Carlo standard error):")
         for row in checks:
             typer.echo(f"  {row['sources']:<32}{row['spacecraft']:<10}{row['quantity']:<10}"
-                       f"{row['monte_carlo_over_lincov']:8.3f}")
+                       f"{row['monte_carlo_over_lincov']:8.3f} ± {row['monte_carlo_over_lincov_standard_error']:.3f}")

@@ -2,7 +2,7 @@
 
 import pytest
 
-from tests.conftest import SCENARIOS, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 GOOD = (SCENARIOS / "smoke.yaml").read_text()
 
@@ -53,7 +53,7 @@ def test_bad_scenario_gives_one_line_and_exit_2(tmp_path, case):
 
 
 def test_missing_file(tmp_path):
-    proc = run_cli("run", tmp_path / "nope.yaml")
+    proc = run_cli_in_process("run", tmp_path / "nope.yaml")
     assert proc.returncode == 2 and "no such scenario file" in proc.stderr and "Traceback" not in proc.stderr
 
 
@@ -61,23 +61,23 @@ def test_existing_output_needs_overwrite(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "summary.parquet").write_text("old")
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", out)
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", out)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1
     assert str(out) in proc.stderr and "--overwrite" in proc.stderr
     assert (out / "summary.parquet").read_text() == "old"
     # --overwrite replaces only what liaison wrote: this folder is not a liaison result.
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", out, "--overwrite", "--runs", "1")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", out, "--overwrite", "--runs", "1")
     assert proc.returncode == 2 and "not a liaison result" in proc.stderr
     assert (out / "summary.parquet").read_text() == "old"
     mine = tmp_path / "mine"
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--output", mine, "--runs", "1").returncode == 0
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", mine, "--overwrite", "--runs", "2")
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", mine, "--runs", "1").returncode == 0
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", mine, "--overwrite", "--runs", "2")
     assert proc.returncode == 0, proc.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "out"]  # no staging folder left behind
 
 
 def test_yaml_tags_are_not_executed(tmp_path):
     path = _case(tmp_path, "!!python/object/apply:os.system ['echo pwned']\n")
-    proc = run_cli("run", path)
+    proc = run_cli_in_process("run", path)
     assert proc.returncode == 2 and "malformed YAML" in proc.stderr and "pwned" not in proc.stdout

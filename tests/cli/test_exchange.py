@@ -17,7 +17,7 @@ from liaison_cli.exchange.oem import read_oem
 from liaison_cli.exchange.tdm import read_tdm
 from liaison_cli.scenario.schema import apply_overrides, load_scenario, validate_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
 
 # --- an independent KVN OEM reader (not the product's: regular expressions over the text) ------------------
@@ -166,7 +166,7 @@ def test_oem_truth_round_trip(exported):
 
 
 def test_export_command_refuses_a_non_result(tmp_path):
-    proc = run_cli("export", tmp_path)
+    proc = run_cli_in_process("export", tmp_path)
     assert_one_line_error(proc, tmp_path, ["not a liaison result folder"])
 
 
@@ -260,7 +260,7 @@ def test_a_truth_from_an_oem_liaison_did_not_write(tmp_path):
     # Measured 2.2 mm and 8e-7 m/s: the UTC tags are printed to the microsecond (strftime truncates: up to 1 us
     # late, 2 mm at ~2 km/s); with that time offset removed, 0.06 mm is left (interpolation and printing).
     assert position_error_m < 5e-3 and velocity_error_m_s < 1e-5, (position_error_m, velocity_error_m_s)
-    proc = run_cli("run", path, "--output", tmp_path / "out", "--quiet")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out", "--quiet")
     assert proc.returncode == 0, proc.stderr
     assert "2/2 runs ok" in proc.stdout
 
@@ -319,7 +319,7 @@ def _tdm_case(tmp_path, **fields):
 ])
 def test_bad_tdm_gives_one_line(tmp_path, fields, fragments):
     path, tdm = _tdm_case(tmp_path, **fields)
-    proc = run_cli("run", path, "--output", tmp_path / "out", "--quiet")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out", "--quiet")
     assert_one_line_error(proc, tdm, fragments)
     assert not (tmp_path / "out").exists()
 
@@ -350,7 +350,7 @@ def _oem_case(tmp_path, edit):
 ], ids=["short_span", "frame", "time_system", "malformed", "garbage"])
 def test_bad_oem_gives_one_line(tmp_path, edit, fragments):
     path, oem = _oem_case(tmp_path, edit)
-    proc = run_cli("run", path, "--output", tmp_path / "out", "--quiet")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out", "--quiet")
     assert_one_line_error(proc, oem, fragments)
 
 
@@ -387,14 +387,14 @@ def test_export_command_writes_the_files_and_keeps_an_existing_folder(tmp_path):
     """`liaison run` then `liaison export --run 1 --format kvn`: one truth and one estimate OEM per spacecraft and
     the TDM, in RESULT/ccsds-run1; a second export without --overwrite refuses and leaves them."""
     result = tmp_path / "smoke"
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--output", result, "--quiet").returncode == 0
-    proc = run_cli("export", result, "--run", "1", "--format", "kvn")
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", result, "--quiet").returncode == 0
+    proc = run_cli_in_process("export", result, "--run", "1", "--format", "kvn")
     assert proc.returncode == 0, proc.stderr
     folder = result / "ccsds-run1"
     assert sorted(p.name for p in folder.iterdir() if not p.name.startswith(".")) == [
         "EML2_estimate.oem", "EML2_truth.oem", "Lunar_estimate.oem", "Lunar_truth.oem", "measurements.tdm"]
     assert "run 1, 577 epochs recomputed" in proc.stdout  # 1.25 d every 187.5 s, t0 included
     before = (folder / "measurements.tdm").read_text()
-    again = run_cli("export", result, "--run", "1")
+    again = run_cli_in_process("export", result, "--run", "1")
     assert again.returncode == 2 and "--overwrite" in again.stderr
     assert (folder / "measurements.tdm").read_text() == before

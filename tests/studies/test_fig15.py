@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from liaison_cli.report.table3 import paper_table3, tolerances
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 HALO_LUNAR = ("eml2_lunar", "eml1_lunar")
 
@@ -14,7 +14,7 @@ HALO_LUNAR = ("eml2_lunar", "eml1_lunar")
 def default_sweep(tmp_path_factory):
     """`liaison sweep --sigma 50:700` exactly as a user types it (3 formations x 14 sigma x 10 runs)."""
     out = tmp_path_factory.mktemp("fig15") / "sweep"
-    proc = run_cli("sweep", "--sigma", "50:700", "--quiet", "--output", out)
+    proc = run_cli_in_process("sweep", "--sigma", "50:700", "--quiet", "--output", out)
     assert proc.returncode == 0, proc.stderr
     assert "42 grid points x 10 runs = 420 tasks: 420 computed" in proc.stdout
     return out
@@ -68,7 +68,7 @@ def test_paper_table3_points_within_factor_two_of_our_curves(default_sweep):
 def test_matched_models_give_strictly_rising_curves(tmp_path):
     """Without the light-time truth (filter model = truth model) there is no modelling-error floor, so
     every spacecraft's error rises with sigma from the smallest sigma on."""
-    proc = run_cli("sweep", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--sigma", "50,150,450",
+    proc = run_cli_in_process("sweep", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--sigma", "50,150,450",
                    "--grid", "measurement.light_time=false", "--quiet", "--output", tmp_path / "m")
     assert proc.returncode == 0, proc.stderr
     runs = pd.read_parquet(tmp_path / "m" / "runs.parquet")
@@ -76,7 +76,7 @@ def test_matched_models_give_strictly_rising_curves(tmp_path):
 
 
 def test_plot_fig15_writes_png_and_svg(default_sweep, tmp_path):
-    proc = run_cli("plot", "fig15", default_sweep, "--output", tmp_path / "fig")
+    proc = run_cli_in_process("plot", "fig15", default_sweep, "--output", tmp_path / "fig")
     assert proc.returncode == 0, proc.stderr
     png, svg = tmp_path / "fig.png", tmp_path / "fig.svg"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 50_000
@@ -89,16 +89,16 @@ def test_plot_fig15_writes_png_and_svg(default_sweep, tmp_path):
 
 def test_plot_needs_a_sigma_sweep(tmp_path):
     out = tmp_path / "interval"
-    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--grid", "measurement.interval_s=187.5,375",
+    proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--grid", "measurement.interval_s=187.5,375",
                    "--runs", "1", "--quiet", "--output", out)
     assert proc.returncode == 0, proc.stderr
-    proc = run_cli("plot", "fig15", out)
+    proc = run_cli_in_process("plot", "fig15", out)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "Fig. 15 needs a --sigma sweep" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
 
 
 def test_budget_reads_the_papers_sigma_and_the_expected_error(default_sweep):
-    proc = run_cli("budget", SCENARIOS / "links" / "turan2022_table2.yaml", "--sweep", default_sweep)
+    proc = run_cli_in_process("budget", SCENARIOS / "links" / "turan2022_table2.yaml", "--sweep", default_sweep)
     assert proc.returncode == 0, proc.stderr
     assert "time-derived (Eq. 4)       171.8 m" in proc.stdout
     assert "needs ranging_clock_hz" in proc.stdout
@@ -108,7 +108,7 @@ def test_budget_reads_the_papers_sigma_and_the_expected_error(default_sweep):
     line = next(li for li in proc.stdout.splitlines() if "eml2_lunar" in li and "Lunar" in li)
     assert abs(float(line.split()[4]) - expected) < 1.0
     # The PN / telemetry sigmas of the assumed clock fall below the swept range: said, not extrapolated.
-    proc = run_cli("budget", SCENARIOS / "links" / "table2_with_ranging_clock.yaml", "--sweep", default_sweep)
+    proc = run_cli_in_process("budget", SCENARIOS / "links" / "table2_with_ranging_clock.yaml", "--sweep", default_sweep)
     assert proc.returncode == 0 and "outside swept 50-700 m" in proc.stdout
 
 
@@ -116,7 +116,7 @@ def test_budget_bad_link_file_is_one_line(tmp_path):
     text = (SCENARIOS / "links" / "turan2022_table2.yaml").read_text().replace("  downlink:", "  downlnk:")
     path = tmp_path / "link.yaml"
     path.write_text(text)
-    proc = run_cli("budget", path)
+    proc = run_cli_in_process("budget", path)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     line = proc.stderr.strip()
     assert "\n" not in line and str(path) in line and "'downlnk'" in line and "downlink" in line

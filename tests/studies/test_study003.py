@@ -4,7 +4,7 @@ import re
 
 import pandas as pd
 
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 from liaison_cli.campaign.study003 import CASES, case_scenario
 from liaison_cli.scenario.schema import load_scenario
 
@@ -28,7 +28,7 @@ def test_study003_runs_and_more_data_means_smaller_covariance(tmp_path):
     short = tmp_path / "cassini.yaml"
     short.write_text(CASSINI.read_text().replace("duration_days: 9", "duration_days: 2"))
     out = tmp_path / "study"
-    proc = run_cli("study003", short, "--runs", "3", "--jobs", "1", "--output", out, "--quiet",
+    proc = run_cli_in_process("study003", short, "--runs", "3", "--jobs", "1", "--output", out, "--quiet",
                    "--grid", "filter.underweighting=0,0.2")
     assert proc.returncode == 0, proc.stderr
     assert re.search(r"\| cassini \| DSN \+ LiAISON \| Cassini( !)? \|", proc.stdout)

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
@@ -74,7 +74,7 @@ def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
                      .replace("initial_batch_max_hours: 96", "initial_batch_max_hours: 24")
                      .replace("settle_days: 6 ", "settle_days: 1 "))
     out = tmp_path / "study"
-    proc = run_cli("study004", short, "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
+    proc = run_cli_in_process("study004", short, "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
     assert proc.returncode == 0, proc.stderr
     for name in ("summary.parquet", "histories.parquet", "table.md", "eml2_halo_3sigma.png"):
         assert (out / name).exists(), name

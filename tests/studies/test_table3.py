@@ -3,7 +3,7 @@
 import pandas as pd
 
 from liaison_cli.report.table3 import paper_table3, tolerances
-from tests.conftest import run_cli
+from tests.conftest import run_cli_in_process
 
 
 def test_reference_data_is_complete():
@@ -15,7 +15,7 @@ def test_reference_data_is_complete():
 
 def test_table3_reproduction(tmp_path):
     out = tmp_path / "t3"
-    proc = run_cli("table3", "--runs", "10", "--jobs", "2", "--output", out)
+    proc = run_cli_in_process("table3", "--runs", "10", "--jobs", "2", "--output", out)
     assert proc.returncode == 0, proc.stderr
     table = pd.read_parquet(out / "table3.parquet")
     assert len(table) == 12

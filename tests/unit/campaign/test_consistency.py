@@ -11,7 +11,7 @@ from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, nees_run_band
 from liaison_cli.campaign import results as results_module
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 MATCHED = {"initial_error.draw": "from_covariance", "measurement.light_time": False,
            "spacecraft.1.process_noise_accel_m_s2": 1e-7, "filter.settle_days": 0.25}
@@ -57,7 +57,7 @@ def test_run_prints_the_consistency_table_and_marks_an_inconsistent_spacecraft(t
     path = edited_scenario(tmp_path, "smoke.yaml", "monte_carlo:",
                            "initial_error: {sigma_position_m: 10000, sigma_velocity_m_s: 0.1}\n"
                            "filter: {settle_days: 0.25}\nmonte_carlo:")
-    proc = run_cli("run", path, "--output", tmp_path / "out")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
     assert "consistency after 0.25 d" in proc.stdout
     assert f"! inconsistent: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x" in proc.stdout
@@ -80,7 +80,7 @@ def test_a_sweep_curve_carries_consistency_and_marks_an_inconsistent_point(tmp_p
     import pandas as pd
 
     out = tmp_path / "sweep"
-    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--grid", "initial_error.sigma_position_m=500,20000",
+    proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--grid", "initial_error.sigma_position_m=500,20000",
                    "--grid", "initial_error.sigma_velocity_m_s=0.001", "--runs", "2", "--jobs", "1", "--quiet",
                    "--output", out)
     assert proc.returncode == 0, proc.stderr

@@ -11,7 +11,7 @@ from liaison_cli.measurements.range import geometric_range_gradient
 from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.campaign.observability_study import scenario_inputs
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 SIGMA_RANGE = 150.0 / (LU_KM * 1e3)
 SIGMA_RATE = 1e-3 / (LU_KM * 1e3 / TU_S)
@@ -104,7 +104,7 @@ def test_taylor_stm_error_is_small_and_second_order():
 
 
 def test_observability_command_writes_tables_and_plot(tmp_path):
-    proc = run_cli("observability", SCENARIOS / "smoke.yaml", "--output", tmp_path / "o")
+    proc = run_cli_in_process("observability", SCENARIOS / "smoke.yaml", "--output", tmp_path / "o")
     assert proc.returncode == 0, proc.stderr
     assert "condition number" in proc.stdout and "Taylor STM" in proc.stdout
     table = pd.read_parquet(tmp_path / "o" / "effectiveness.parquet")

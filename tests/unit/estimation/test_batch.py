@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.analysis.metrics import chi2_quantile
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import allan_deviation_model, simulate_clock
@@ -219,7 +219,7 @@ def test_nrho_table1_states_nearly_close_after_one_period():
 
 def test_nrho_run_reports_prediction_drms_and_clock_sync(tmp_path):
     out = tmp_path / "nrho"
-    proc = run_cli("run", NRHO, "--runs", "2", "--jobs", "1", "--output", out)
+    proc = run_cli_in_process("run", NRHO, "--runs", "2", "--jobs", "1", "--output", out)
     assert proc.returncode == 0, proc.stderr
     assert "batch span 9.885 d + 3 h" in proc.stdout and "clock RMS ns, window" in proc.stdout
     import pandas as pd
@@ -237,10 +237,10 @@ def test_sweep_and_tables002_give_both_tables(tmp_path):
     paths = [SCENARIOS / f"{name}.yaml" for name in ("nrho_gateway_anchors", "nrho_gateway_anchors_norr",
                                                        "nrho_earth_station", "nrho_earth_station_norr")]
     out = tmp_path / "sweep"
-    proc = run_cli("sweep", *paths, "--grid", "batch.span_days=6.59", "--grid", "measurement.interval_s=3600",
+    proc = run_cli_in_process("sweep", *paths, "--grid", "batch.span_days=6.59", "--grid", "measurement.interval_s=3600",
                    "--runs", "3", "--jobs", "1", "--output", out, "--quiet")
     assert proc.returncode == 0, proc.stderr
-    proc = run_cli("tables002", out, "--span", "6.59", "--interval", "3600")
+    proc = run_cli_in_process("tables002", out, "--span", "6.59", "--interval", "3600")
     assert proc.returncode == 0, proc.stderr
     assert "| 1 T (6.59 d) | 60 min |" in proc.stdout and "| 1 T | 60 min | RR |" in proc.stdout
     import pandas as pd
@@ -327,8 +327,8 @@ def test_batch_section_without_the_batch_estimator_is_one_line(tmp_path):
 
 
 def test_tables002_and_errors_refuse_what_they_cannot_read(tmp_path):
-    proc = run_cli("tables002", tmp_path)
+    proc = run_cli_in_process("tables002", tmp_path)
     assert proc.returncode == 2 and "no runs.parquet here" in proc.stderr and "Traceback" not in proc.stderr
-    proc = run_cli("errors", NRHO)
+    proc = run_cli_in_process("errors", NRHO)
     assert proc.returncode == 2 and "this scenario's estimator is 'batch'" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1

@@ -7,7 +7,7 @@ from liaison_cli.campaign.results import bias_table, consistency_table, summary_
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.estimation.ekf import update_scalar
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 
 @pytest.fixture(scope="module")
@@ -67,5 +67,5 @@ def test_consider_gain_is_zero_and_joseph_form_still_holds():
 def test_bias_treatment_needs_an_apriori_sigma(tmp_path):
     path = tmp_path / "bias.yaml"
     path.write_text((SCENARIOS / "smoke.yaml").read_text() + "filter:\n  bias: estimate\n")
-    proc = run_cli("run", path, "--output", tmp_path / "o")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "o")
     assert proc.returncode == 2 and "bias_apriori_sigma_m" in proc.stderr and "Traceback" not in proc.stderr

@@ -15,7 +15,7 @@ from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 LUNAR = lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
 # The truth spacecraft feel no unmodelled acceleration, so matched models mean no SNC in the filter (with
@@ -107,7 +107,7 @@ def test_elevation_mask_blanks_low_epochs_and_nothing_else():
 
 
 def test_ground_tracking_innovations_are_consistent(tmp_path):
-    proc = run_cli("run", SCENARIOS / "ground_eml2.yaml", "--runs", "2", "--output", tmp_path / "g")
+    proc = run_cli_in_process("run", SCENARIOS / "ground_eml2.yaml", "--runs", "2", "--output", tmp_path / "g")
     assert proc.returncode == 0, proc.stderr
     import pandas as pd
 
@@ -146,7 +146,7 @@ def test_a_known_partner_is_not_estimated_and_tightens_the_covariance():
 ])
 def test_bad_input_for_the_new_parts_is_one_line(tmp_path, source, old, new, fragments):
     path = edited_scenario(tmp_path, source, old, new)
-    proc = run_cli("run", path, "--output", tmp_path / "out")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out")
     assert_one_line_error(proc, path, fragments)
 
 
@@ -174,7 +174,7 @@ def test_clock_errors_are_written_and_sit_inside_their_sigma(tmp_path):
     import pandas as pd
 
     path = edited_scenario(tmp_path, "clock_one_way_eml2_lunar.yaml", "duration_days: 10", "duration_days: 2")
-    proc = run_cli("run", path, "--runs", "2", "--output", tmp_path / "c")
+    proc = run_cli_in_process("run", path, "--runs", "2", "--output", tmp_path / "c")
     assert proc.returncode == 0, proc.stderr
     clocks = pd.read_parquet(tmp_path / "c" / "clocks.parquet")
     assert set(clocks.clock) == {"EML2"} and clocks.run.nunique() == 2

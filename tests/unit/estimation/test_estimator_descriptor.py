@@ -11,7 +11,7 @@ from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT
 from liaison_cli.estimation.estimators import BATCH, EKF, ESTIMATORS, estimate, get_estimator
 from liaison_cli.scenario.filter_arrays import state_layout
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 PACKAGE = Path(liaison_cli.__file__).parent
 
@@ -74,7 +74,7 @@ def test_a_considered_bias_with_the_batch_is_one_line(tmp_path):
     assert not BATCH.consider and EKF.consider
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "filter:\n",
                            "filter:\n  bias: consider\n  bias_apriori_sigma_m: 1\n")
-    assert_one_line_error(run_cli("validate", path), path,
+    assert_one_line_error(run_cli_in_process("validate", path), path,
                           ["filter.bias = 'consider' with estimator: batch", "allowed: bias estimate or ignore",
                            "estimator: ekf"])
 
@@ -82,11 +82,11 @@ def test_a_considered_bias_with_the_batch_is_one_line(tmp_path):
 def test_the_smoother_and_manoeuvres_follow_the_descriptor(tmp_path):
     assert not BATCH.smoother and not BATCH.carries_manoeuvres
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "filter:\n", "filter:\n  smoother: rts\n")
-    assert_one_line_error(run_cli("validate", path), path,
+    assert_one_line_error(run_cli_in_process("validate", path), path,
                           ["filter.smoother = 'rts'", "estimator: batch takes no smoother",
                            "allowed with estimator: ekf"])
     path = edited_scenario(tmp_path, "nrho_gateway_anchors.yaml", "    orbit: nrho_anchor_1\n",
                            "    orbit: nrho_anchor_1\n    manoeuvre: {epoch_days: 1, delta_v_m_s: [0.1, 0, 0], "
                            "apriori_sigma_m_s: 0.1}\n")
-    assert_one_line_error(run_cli("validate", path), path,
+    assert_one_line_error(run_cli_in_process("validate", path), path,
                           ["spacecraft[1].manoeuvre", "the ekf solves for manoeuvres", "estimator: batch does not"])

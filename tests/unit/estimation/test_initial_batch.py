@@ -15,7 +15,7 @@ from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.initial_batch import InitialBatchSettings, solve_initial_batch, window_lengths
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 NO_PROCESS_NOISE = {"filter.process_noise_accel_m_s2": 0.0, "spacecraft.1.process_noise_accel_m_s2": None,
                     "initial_error.draw": "from_covariance", "measurement.light_time": False,
@@ -84,11 +84,11 @@ def test_a_campaign_with_an_initial_batch_reports_it():
 ])
 def test_a_bad_initial_batch_window_is_one_line(tmp_path, filter_text, fragments):
     path = edited_scenario(tmp_path, "smoke.yaml", "monte_carlo:", f"filter: {filter_text}\nmonte_carlo:")
-    assert_one_line_error(run_cli("validate", path), path, fragments)
+    assert_one_line_error(run_cli_in_process("validate", path), path, fragments)
 
 
 def test_a_manoeuvre_inside_the_window_is_one_line(tmp_path):
     path = edited_scenario(tmp_path, "004/low_energy_transfer.yaml", "initial_batch_max_hours: 96",
                            "initial_batch_max_hours: 1200")
-    assert_one_line_error(run_cli("validate", path), path,
+    assert_one_line_error(run_cli_in_process("validate", path), path,
                           ["spacecraft[0].manoeuvre.epoch_days = 47.6", "inside the initial batch window (1200 h)"])

@@ -19,7 +19,7 @@ from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.filter_loop import gated
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 RUNS = 4
 OUTLIER_SHARE = 0.01
@@ -132,7 +132,7 @@ def test_cli_counts_rejections_per_link(tmp_path):
     path = edited_scenario(tmp_path, "eml2_lunar.yaml", "  rk4_substeps: 4\n",
                            "  rk4_substeps: 4\n  residual_gate_sigma: 3\n")
     out = tmp_path / "out"
-    proc = run_cli("run", path, "--runs", "2", "--jobs", "1", "--float64", "--quiet", "--output", out)
+    proc = run_cli_in_process("run", path, "--runs", "2", "--jobs", "1", "--float64", "--quiet", "--output", out)
     assert proc.returncode == 0, proc.stderr
     residuals = pd.read_parquet(out / "residuals.parquet")
     summary = pd.read_parquet(out / "summary.parquet")
@@ -150,7 +150,7 @@ def test_cli_counts_rejections_per_link(tmp_path):
 def test_gate_not_positive_is_one_line_exit_2(tmp_path, value):
     path = edited_scenario(tmp_path, "eml2_lunar.yaml", "  rk4_substeps: 4\n",
                            f"  rk4_substeps: 4\n  residual_gate_sigma: {value}\n")
-    proc = run_cli("run", path, "--output", tmp_path / "out")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out")
     assert_one_line_error(proc, path, ["filter.residual_gate_sigma", f"= {value}", "greater than 0"])
     assert not (tmp_path / "out").exists()
 
@@ -158,5 +158,5 @@ def test_gate_not_positive_is_one_line_exit_2(tmp_path, value):
 def test_gate_with_the_batch_estimator_is_one_line_exit_2(tmp_path):
     path = edited_scenario(tmp_path, "nrho_earth_station.yaml", "  initial_sigma_velocity_m_s: 0.001\n",
                            "  initial_sigma_velocity_m_s: 0.001\n  residual_gate_sigma: 5\n")
-    proc = run_cli("run", path, "--output", tmp_path / "out")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "out")
     assert_one_line_error(proc, path, ["filter.residual_gate_sigma = 5", "estimator: batch", "no residual gate"])

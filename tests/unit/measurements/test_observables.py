@@ -10,7 +10,7 @@ from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.measurements.los import azimuth_elevation, azimuth_elevation_gradients, los_sigma_rad
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.report.compare import compare_rows
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 
 def test_los_partials_match_central_differences():
@@ -34,7 +34,7 @@ def test_los_sigma_from_baseline():
 
 
 def test_every_channel_is_consistent_with_its_predicted_std(tmp_path):
-    proc = run_cli("run", SCENARIOS / "mt_eml2_lunar_range_rate_los.yaml", "--runs", "2", "--output", tmp_path / "o",
+    proc = run_cli_in_process("run", SCENARIOS / "mt_eml2_lunar_range_rate_los.yaml", "--runs", "2", "--output", tmp_path / "o",
                    "--jobs", "1")
     assert proc.returncode == 0, proc.stderr
     res = pd.read_parquet(tmp_path / "o" / "residuals.parquet")

@@ -8,7 +8,7 @@ from liaison_cli.dynamics.propagation import propagate_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.families import FAMILIES, FamilyError, member_by_period
 from liaison_cli.orbits.periodic import correct, lagrange_point_x
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 SYNODIC_MONTH_DAYS = 29.530589
 
@@ -118,33 +118,23 @@ def _family_scenario(tmp_path, orbit_lines):
 
 
 def test_scenario_names_an_orbit_by_family_and_period(families, tmp_path):
-    _, cache = families
     path = _family_scenario(tmp_path, "    orbit: l2_nrho_south\n    period_days: 6.5624\n")
-    import os
-    import subprocess
-    import sys
-
-    from tests.conftest import REPO
-
-    env = {**os.environ, "LIAISON_ORBIT_CACHE_DIR": str(cache)}
-    proc = subprocess.run([sys.executable, "-m", "liaison_cli", "run", path, "--output", tmp_path / "o", "--jobs", "1",
-                           "--quiet"], capture_output=True, text=True, cwd=REPO, env=env)
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "o", "--jobs", "1", "--quiet")
     assert proc.returncode == 0, proc.stderr
     assert "2/2 runs ok" in proc.stdout
     bad = _family_scenario(tmp_path, "    orbit: l2_nrho_south\n    period_days: 12\n")
-    proc = subprocess.run([sys.executable, "-m", "liaison_cli", "run", bad, "--output", tmp_path / "b"],
-                          capture_output=True, text=True, cwd=REPO, env=env)
+    proc = run_cli_in_process("run", bad, "--output", tmp_path / "b")
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     line = proc.stderr.strip()
     assert "\n" not in line and "spacecraft[0].period_days" in line and "= 12" in line and "valid 6.0" in line
 
 
 def test_unknown_family_is_one_line(tmp_path):
-    proc = run_cli("orbits", "generate", "l3_halo_south")
+    proc = run_cli_in_process("orbits", "generate", "l3_halo_south")
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "unknown orbit family 'l3_halo_south'" in proc.stderr and "l2_nrho_south" in proc.stderr
     path = _family_scenario(tmp_path, "    orbit: l3_halo\n    period_days: 10\n")
-    proc = run_cli("run", path, "--output", tmp_path / "o")
+    proc = run_cli_in_process("run", path, "--output", tmp_path / "o")
     assert proc.returncode == 2 and "l2_halo_south" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
 
 

@@ -145,9 +145,9 @@ def test_sigma_sweep_over_a_tone_scenario_keeps_the_carrier_sigmas():
 
 
 def test_budget_command_prints_tone_doppler_los_and_the_eq65_ratio(tmp_path):
-    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli, run_cli_in_process
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
-    proc = run_cli("budget", SCENARIOS / "links" / "table2_tone_doppler.yaml")
+    proc = run_cli_in_process("budget", SCENARIOS / "links" / "table2_tone_doppler.yaml")
     assert proc.returncode == 0, proc.stderr
     rows = [line.split() for line in proc.stdout.splitlines()]
     assert ["tone", "(001", "Eq.", "62-63)", "7.8", "m"] in rows and ["(Eq.", "4)", "171.8", "m"] == rows[3][1:]

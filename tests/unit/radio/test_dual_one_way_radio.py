@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 from liaison_cli.radio.dual_one_way import (
     DLL_NARROW,
     DLL_VERY_NARROW,
@@ -114,7 +114,7 @@ def test_ka_band_example_lands_near_the_papers_figures():
 
 
 def test_budget_prints_the_dual_one_way_models():
-    proc = run_cli("budget", SCENARIOS / "links" / "sirbu2023_ka_dual_one_way.yaml")
+    proc = run_cli_in_process("budget", SCENARIOS / "links" / "sirbu2023_ka_dual_one_way.yaml")
     assert proc.returncode == 0, proc.stderr
     assert "DLL code tracking (Eq. 11), range" in proc.stdout and "0.824 m" in proc.stdout
     assert "PLL Doppler (Eq. 12), range-rate" in proc.stdout and "0.0326 mm/s" in proc.stdout
