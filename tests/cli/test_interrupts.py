@@ -12,7 +12,7 @@ import pytest
 
 from liaison_cli import interrupts
 from liaison_cli.cli.common import COMPILE_NOTICE
-from tests.conftest import REPO, SCENARIOS, run_cli
+from tests.conftest import REPO, SCENARIOS, run_cli_in_process
 
 
 def test_an_interrupt_chained_into_a_system_error_is_recognised():
@@ -74,7 +74,7 @@ def _assert_stopped(proc):
 @pytest.fixture(scope="module")
 def earlier_result(tmp_path_factory):
     out = tmp_path_factory.mktemp("interrupts") / "result"
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
     return out, {p.name: p.read_bytes() for p in out.iterdir()}
 
 

@@ -11,7 +11,7 @@ from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, run_cli, run_cli_in_process
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 
 def test_a_non_finite_innovation_ends_the_run_as_diverged():
@@ -72,7 +72,7 @@ def test_a_corrupt_manifest_line_in_the_middle_drops_only_itself(tmp_path):
 def test_os_faults_are_one_line_exit_4(tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a folder")
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", blocker / "out")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", blocker / "out")
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
     line = proc.stderr.strip().splitlines()
     assert len(line) == 1 and str(blocker) in line[0] and "Not a directory" in line[0]
@@ -89,10 +89,10 @@ def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path):
 
     out = tmp_path / "busy"
     with sweep_lock(out):  # another sweep holds the folder
-        proc = run_cli(*_sweep_args(out, runs=1))
+        proc = run_cli_in_process(*_sweep_args(out, runs=1))
     assert proc.returncode == 2 and "another liaison sweep" in proc.stderr, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and not out.exists()
-    proc = run_cli(*_sweep_args(out, runs=1))  # free again
+    proc = run_cli_in_process(*_sweep_args(out, runs=1))  # free again
     assert proc.returncode == 0, proc.stderr
 
 
@@ -104,7 +104,7 @@ def test_ctrl_c_saves_what_finished_and_says_how_to_resume(tmp_path, jobs):
     import sys
     import time
 
-    from tests.conftest import REPO
+    from tests.conftest import REPO, run_cli_in_process
 
     out = tmp_path / "interrupted"
     # A shell that starts the tests in the background hands its children SIGINT ignored; a user's terminal
@@ -128,7 +128,7 @@ def test_ctrl_c_saves_what_finished_and_says_how_to_resume(tmp_path, jobs):
     assert "rerun the same command to resume" in lines[0]
     saved = int(lines[0].split("interrupted: ")[1].split(" of")[0])
     assert saved == manifest.read_bytes().count(b"\n") - 1
-    resumed = run_cli(*_sweep_args(out))
+    resumed = run_cli_in_process(*_sweep_args(out))
     assert resumed.returncode == 0 and f"{90 - saved} computed, {saved} reused" in resumed.stdout
 
 
@@ -138,10 +138,10 @@ def test_a_killed_overwrite_keeps_the_old_result(tmp_path):
     import sys
     import time
 
-    from tests.conftest import REPO
+    from tests.conftest import REPO, run_cli_in_process
 
     out = tmp_path / "result"
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     proc = subprocess.Popen([sys.executable, "-m", "liaison_cli", "run", str(SCENARIOS / "eml2_lunar.yaml"),
                              "--runs", "200", "--jobs", "1", "--output", str(out), "--overwrite"], cwd=REPO,
@@ -156,7 +156,7 @@ def test_a_killed_overwrite_keeps_the_old_result(tmp_path):
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old result is intact
     # The rerun replaces it and removes the killed run's hidden staging folder (issue 24); a successful run
     # leaves no staging folder of its own.
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--output", out, "--overwrite").returncode == 0
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--output", out, "--overwrite").returncode == 0
     assert (out / ".liaison-result").exists() and sorted(p.name for p in tmp_path.iterdir()) == ["result"]
 
 
@@ -164,7 +164,7 @@ def test_a_corrupt_curve_given_to_plot_is_one_line_exit_4(tmp_path):
     sweep = tmp_path / "sweep"
     sweep.mkdir()
     (sweep / "curve.parquet").write_bytes(b"PAR1" + b"\x00" * 64)
-    proc = run_cli("plot", "fig15", sweep)
+    proc = run_cli_in_process("plot", "fig15", sweep)
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and str(sweep / "curve.parquet") in lines[0] and "not a readable Parquet" in lines[0]
@@ -250,18 +250,18 @@ def test_a_run_that_loses_track_is_diverged_by_the_nees_rule(tmp_path):
 
 
 def test_a_sweep_where_every_run_diverged_exits_5_and_keeps_its_results(tmp_path):
-    from tests.conftest import edited_scenario
+    from tests.conftest import edited_scenario, run_cli_in_process
 
     lost = edited_scenario(tmp_path, "smoke.yaml", "  sigma_m: 150\n", "  sigma_m: 150\n  bias_m: 20000\n")
     lost.write_text(lost.read_text().replace("duration_days: 1.25", "duration_days: 2.5"))
     out = tmp_path / "sweep"
-    done = run_cli("sweep", lost, "--sigma", "100,200", "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
+    done = run_cli_in_process("sweep", lost, "--sigma", "100,200", "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
     assert done.returncode == 5, done.stderr
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: no run of sweep") and str(out) in lines[0]
     assert "4 spacecraft-runs" not in done.stdout and "8 spacecraft-runs diverged" in done.stdout
     assert (out / "curve.parquet").exists() and (out / "runs.parquet").exists()
-    run = run_cli("run", lost, "--runs", "2", "--jobs", "1", "--output", tmp_path / "run", "--quiet")
+    run = run_cli_in_process("run", lost, "--runs", "2", "--jobs", "1", "--output", tmp_path / "run", "--quiet")
     assert run.returncode == 5 and "0/2 runs ok" in run.stdout and "NEES above" in run.stdout
 
 
@@ -271,10 +271,10 @@ def test_sweep_overwrite_builds_beside_the_old_result_and_resumes_there(tmp_path
     import sys
     import time
 
-    from tests.conftest import REPO
+    from tests.conftest import REPO, run_cli_in_process
 
     out = tmp_path / "sweep"
-    assert run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--jobs", "1",
+    assert run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--jobs", "1",
                    "--output", out, "--quiet").returncode == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     command = ["sweep", str(SCENARIOS / "eml2_lunar.yaml"), "--sigma", "100,200", "--runs", "40", "--jobs", "1",
@@ -292,7 +292,7 @@ def test_sweep_overwrite_builds_beside_the_old_result_and_resumes_there(tmp_path
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old result is intact
-    done = run_cli(*command)
+    done = run_cli_in_process(*command)
     assert done.returncode == 0, done.stderr
     assert "reused from the manifest" in done.stdout and ", 0 reused" not in done.stdout
     assert not list(tmp_path.glob(".sweep.replacing-*")) and not list(tmp_path.glob(".sweep.old-*"))
@@ -324,22 +324,22 @@ def _fill(disk, leave_bytes):
 
 def test_a_full_disk_is_one_line_and_leaves_nothing_that_blocks_a_rerun(small_disk):
     out = small_disk / "out"
-    proc = run_cli("run", SCENARIOS / "eml2_lunar.yaml", "--runs", "10", "--output", out, "--quiet")
+    proc = run_cli_in_process("run", SCENARIOS / "eml2_lunar.yaml", "--runs", "10", "--output", out, "--quiet")
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and str(out) in lines[0] and "No space left on device" in lines[0]
     assert list(small_disk.iterdir()) == []  # no partial folder, no temp file
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out, "--quiet").returncode == 0
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out, "--quiet").returncode == 0
     # A sweep that meets a full disk keeps its manifest and resumes once there is room.
     sweep = small_disk / "sweep"
     _fill(small_disk, 8192)
     args = ["sweep", SCENARIOS / "smoke.yaml", "--sigma", "100:700:100", "--runs", "4", "--jobs", "1",
             "--output", sweep, "--quiet"]
-    proc = run_cli(*args)
+    proc = run_cli_in_process(*args)
     assert proc.returncode == 4 and "No space left on device" in proc.stderr and str(sweep) in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
     (small_disk / "filler").unlink()
-    proc = run_cli(*args)
+    proc = run_cli_in_process(*args)
     assert proc.returncode == 0, proc.stderr
     assert "reused from the manifest" in proc.stdout and ", 0 reused" not in proc.stdout
     assert len(pd.read_parquet(sweep / "runs.parquet")) == 7 * 4 * 2
@@ -349,14 +349,14 @@ def test_a_read_only_file_system_is_one_line_and_the_old_result_stays(small_disk
     import subprocess
 
     out = small_disk / "out"
-    assert run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out, "--quiet").returncode == 0
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out, "--quiet").returncode == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], check=True)
     for args, named in ((["run", SCENARIOS / "smoke.yaml", "--output", out, "--overwrite"], out),
                         (["run", SCENARIOS / "smoke.yaml", "--output", small_disk / "new"], small_disk / "new"),
                         (["sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--output", small_disk / "sw"],
                          small_disk)):
-        proc = run_cli(*args, "--runs", "1", "--quiet")
+        proc = run_cli_in_process(*args, "--runs", "1", "--quiet")
         assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and str(named) in lines[0] and "Read-only file system" in lines[0]

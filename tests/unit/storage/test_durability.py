@@ -126,7 +126,7 @@ def test_a_kill_right_after_the_exchange_leaves_the_new_result_and_the_old_is_cl
 
 
 def test_a_kill_between_the_two_renames_is_repaired_by_the_next_command(tmp_path):
-    from tests.conftest import SCENARIOS, run_cli
+    from tests.conftest import SCENARIOS, run_cli_in_process
 
     out = tmp_path / "out"
     _old_result(out)
@@ -134,7 +134,7 @@ def test_a_kill_between_the_two_renames_is_repaired_by_the_next_command(tmp_path
     assert not out.exists()  # the fault being repaired: NAME missing, the old result hidden
     aside = [name for name in _hidden(tmp_path) if name.startswith(".out.old-")]
     assert len(aside) == 1 and (tmp_path / aside[0] / "out" / "data.txt").read_text() == "old"
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out)
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
     note, refusal = proc.stderr.strip().splitlines()
     assert note.startswith(f"note: {out}: restored the previous result") and "already exists" in refusal
@@ -329,7 +329,7 @@ def test_a_format_1_manifest_is_resumed_in_place(tmp_path):
 
 
 def test_a_newer_manifest_format_is_one_line_exit_2_and_left_untouched(tmp_path):
-    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
     out = tmp_path / "s"
     out.mkdir()
@@ -338,15 +338,15 @@ def test_a_newer_manifest_format_is_one_line_exit_2_and_left_untouched(tmp_path)
     _write_lines(manifest, [{"kind": "header", "format": 3, "sweep": "t", "points": []}])
     before = manifest.read_bytes() + b'{"task": "torn'  # a torn last line too: not cut away either
     manifest.write_bytes(before)
-    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--quiet", "--output", out)
+    proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--quiet", "--output", out)
     assert_one_line_error(proc, manifest, ["manifest format 3 is newer", "up to 2", "--overwrite"])
     assert manifest.read_bytes() == before
 
 
 def test_a_symlink_loop_as_the_sweep_folder_is_one_line_exit_4(tmp_path):
-    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli
+    from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
     (tmp_path / "a").symlink_to(tmp_path / "b")
     (tmp_path / "b").symlink_to(tmp_path / "a")
-    proc = run_cli("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--output", tmp_path / "a")
+    proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--output", tmp_path / "a")
     assert_one_line_error(proc, tmp_path / "a", ["Too many levels of symbolic links"], code=4)
