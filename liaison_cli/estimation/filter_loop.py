@@ -176,65 +176,6 @@ def _store_update(states, matrices, k, x_hat, P):
 
 
 @njit(cache=True, inline="always")
-def channel_prediction(kinds, channels, c, x_bar, known_k, H, g_receiver, g_transmitter, g_second):
-    """G(X*) of channel c at the linearisation point x_bar (n,) and its partials H (n,) = dG/dX at X*
-    (Eq. 13, 17): the observable of its ends (known_k (K, 6): the known participants' states), plus its bias
-    and clock modifiers, which are linear in their states. g_* (6,): scratch for the ends' partials."""
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, _ = channels
-    ends = channel_ends[c]
-    x_r, x_t, x_s = channel_states(x_bar, known_k, ends)
-    predicted = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter,
-                            g_second)
-    scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
-    for j in range(channel_mod_index.shape[1]):
-        index = channel_mod_index[c, j]
-        if index >= 0:
-            predicted += channel_mod_coeff[c, j] * x_bar[index]
-            H[index] += channel_mod_coeff[c, j]
-    return predicted
-
-
-@njit(cache=True, inline="always")
-def sequential_update(kinds, channels, settings, k, y_obs, known_states, x_bar, dx, dx_spare, P, P_spare, accepted,
-                      vectors, innovations, innov_std, rejected):
-    """The measurement update of epoch k, one scalar channel at a time, all linearised at x_bar (n,)
-    (Eq. 13, 17, 20-24): dx (n,) the correction accumulated from zero, P (n, n) from P_bar. Each channel's
-    pre-fit innovation and its std go into innovations / innov_std (m, C) (rejected (m, C): True where the
-    residual gate refused it). vectors: (H, h, K) (n,) and the ends' partials (6,) x 3, scratch.
-
-    Returns (dx, dx_spare, P, P_spare, accepted, status): the updated pair and the spare of each (the update
-    is not in place: apply_update_into writes the spare, which then takes the name), the count of accepted
-    measurements, STATUS_NONFINITE at a non-finite innovation (the rest of the epoch is skipped), else STATUS_OK.
-    """
-    H, h, K, g_receiver, g_transmitter, g_second = vectors
-    n_gain, _, _, underweight, gate_sigma, gate_after = settings
-    sigma = channels.sigma
-    for i in range(dx.shape[0]):
-        dx[i] = 0.0
-    for c in range(channels.kind.shape[0]):
-        y_meas = y_obs[k, c]
-        if not np.isfinite(y_meas):
-            continue
-        predicted = channel_prediction(kinds, channels, c, x_bar, known_states[k], H, g_receiver, g_transmitter,
-                                       g_second)
-        y = residual(channels.kind[c], y_meas, predicted)
-        R = sigma[c] ** 2
-        innovation, S = prefit_into(dx, P, y, H, R, h)
-        if not np.isfinite(innovation):  # a run with a non-finite innovation is never "ok"
-            return dx, dx_spare, P, P_spare, accepted, STATUS_NONFINITE
-        innovations[k, c] = innovation
-        innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
-        if gated(innovation, S, gate_sigma, gate_after, accepted):
-            rejected[k, c] = True  # edited: no update, dx and P stay as they are
-            continue
-        apply_update_into(dx, P, innovation, S, R, n_gain, underweight, dx_spare, P_spare, h, K)
-        dx, dx_spare = dx_spare, dx
-        P, P_spare = P_spare, P
-        accepted += 1
-    return dx, dx_spare, P, P_spare, accepted, STATUS_OK
-
-
-@njit(cache=True, inline="always")
 def covariance_health(x_hat, P):
     """STATUS_NONFINITE if x_hat (n,) or diag P (n, n) has a non-finite entry, else
     STATUS_COVARIANCE_NOT_POSITIVE if a variance is not positive, else STATUS_OK."""
@@ -313,17 +254,21 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size = layout
     model_params, dt_tu, substeps, t0_tu = dynamics
-    n_nees, divergence_position_lu = settings.n_nees, settings.divergence_position_lu
+    n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
     store_states, store_matrices = record
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
     m, n = truth.shape
-    err, sig, nees, innovations, innov_std, rejected = run_outputs(m, n, channels.kind.shape[0])
+    n_channels = sigma.shape[0]
+    n_mods = channel_mod_index.shape[1]
+    err, sig, nees, innovations, innov_std, rejected = run_outputs(m, n, n_channels)
     accepted = 0  # measurements the filter has updated with, all channels (the gate's warm-up count)
 
     # Every buffer of the loop is allocated here, once per run: in the loop, allocation had cost as much
     # as the arithmetic. P and P_spare swap roles at each covariance step (no step writes in place).
     x_hat, x_bar, dx, dx_spare, e = x0_hat.copy(), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     P, P_spare, Phi = P0.copy(), np.empty((n, n)), np.zeros((n, n))
-    vectors = (np.zeros(n), np.empty(n), np.empty(n), np.empty(6), np.empty(6), np.empty(6))  # H, h, K, g_*
+    H, h, K = np.zeros(n), np.empty(n), np.empty(n)
+    g_receiver, g_transmitter, g_second = np.empty(6), np.empty(6), np.empty(6)
     y_stm, work_stm, work_block = np.empty(42), np.empty((5, 42)), np.empty((6, 6))
     work_nees, z_nees = np.empty((n_nees, n_nees)), np.empty(n_nees)
     record_epoch(0, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
@@ -339,11 +284,40 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)
-        dx, dx_spare, P, P_spare, accepted, status = sequential_update(
-            kinds, channels, settings, k, y_obs, known_states, x_bar, dx, dx_spare, P, P_spare, accepted, vectors,
-            innovations, innov_std, rejected)
-        if status != STATUS_OK:
-            return err, sig, nees, innovations, innov_std, rejected, status, k
+        # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24). The
+        # update is not in place: apply_update_into writes the spares, which then take the names. The channel
+        # loop stays written out here: as an inlined helper taking the channel tables it measured 2 % slower
+        # per run (the reference counts of the arrays it is handed, at every channel of every epoch).
+        for i in range(n):
+            dx[i] = 0.0
+        for c in range(n_channels):
+            y_meas = y_obs[k, c]
+            if not np.isfinite(y_meas):
+                continue
+            ends = channel_ends[c]
+            x_r, x_t, x_s = channel_states(x_bar, known_states[k], ends)
+            predicted = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter,
+                                    g_second)
+            scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
+            for j in range(n_mods):  # bias and clock modifiers: linear in their states
+                index = channel_mod_index[c, j]
+                if index >= 0:
+                    predicted += channel_mod_coeff[c, j] * x_bar[index]
+                    H[index] += channel_mod_coeff[c, j]
+            y = residual(channel_kind[c], y_meas, predicted)
+            R = sigma[c] ** 2
+            innovation, S = prefit_into(dx, P, y, H, R, h)
+            if not np.isfinite(innovation):  # a run with a non-finite innovation is never "ok"
+                return err, sig, nees, innovations, innov_std, rejected, STATUS_NONFINITE, k
+            innovations[k, c] = innovation
+            innov_std[k, c] = np.sqrt(S) if S > 0.0 else np.nan
+            if gated(innovation, S, gate_sigma, gate_after, accepted):
+                rejected[k, c] = True  # edited: no update, dx and P stay as they are
+                continue
+            apply_update_into(dx, P, innovation, S, R, n_gain, underweight, dx_spare, P_spare, h, K)
+            dx, dx_spare = dx_spare, dx
+            P, P_spare = P_spare, P
+            accepted += 1
         for i in range(n):
             x_hat[i] = x_bar[i] + dx[i]
         if storing:
