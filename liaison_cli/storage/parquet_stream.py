@@ -13,9 +13,9 @@ class ParquetStream:
     """One Parquet table written as its rows arrive, so a campaign of any size holds only a buffer.
 
     `append` takes columns (name -> 1-D array, the same names and dtypes each time); up to `flush_rows`
-    rows are buffered and written as one row group (`dictionary_columns`: those whose values repeat). The file is built under a temporary name beside
-    `path`, fsynced and renamed onto it by `close()` (`abort()` drops it). With no rows at all it writes an
-    empty table.
+    rows are buffered and written as one row group (`dictionary_columns`: those whose values repeat). The
+    file is built under a temporary name beside `path`, fsynced and renamed onto it by `close()` (`abort()`
+    drops it). With no rows at all it writes an empty table.
     """
 
     def __init__(self, path, metadata: dict, flush_rows: int = 200_000, dictionary_columns=()):
