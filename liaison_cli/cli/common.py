@@ -2,6 +2,7 @@
 first-compilation notice, and the checks on names given on the command line."""
 
 import functools
+from typing import Annotated
 
 import typer
 
@@ -119,3 +120,16 @@ def echo_json(document: dict) -> None:
     from liaison_cli.report.json_summary import to_json_text
 
     typer.echo(to_json_text(document))
+
+
+# --- Options the study and orbit commands share (cli/studies.py, cli/orbits.py) -------------------------
+# Annotated aliases: each command keeps its own default in its signature (`jobs: JobsOption = 2`).
+JobsOption = Annotated[int, typer.Option("--jobs", min=1, help="worker processes")]
+QuietOption = Annotated[bool, typer.Option("--quiet", help="no progress bar")]
+StudyOverwriteOption = Annotated[bool, typer.Option("--overwrite", help="replace an earlier study there")]
+StudyGridOption = Annotated[list[str], typer.Option(
+    "--grid", help="KEY=V1,V2: repeat the study over filter settings (e.g. filter.underweighting=0,0.2); "
+    "repeatable")]
+FamilyArgument = Annotated[str, typer.Argument(help="family name (see 'liaison orbits list')")]
+FamilyCountOption = Annotated[int, typer.Option("--count", min=2, max=500,
+                                                help="members (generated if not cached, then stored)")]

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli.cli.common import user_errors
+from liaison_cli.cli.common import FamilyArgument, FamilyCountOption, user_errors
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 
@@ -37,8 +37,8 @@ def _format_family(frame) -> str:
 @orbits_app.command("generate")
 @user_errors
 def orbits_generate(
-    family: str = typer.Argument(..., help="family name (see 'liaison orbits list')"),
-    count: int = typer.Option(30, "--count", min=2, max=500, help="members to store"),
+    family: FamilyArgument,
+    count: FamilyCountOption = 30,
     regenerate: bool = typer.Option(False, "--regenerate", help="ignore the cache"),
 ):
     """Correct and continue a family; store its table (Parquet) in the user cache."""
@@ -72,8 +72,8 @@ def orbits_list():
 @orbits_app.command("show")
 @user_errors
 def orbits_show(
-    family: str = typer.Argument(..., help="family name"),
-    count: int = typer.Option(30, "--count", min=2, max=500, help="members (generated if not cached)"),
+    family: FamilyArgument,
+    count: FamilyCountOption = 30,
 ):
     """Print a family table (generating it first if needed)."""
     frame, _ = _family_table(family, count)
@@ -83,8 +83,8 @@ def orbits_show(
 @orbits_app.command("plot")
 @user_errors
 def orbits_plot(
-    family: str = typer.Argument(..., help="family name"),
-    count: int = typer.Option(30, "--count", min=2, max=500, help="members (generated if not cached)"),
+    family: FamilyArgument,
+    count: FamilyCountOption = 30,
     output: Path = typer.Option(None, "--output", help="PNG path (default: results/orbits/<family>.png)"),
 ):
     """Draw a family in the x-y, x-z and y-z planes, coloured by period (PNG)."""

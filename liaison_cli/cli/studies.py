@@ -5,7 +5,15 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import check_runs, refuse_repeated_labels, user_errors
+from liaison_cli.cli.common import (
+    JobsOption,
+    QuietOption,
+    StudyGridOption,
+    StudyOverwriteOption,
+    check_runs,
+    refuse_repeated_labels,
+    user_errors,
+)
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 
@@ -45,14 +53,13 @@ def study003(
     scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="missions' full-set scenarios "
                                            "(default: scenarios/003/cassini, mer_a, msl)"),
     runs: int = typer.Option(50, "--runs", min=1, help="Monte Carlo runs per mission and case"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: JobsOption = 2,
     output: Path = typer.Option(Path("results/study003"), "--output", help="result folder"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
-    grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
-                                   "(e.g. filter.underweighting=0,0.2); repeatable"),
+    overwrite: StudyOverwriteOption = False,
+    grid: StudyGridOption = None,
     dsn_noise: str = typer.Option(None, "--dsn-noise", help="set every ground link's noise to one of 003's "
                                   "readings: table2 (10 m, 0.5 mm/s) or text (1 m, 0.1 mm/s); default: the files'"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    quiet: QuietOption = False,
 ):
     """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures."""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid
@@ -98,12 +105,11 @@ def study004(
                                            "per receiver pair (default: scenarios/004/eml2_halo, dro, "
                                            "low_energy_transfer)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: JobsOption = 2,
     output: Path = typer.Option(Path("results/study004"), "--output", help="result folder"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
-    grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
-                                   "(e.g. filter.process_noise_accel_m_s2=1e-9,1e-8,1e-7); repeatable"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    overwrite: StudyOverwriteOption = False,
+    grid: StudyGridOption = None,
+    quiet: QuietOption = False,
 ):
     """004's study: each transmitter x receiver pair (TDoA + FDoA); LinCov 3σ and the EKF Monte Carlo
     (converged share, time to converge, consistency), rankings, DOP; table and figures."""

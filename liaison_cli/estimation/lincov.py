@@ -90,6 +90,78 @@ def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
     return predict(kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
 
 
+@njit(cache=True, inline="always")
+def _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k):
+    """A manoeuvre after epoch k: the filter's linearisation point (n,) and covariance P (n, n) and every
+    error part (D (3, n, n), S (n, L), mu_meas, mu_dyn (n,)) take the map J (filter_loop.apply_burns); the
+    truth takes its true Delta-v (the Delta-v columns of the truth)."""
+    n = mu_meas.shape[0]
+    apply_burns(linearisation, P, burns, k)
+    for p in range(N_RANDOM_PARTS):
+        apply_burn_covariance(D[p], burns, k)
+    apply_burn_rows(S, burns, k)
+    apply_burn_rows(mu_meas.reshape((n, 1)), burns, k)
+    apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k)
+
+
+@njit(cache=True, inline="always")
+def _dynamics_mismatch(truth_k, x_bar, d_dyn_extra, Phi, layout):
+    """d_dyn (n,) = x_k - f_filter(x_{k-1}) + the stated drifts on the spacecraft blocks, only the stated
+    drifts d_dyn_extra (n,) on clocks and constants; Phi (n, n) gets the identity on constant blocks, which
+    time_update leaves out."""
+    block_kind, block_start, block_size = layout
+    d_dyn = truth_k - x_bar + d_dyn_extra
+    for b in range(block_kind.shape[0]):
+        if block_kind[b] != BLOCK_SPACECRAFT:  # clocks and constants: only the stated drifts
+            for i in range(block_start[b], block_start[b] + block_size[b]):
+                d_dyn[i] = d_dyn_extra[i]
+                if block_kind[b] == BLOCK_CONSTANT:  # identity transition (time_update leaves it out)
+                    Phi[i, i] = 1.0
+    return d_dyn
+
+
+@njit(cache=True, inline="always")
+def _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underweight, channel_bias_link, P, P_spare,
+                        D, S, mu_meas, mu_dyn, vectors):
+    """Epoch k's update, one scalar channel at a time as the EKF does: the filter's covariance P (its own
+    update_scalar_into on a zero residual, dx staying zero) and, with its gain K from the P before it, every
+    error part (_update_parts; mu_dyn <- mu_dyn - K H mu_dyn). vectors: dx, dx_spare, H, h, K (n,) and the
+    ends' partials (6,) x 3, scratch. Returns (P, P_spare): the updated covariance and the spare."""
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
+    dx, dx_spare, H, h, K, g_r, g_t, g_s = vectors
+    n = P.shape[0]
+    for c in range(channel_kind.shape[0]):
+        if not np.isfinite(y_true[k, c]):
+            continue
+        ends = channel_ends[c]
+        predicted = _model_on_truth(truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r, g_t, g_s)
+        scatter_partials(H, ends, g_r, g_t, g_s)
+        for j in range(channel_mod_index.shape[1]):
+            if channel_mod_index[c, j] >= 0:
+                H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
+        R = sigma[c] ** 2
+        update_scalar_into(dx, P, 0.0, H, R, n_gain, underweight, dx_spare, P_spare, h, K)
+        P, P_spare = P_spare, P
+        _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
+        hm = H @ mu_dyn
+        for i in range(n):
+            mu_dyn[i] -= K[i] * hm
+    return P, P_spare
+
+
+@njit(cache=True, inline="always")
+def _record_parts(k, P, D, S, mu_meas, mu_dyn, P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out):
+    """Epoch k's row of each output: diag P, diag of each random part, S, mu_meas and mu_dyn."""
+    for i in range(P.shape[0]):
+        P_diag[k, i] = P[i, i]
+        mu_meas_out[k, i] = mu_meas[i]
+        mu_dyn_out[k, i] = mu_dyn[i]
+        for p in range(N_RANDOM_PARTS):
+            D_diag[k, p, i] = D[p, i, i]
+        for l in range(S.shape[1]):
+            S_out[k, i, l] = S[i, l]
+
+
 @njit(cache=True)
 def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dynamics, P0, Q, n_gain, underweight,
                        burns, truth_errors):
@@ -105,93 +177,42 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
     channel_bias_link (C,): the link whose unmodelled bias enters the channel (-1: none).
 
     Returns P_diag (m, n), D_diag (m, 3, n) for the initial / noise / process parts, S (m, n, L), mu_meas
-    (m, n), mu_dyn (m, n).
+    (m, n), mu_dyn (m, n). Each epoch is the module docstring's predict (time_update, the covariance
+    prediction of Eq. 12 for P and _propagate_parts for the parts) then update (_update_along_truth).
     """
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
     block_kind, block_start, block_size = layout
     params, dt_tu, substeps, t0_tu = dynamics
     D_initial, Q_true, S0, d_dyn_extra, channel_bias_link = truth_errors
     m, n = truth.shape
     n_links = S0.shape[1]
-    n_channels = channel_kind.shape[0]
-    n_mods = channel_mod_index.shape[1]
     P = P0.copy()
     D = np.zeros((N_RANDOM_PARTS, n, n))
     D[PART_INITIAL] = D_initial
     S = S0.copy()
     mu_meas = np.zeros(n)
     mu_dyn = np.zeros(n)
-    P_diag = np.empty((m, n))
-    D_diag = np.empty((m, N_RANDOM_PARTS, n))
-    S_out = np.empty((m, n, n_links))
-    mu_meas_out = np.empty((m, n))
-    mu_dyn_out = np.empty((m, n))
-    x_bar = np.empty(n)
-    Phi = np.zeros((n, n))
-    H = np.zeros(n)
-    g_r = np.empty(6)
-    g_t = np.empty(6)
-    g_s = np.empty(6)
-    scratch = np.empty((n, n))
-    y_stm = np.empty(42)
-    work_stm = np.empty((5, 42))
-    work_block = np.empty((6, 6))
-    P_spare = np.empty((n, n))
-    dx = np.zeros(n)  # the filter's correction on noise-free data along the truth: stays zero
-    dx_spare = np.zeros(n)
-    h = np.empty(n)
-    K = np.empty(n)
+    P_diag, D_diag, S_out = np.empty((m, n)), np.empty((m, N_RANDOM_PARTS, n)), np.empty((m, n, n_links))
+    mu_meas_out, mu_dyn_out = np.empty((m, n)), np.empty((m, n))
+    x_bar, Phi, P_spare, scratch = np.empty(n), np.zeros((n, n)), np.empty((n, n)), np.empty((n, n))
+    y_stm, work_stm, work_block = np.empty(42), np.empty((5, 42)), np.empty((6, 6))
+    # dx: the filter's correction on noise-free data along the truth, stays zero; then dx_spare, H, h, K, g_*.
+    vectors = (np.zeros(n), np.zeros(n), np.zeros(n), np.empty(n), np.empty(n), np.empty(6), np.empty(6),
+               np.empty(6))
     for k in range(m):
         if k > 0:
-            # A manoeuvre after epoch k - 1: the truth takes its true Delta-v (the Delta-v columns of the
-            # truth), the filter's covariance and every error part the map J (filter_loop.apply_burns).
             linearisation = truth[k - 1].copy()
-            apply_burns(linearisation, P, burns, k - 1)
-            for p in range(N_RANDOM_PARTS):
-                apply_burn_covariance(D[p], burns, k - 1)
-            apply_burn_rows(S, burns, k - 1)
-            apply_burn_rows(mu_meas.reshape((n, 1)), burns, k - 1)
-            apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k - 1)
+            _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k - 1)
             time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
                         t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
-            d_dyn = truth[k] - x_bar + d_dyn_extra
-            for b in range(block_kind.shape[0]):
-                if block_kind[b] != BLOCK_SPACECRAFT:  # clocks and constants: only the stated drifts
-                    for i in range(block_start[b], block_start[b] + block_size[b]):
-                        d_dyn[i] = d_dyn_extra[i]
-                        if block_kind[b] == BLOCK_CONSTANT:  # identity transition (time_update leaves it out)
-                            Phi[i, i] = 1.0
+            d_dyn = _dynamics_mismatch(truth[k], x_bar, d_dyn_extra, Phi, layout)
             P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
                                                  block_size), P
             _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size,
                              scratch)
-            for c in range(n_channels):
-                if not np.isfinite(y_true[k, c]):
-                    continue
-                ends = channel_ends[c]
-                predicted = _model_on_truth(truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r,
-                                            g_t, g_s)
-                scatter_partials(H, ends, g_r, g_t, g_s)
-                for j in range(n_mods):
-                    if channel_mod_index[c, j] >= 0:
-                        H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
-                R = sigma[c] ** 2
-                # The filter's own update: its covariance, and its gain K (from the P before it) for the parts.
-                update_scalar_into(dx, P, 0.0, H, R, n_gain, underweight, dx_spare, P_spare, h, K)
-                P, P_spare = P_spare, P
-                _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
-                hm = H @ mu_dyn
-                for i in range(n):
-                    mu_dyn[i] -= K[i] * hm
-        for i in range(n):
-            P_diag[k, i] = P[i, i]
-            mu_meas_out[k, i] = mu_meas[i]
-            mu_dyn_out[k, i] = mu_dyn[i]
-            for p in range(N_RANDOM_PARTS):
-                D_diag[k, p, i] = D[p, i, i]
-            for l in range(n_links):
-                S_out[k, i, l] = S[i, l]
+            P, P_spare = _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underweight,
+                                             channel_bias_link, P, P_spare, D, S, mu_meas, mu_dyn, vectors)
+        _record_parts(k, P, D, S, mu_meas, mu_dyn, P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out)
     return P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out
 
 

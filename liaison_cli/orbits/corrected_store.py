@@ -11,13 +11,11 @@ at once. Files are written atomically (storage); a damaged one is rebuilt with a
 """
 
 import hashlib
-import io
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from liaison_cli import core_source_hash, user_cache_dir
+from liaison_cli import core_source_hash
 from liaison_cli.orbits.ephemeris_correction import (
     POSITION_TOLERANCE_KM,
     VELOCITY_TOLERANCE_KM_S,
@@ -26,14 +24,14 @@ from liaison_cli.orbits.ephemeris_correction import (
     multiple_shooting,
     patch_points_from_crtbp,
 )
-from liaison_cli.storage import write_bytes_atomic
+from liaison_cli.orbits.npz_cache import cache_folder, read_intact, write_npz
 
 STORE_FORMAT = 1
 FIELDS = ("node_times_s", "nodes", "position_defects_km", "velocity_defects_km_s", "iterations", "converged")
 
 
 def cache_dir() -> Path:
-    return Path(user_cache_dir()) / "dated-orbits"
+    return cache_folder("dated-orbits")
 
 
 def correction_key(state_lu, epoch_s: float, span_s: float, node_spacing_s: float, forces: ForceModel,
@@ -70,29 +68,23 @@ def corrected_orbit(state_lu, epoch_s: float, span_s: float, node_spacing_s: flo
 
 
 def _save(orbit: CorrectedOrbit, path: Path) -> None:
-    buffer = io.BytesIO()
-    np.savez(buffer, **{name: np.asarray(getattr(orbit, name)) for name in FIELDS})
-    write_bytes_atomic(buffer.getvalue(), path)
+    write_npz({name: np.asarray(getattr(orbit, name)) for name in FIELDS}, path)
 
 
 def _load_intact(path: Path) -> CorrectedOrbit | None:
     """The cached orbit, or None (with a note on stderr) when the file is damaged: not a readable .npz, a
     field missing, or nodes that do not match their times. The caller corrects the orbit again."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            fields = {name: data[name] for name in FIELDS}
-        times, nodes = fields["node_times_s"], fields["nodes"]
-        intact = (times.ndim == 1 and nodes.shape == (len(times), 6) and len(times) >= 2
-                  and np.all(np.isfinite(nodes)) and len(fields["position_defects_km"]) == int(fields["iterations"]))
-        problem = None if intact else "malformed arrays"
-    except Exception as exc:  # noqa: BLE001 - a damaged zip fails in many ways (BadZipFile, EOFError, KeyError)
-        if isinstance(exc, PermissionError):
-            raise
-        problem = type(exc).__name__
-    if problem is not None:
-        print(f"liaison: {path}: damaged corrected-orbit cache ({problem}); correcting the orbit again",
-              file=sys.stderr)
-        return None
+    return read_intact(path, _read_checked, "corrected-orbit", "correcting the orbit again")
+
+
+def _read_checked(path: Path) -> tuple[CorrectedOrbit | None, str | None]:
+    with np.load(path, allow_pickle=False) as data:
+        fields = {name: data[name] for name in FIELDS}
+    times, nodes = fields["node_times_s"], fields["nodes"]
+    intact = (times.ndim == 1 and nodes.shape == (len(times), 6) and len(times) >= 2
+              and np.all(np.isfinite(nodes)) and len(fields["position_defects_km"]) == int(fields["iterations"]))
+    if not intact:
+        return None, "malformed arrays"
     return CorrectedOrbit(times, nodes, tuple(float(d) for d in fields["position_defects_km"]),
                           tuple(float(d) for d in fields["velocity_defects_km_s"]), int(fields["iterations"]),
-                          bool(fields["converged"]))
+                          bool(fields["converged"])), None

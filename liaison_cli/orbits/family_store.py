@@ -6,7 +6,6 @@ and dynamics sources, so a changed corrector never serves stale members.
 """
 
 import dataclasses
-import io
 import os
 from collections import namedtuple
 from functools import lru_cache
@@ -14,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from liaison_cli import core_source_hash, user_cache_dir
+from liaison_cli import core_source_hash
 from liaison_cli.orbits.families import (
     TU_DAYS,
     amplitude_km,
@@ -23,8 +22,8 @@ from liaison_cli.orbits.families import (
     member_by_amplitude,
     member_by_period,
 )
+from liaison_cli.orbits.npz_cache import cache_folder, read_intact, write_npz
 from liaison_cli.orbits.periodic import PeriodicOrbit
-from liaison_cli.storage import write_bytes_atomic
 
 DEFAULT_COUNT = 30
 AXES = ("x", "y", "z", "vx", "vy", "vz")
@@ -61,7 +60,7 @@ class FamilyTable:
 def cache_dir() -> Path:
     if os.environ.get("LIAISON_ORBIT_CACHE_DIR"):
         return Path(os.environ["LIAISON_ORBIT_CACHE_DIR"])
-    return Path(user_cache_dir()) / "families"
+    return cache_folder("families")
 
 
 def family_path(name: str, count: int) -> Path:
@@ -90,9 +89,7 @@ def from_table(table: FamilyTable) -> list[PeriodicOrbit]:
 
 
 def _save(table: FamilyTable, path: Path) -> None:
-    buffer = io.BytesIO()
-    np.savez(buffer, **table.columns)
-    write_bytes_atomic(buffer.getvalue(), path)
+    write_npz(table.columns, path)
 
 
 def _load(path: Path) -> FamilyTable:
@@ -109,24 +106,17 @@ def _load_intact(path: Path, name: str, count: int) -> FamilyTable | None:
     """The cached table, or None (with a note on stderr) when the file is damaged: not a readable .npz
     (truncated, overwritten: BadZipFile, EOFError, ValueError, ...), or columns missing, of unequal
     lengths or not numbers. The cache is derived data, so the caller rebuilds it."""
-    import sys
+    return read_intact(path, _read_checked, "orbit-family", f"rebuilding it (as 'liaison orbits generate {name} "
+                       f"--count {count} --regenerate' does)")
 
-    try:
-        table = _load(path)
-        columns = _required_columns()
-        present = all(c in table.columns for c in columns)
-        lengths = {len(table.columns[c]) for c in columns} if present else set()
-        intact = len(lengths) == 1 and lengths != {0} and all(table.columns[c].dtype.kind == "f" for c in columns[2:])
-        problem = None if intact else "missing or malformed columns"
-    except Exception as exc:  # noqa: BLE001 - a damaged zip fails in many ways (BadZipFile, EOFError, ...)
-        if isinstance(exc, PermissionError):
-            raise
-        problem = type(exc).__name__
-    if problem is None:
-        return table
-    print(f"liaison: {path}: damaged orbit-family cache ({problem}); rebuilding it (as 'liaison orbits generate "
-          f"{name} --count {count} --regenerate' does)", file=sys.stderr)
-    return None
+
+def _read_checked(path: Path) -> tuple[FamilyTable, str | None]:
+    table = _load(path)
+    columns = _required_columns()
+    present = all(c in table.columns for c in columns)
+    lengths = {len(table.columns[c]) for c in columns} if present else set()
+    intact = len(lengths) == 1 and lengths != {0} and all(table.columns[c].dtype.kind == "f" for c in columns[2:])
+    return table, None if intact else "missing or malformed columns"
 
 
 def load_or_generate(name: str, count: int = DEFAULT_COUNT, regenerate: bool = False) -> tuple[FamilyTable, bool]:

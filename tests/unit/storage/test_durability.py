@@ -61,12 +61,12 @@ from liaison_cli import storage
 moment, out = sys.argv[1], Path(sys.argv[2])
 die = lambda *args, **kwargs: os.kill(os.getpid(), signal.SIGKILL)
 if moment == "between-renames":  # the old result is aside, the stage not yet in: NAME is missing
-    storage._renameat2 = lambda: None
+    storage.swap._renameat2 = lambda: None
     real_replace = os.replace
     os.replace = lambda src, dst: die() if Path(src).name.startswith(f".{out.name}.partial-") \
         else real_replace(src, dst)
 if moment == "after-exchange":  # the names are exchanged; the old result not yet removed
-    storage.shutil.rmtree = die
+    storage.swap.shutil.rmtree = die
 with storage.staged_output(out, overwrite=True) as stage:
     (stage / "data.txt").write_text("new")
     if moment == "mid-write":
@@ -101,7 +101,7 @@ def _dead_pid():
 
 @pytest.fixture
 def exchange_supported(tmp_path):
-    from liaison_cli.storage import _exchange
+    from liaison_cli.storage.swap import _exchange
 
     a, b = tmp_path / "a", tmp_path / "b"
     a.mkdir(), b.mkdir()
@@ -151,7 +151,7 @@ def test_an_io_error_in_either_rename_keeps_the_old_result_in_place(tmp_path, mo
 
     out = tmp_path / "out"
     _old_result(out)
-    monkeypatch.setattr(storage, "_renameat2", lambda: None)
+    monkeypatch.setattr(storage.swap, "_renameat2", lambda: None)
     real_replace = os.replace
     source = ".out.partial-" if failing == "stage-in" else "out"
 
@@ -178,7 +178,7 @@ def test_an_io_error_in_the_exchange_keeps_the_old_result(tmp_path, monkeypatch)
 
     out = tmp_path / "out"
     _old_result(out)
-    monkeypatch.setattr(storage, "_exchange", failing_exchange)
+    monkeypatch.setattr(storage.swap, "_exchange", failing_exchange)
     with pytest.raises(OSError, match="Input/output error"):
         with storage.staged_output(out, overwrite=True) as stage:
             (stage / "data.txt").write_text("new")
@@ -190,7 +190,7 @@ def test_a_replacement_leaves_only_the_new_result(tmp_path, monkeypatch, fallbac
     from liaison_cli import storage
 
     if fallback:
-        monkeypatch.setattr(storage, "_renameat2", lambda: None)
+        monkeypatch.setattr(storage.swap, "_renameat2", lambda: None)
     out = tmp_path / "out"
     _old_result(out)
     with storage.staged_output(out, overwrite=True) as stage:
