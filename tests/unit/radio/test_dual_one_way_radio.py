@@ -60,20 +60,22 @@ def test_foa_bound_is_reached_by_a_simulated_ml_frequency_estimator():
     t = (np.arange(n) - n / 2) * duration / n
     sigma2 = n / e_over_n0
 
-    def power(x, freq):
-        return abs(np.sum(x * np.exp(-2j * np.pi * freq * t))) ** 2
+    trials = 1500
+    signals = np.empty((trials, n), dtype=complex)
+    for k in range(trials):  # the draws in the order of one trial after another
+        signals[k] = np.exp(1j * (2 * np.pi * f0 * t + rng.uniform(0, 2 * np.pi)))
+        signals[k] += math.sqrt(sigma2 / 2) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
 
-    estimates = []
+    def power(freqs):  # (trials,) frequencies -> each trial's periodogram at its own frequency
+        return np.abs(np.sum(signals * np.exp(-2j * np.pi * freqs[:, None] * t), axis=1)) ** 2
+
     grid = np.linspace(2.5, 4.1, 200)
-    for _ in range(1500):
-        x = np.exp(1j * (2 * np.pi * f0 * t + rng.uniform(0, 2 * np.pi)))
-        x = x + math.sqrt(sigma2 / 2) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
-        freq = grid[np.argmax(np.abs(np.exp(-2j * np.pi * np.outer(grid, t)) @ x))]
-        for _ in range(4):
-            h = 1e-4
-            p0, p1, p2 = power(x, freq - h), power(x, freq), power(x, freq + h)
-            freq -= (p2 - p0) / (2 * h) / ((p2 - 2 * p1 + p0) / h**2)
-        estimates.append(freq)
+    freqs = grid[np.argmax(np.abs(signals @ np.exp(-2j * np.pi * np.outer(grid, t)).T), axis=1)]
+    for _ in range(4):  # Newton steps on the periodogram's peak
+        h = 1e-4
+        p0, p1, p2 = power(freqs - h), power(freqs), power(freqs + h)
+        freqs = freqs - (p2 - p0) / (2 * h) / ((p2 - 2 * p1 + p0) / h**2)
+    estimates = freqs
     bound = foa_crb_hz(effective_duration_rect_s(duration), 10 * math.log10(e_over_n0), 1.0)
     assert np.std(estimates) == pytest.approx(bound, rel=0.08)
 
