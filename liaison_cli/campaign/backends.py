@@ -1,18 +1,39 @@
-"""Fan-out backends: run `fn(shared[key], tasks)` for every batch and yield results as they finish.
+"""The one fan-out of liaison: run `fn(shared[key], tasks)` for every batch and yield results as they finish
+(map_batches). Every long command goes through it: `run`, `compare`, `table3` and the 003 / 004 studies through
+runner.iter_outcomes (its ordered layer), `sweep` and `tune` directly.
 
-- `joblib` (default): local processes; `jobs=1` runs in this process.
+- `joblib` (default): local processes (joblib's loky pool); `jobs=1` runs in this process.
 - `dask`: a dask.distributed cluster (`scheduler="tcp://host:8786"`), or a LocalCluster of `jobs`
   workers when no scheduler is given. Shared objects (a scenario's truth arrays) are scattered once.
 
 Order of completion is not defined; callers key results by task id, so numbers never depend on it.
 """
 
-from collections.abc import Callable, Iterator
+import itertools
+import os
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
 
 from liaison_cli.errors import LiaisonError
 from liaison_cli.interrupts import shield_pool_workers
 
 BACKENDS = ("joblib", "dask")
+# Batches submitted and not yet consumed, per worker: enough that no worker waits for the next batch while the
+# caller handles a result, few enough that memory stays bounded whatever the number of runs.
+WINDOW_PER_WORKER = 4
+
+
+@dataclass(frozen=True)
+class Backend:
+    """Where batches run: `name` joblib (local processes) or dask (the cluster at `scheduler`, or a LocalCluster
+    when it is None); `connect_timeout_s` bounds the wait for that scheduler."""
+
+    name: str = "joblib"
+    scheduler: str | None = None
+    connect_timeout_s: float = 20.0
+
+
+LOCAL = Backend()
 
 
 class BackendError(LiaisonError):
@@ -89,44 +110,94 @@ def probe_scheduler(scheduler: str, timeout_s: float) -> None:
         raise BackendUnavailableError(f"{where}: answered, but not as a dask scheduler")
 
 
-def map_batches(fn: Callable, shared: dict, batches: list, backend: str = "joblib", jobs: int = 2,
-                scheduler: str | None = None, connect_timeout_s: float = 20.0) -> Iterator:
-    """batches: list of (key, tasks); yields fn(shared[key], tasks) in completion order."""
-    check_backend(backend, scheduler)
-    if not batches:
+def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = LOCAL, jobs: int = 2,
+                window: int | None = None) -> Iterator:
+    """batches: (key, tasks) pairs, read lazily; yields fn(shared[key], tasks) in completion order.
+
+    At most `window` batches (default: WINDOW_PER_WORKER per worker) are submitted and not yet yielded, so
+    what is held here, in the pipes and in the workers does not grow with the number of batches. A
+    generator left early (Ctrl-C, an error in the caller) cancels what is queued and stops the workers."""
+    check_backend(where.name, where.scheduler)
+    queued = iter(batches)
+    first = next(queued, None)
+    if first is None:  # nothing to do: no pool, no cluster
         return iter(())
-    if backend == "dask":
-        return _dask(fn, shared, batches, jobs, scheduler, connect_timeout_s)
+    batches = itertools.chain([first], queued)
+    if where.name == "dask":
+        return _dask(fn, shared, batches, jobs, where, window)
     if jobs == 1:
         return (fn(shared[key], tasks) for key, tasks in batches)
-    from joblib import Parallel, delayed
+    return _local_processes(fn, shared, batches, jobs, window or WINDOW_PER_WORKER * jobs)
+
+
+def _worker_environment(jobs: int) -> dict:
+    """What joblib gives its workers: thread pools (BLAS, OpenMP, numba) sized to the cores per worker, unless
+    this process's environment already sets them, so `jobs` workers do not oversubscribe the machine."""
+    from joblib import cpu_count
+    from joblib._parallel_backends import ParallelBackendBase
+
+    threads = max(cpu_count() // jobs, 1)
+    return {var: str(os.environ.get(var, threads)) for var in ParallelBackendBase.MAX_NUM_THREADS_VARS}
+
+
+def _local_processes(fn, shared, batches, jobs, window):
+    """joblib's process pool (loky's reusable executor: started once per process, kept between calls)."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from joblib.externals.loky import get_reusable_executor
 
     shield_pool_workers()
-    parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    return parallel(delayed(fn)(shared[key], tasks) for key, tasks in batches)
-
-
-def _dask(fn, shared, batches, jobs, scheduler, connect_timeout_s):
-    from distributed import Client, LocalCluster, as_completed
-
-    cluster = None
+    executor = get_reusable_executor(max_workers=jobs, env=_worker_environment(jobs))
+    queued = iter(batches)
+    running = {executor.submit(fn, shared[key], tasks) for key, tasks in itertools.islice(queued, window)}
+    finished = False
     try:
-        if scheduler:
-            probe_scheduler(scheduler, connect_timeout_s)
-            client = Client(scheduler, timeout=f"{connect_timeout_s}s")
-        else:
-            cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
-            client = Client(cluster)
+        while running:
+            done, running = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield future.result()
+                for key, tasks in itertools.islice(queued, 1):
+                    running.add(executor.submit(fn, shared[key], tasks))
+        finished = True
+    finally:
+        if not finished:
+            for future in running:
+                future.cancel()
+            executor.shutdown(wait=False, kill_workers=True)
+
+
+def _dask_client(jobs: int, where: Backend):
+    from distributed import Client, LocalCluster
+
+    try:
+        if where.scheduler:
+            probe_scheduler(where.scheduler, where.connect_timeout_s)
+            return Client(where.scheduler, timeout=f"{where.connect_timeout_s}s"), None
+        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
+        return Client(cluster), cluster
     except (OSError, TimeoutError) as exc:
-        raise BackendUnavailableError(f"--scheduler {scheduler!r}: cannot connect ({type(exc).__name__}: {exc})") from None
+        raise BackendUnavailableError(f"--scheduler {where.scheduler!r}: cannot connect "
+                                      f"({type(exc).__name__}: {exc})") from None
+
+
+def _dask(fn, shared, batches, jobs, where, window):
+    from distributed import as_completed
+
+    client, cluster = _dask_client(jobs, where)
 
     def generate():
         try:
+            # A cluster reached by address may have more workers than --jobs: keep every one of them busy.
+            limit = window or WINDOW_PER_WORKER * max(jobs, sum(client.nthreads().values()))
             scattered = {key: client.scatter(value, broadcast=False) for key, value in shared.items()}
-            futures = [client.submit(fn, scattered[key], tasks, pure=False) for key, tasks in batches]
-            for future in as_completed(futures):
+            queued = iter(batches)
+            running = as_completed([client.submit(fn, scattered[key], tasks, pure=False)
+                                    for key, tasks in itertools.islice(queued, limit)])
+            for future in running:
                 yield future.result()
                 future.release()
+                for key, tasks in itertools.islice(queued, 1):
+                    running.add(client.submit(fn, scattered[key], tasks, pure=False))
         finally:
             client.close()
             if cluster is not None:
