@@ -5,7 +5,8 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import check_runs, refuse_repeated_labels, user_errors
+from liaison_cli.cli.common import (backend_option, check_runs, fan_out, jobs_option, refuse_repeated_labels,
+                                    scheduler_option, scheduler_timeout_option, user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 
@@ -36,6 +37,15 @@ def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, hist
     typer.echo(f"results: {output}")
 
 
+def work_option():
+    return typer.Option(None, "--work", help="folder of the finished cells, so that an interrupted study resumes "
+                                             "(default: the output folder's name + .work, beside it)")
+
+
+def _work_folder(work: Path | None, output: Path) -> Path:
+    return work if work is not None else output.parent / f"{output.name}.work"
+
+
 STUDY003_MISSIONS = ("scenarios/003/cassini.yaml", "scenarios/003/mer_a.yaml", "scenarios/003/msl.yaml")
 
 
@@ -45,9 +55,13 @@ def study003(
     scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="missions' full-set scenarios "
                                            "(default: scenarios/003/cassini, mer_a, msl)"),
     runs: int = typer.Option(50, "--runs", min=1, help="Monte Carlo runs per mission and case"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/study003"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
+    work: Path = work_option(),
     grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
                                    "(e.g. filter.underweighting=0,0.2); repeatable"),
     dsn_noise: str = typer.Option(None, "--dsn-noise", help="set every ground link's noise to one of 003's "
@@ -60,13 +74,14 @@ def study003(
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     if dsn_noise is not None and dsn_noise not in DSN_NOISE_READINGS:
         raise LiaisonError(f"--dsn-noise {dsn_noise!r}: allowed: {', '.join(DSN_NOISE_READINGS)}")
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
     loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
     summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
-                                    grid=axes, dsn_noise=dsn_noise)
+                                    grid=axes, dsn_noise=dsn_noise, where=where, work=_work_folder(work, output))
     first = loaded[0][1]
     noise = (f"003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}" if dsn_noise else "as in the scenario files")
     typer.echo(f"003 study, {runs} runs per case, DSN noise: {noise}; "
@@ -98,9 +113,13 @@ def study004(
                                            "per receiver pair (default: scenarios/004/eml2_halo, dro, "
                                            "low_energy_transfer)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/study004"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier study there"),
+    work: Path = work_option(),
     grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2: repeat the study over filter settings "
                                    "(e.g. filter.process_noise_accel_m_s2=1e-9,1e-8,1e-7); repeatable"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
@@ -113,12 +132,13 @@ def study004(
     from liaison_cli.report.study004 import draw_histories, format_rankings, format_table
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
     keys = [k for k, _ in axes]
     loaded = _load_study(scenarios or [Path(p) for p in STUDY004_TRANSMITTERS])
     summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
-                                 grid=axes)
+                                 grid=axes, where=where, work=_work_folder(work, output))
     header = [f"004 study, {runs} runs per case. LinCov: steady state = median 3σ over the last quarter; converged "
               "= 3σ position below twice it from then on. EKF: a run converged when its position error stays below "
               "twice LinCov's steady 3σ (not before its initial batch hands over); steady state and convergence are "
