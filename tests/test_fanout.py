@@ -23,9 +23,11 @@ def sigint_kept():
     signal.signal(signal.SIGINT, previous)
 
 
-def test_the_pool_never_holds_more_than_its_window():
+@pytest.mark.parametrize("ordered", [False, True])
+def test_the_pool_never_holds_more_than_its_window(ordered):
     """Batches are read from the caller's iterable only as results are taken: at most `window` are submitted
-    and not yet consumed, whatever the number of batches (bounded memory for any run count)."""
+    and not yet consumed (in order: a batch done before an earlier one included), whatever the number of
+    batches (bounded memory for any run count)."""
     taken = {"read": 0, "consumed": 0}
 
     def batches():
@@ -34,11 +36,11 @@ def test_the_pool_never_holds_more_than_its_window():
             yield 0, index
 
     results = []
-    for value in map_batches(operator.add, {0: 1000}, batches(), Backend("joblib"), jobs=2, window=3):
+    for value in map_batches(operator.add, {0: 1000}, batches(), Backend("joblib"), jobs=2, window=3, ordered=ordered):
         assert taken["read"] - taken["consumed"] <= 3, taken
         taken["consumed"] += 1
         results.append(value)
-    assert sorted(results) == [1000 + index for index in range(40)]
+    assert (results if ordered else sorted(results)) == [1000 + index for index in range(40)]
 
 
 def test_run_writes_the_same_bytes_on_one_process_a_pool_and_dask(tmp_path, monkeypatch, sigint_kept):

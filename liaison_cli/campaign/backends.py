@@ -111,12 +111,14 @@ def probe_scheduler(scheduler: str, timeout_s: float) -> None:
 
 
 def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = LOCAL, jobs: int = 2,
-                window: int | None = None) -> Iterator:
-    """batches: (key, tasks) pairs, read lazily; yields fn(shared[key], tasks) in completion order.
+                window: int | None = None, ordered: bool = False) -> Iterator:
+    """batches: (key, tasks) pairs, read lazily; yields fn(shared[key], tasks) as they finish, or, with
+    `ordered`, in the order of `batches`.
 
-    At most `window` batches (default: WINDOW_PER_WORKER per worker) are submitted and not yet yielded, so
-    what is held here, in the pipes and in the workers does not grow with the number of batches. A
-    generator left early (Ctrl-C, an error in the caller) cancels what is queued and stops the workers."""
+    At most `window` batches (default: WINDOW_PER_WORKER per worker) are submitted and not yet yielded: in
+    order, a finished batch waiting for an earlier one counts too, so what is held here, in the pipes and in
+    the workers does not grow with the number of batches. A generator left early (Ctrl-C, an error in the
+    caller) stops the workers and drops what is queued."""
     check_backend(where.name, where.scheduler)
     queued = iter(batches)
     first = next(queued, None)
@@ -124,10 +126,47 @@ def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = 
         return iter(())
     batches = itertools.chain([first], queued)
     if where.name == "dask":
-        return _dask(fn, shared, batches, jobs, where, window)
+        return _dask(fn, shared, batches, jobs, where, window, ordered)
     if jobs == 1:
         return (fn(shared[key], tasks) for key, tasks in batches)
-    return _local_processes(fn, shared, batches, jobs, window or WINDOW_PER_WORKER * jobs)
+    return _local_processes(fn, shared, batches, jobs, window or WINDOW_PER_WORKER * jobs, ordered)
+
+
+def _windowed(submit: Callable, wait_first: Callable, batches: Iterator, window: int, in_flight_limit: int,
+              ordered: bool) -> Iterator:
+    """Yield the futures of `submit(key, tasks)` for every batch once done (in completion or batch order),
+    keeping at most `window` submitted and not yet yielded, and at most `in_flight_limit` not yet done."""
+    queued = enumerate(batches)
+    outstanding: dict = {}  # batch index -> future, submitted and not yet yielded
+    exhausted = False
+    while True:
+        in_flight = sum(not future.done() for future in outstanding.values())
+        while not exhausted and len(outstanding) < window and in_flight < in_flight_limit:
+            item = next(queued, None)
+            exhausted = item is None
+            if not exhausted:
+                index, (key, tasks) = item
+                outstanding[index] = submit(key, tasks)
+                in_flight += 1
+        if not outstanding:
+            return
+        ready = _ready(outstanding, ordered)
+        if not ready:
+            wait_first([future for future in outstanding.values() if not future.done()])
+        for index in ready:
+            yield outstanding.pop(index)
+
+
+def _ready(outstanding: dict, ordered: bool) -> list:
+    """The batch indexes that may be yielded now: every finished one, or in order, the finished run of them
+    from the oldest on."""
+    if not ordered:
+        return [index for index, future in outstanding.items() if future.done()]
+    ready, index = [], min(outstanding)
+    while index in outstanding and outstanding[index].done():
+        ready.append(index)
+        index += 1
+    return ready
 
 
 def _worker_environment(jobs: int) -> dict:
@@ -140,7 +179,7 @@ def _worker_environment(jobs: int) -> dict:
     return {var: str(os.environ.get(var, threads)) for var in ParallelBackendBase.MAX_NUM_THREADS_VARS}
 
 
-def _local_processes(fn, shared, batches, jobs, window):
+def _local_processes(fn, shared, batches, jobs, window, ordered):
     """joblib's process pool (loky's reusable executor: started once per process, kept between calls)."""
     from concurrent.futures import FIRST_COMPLETED, wait
 
@@ -148,22 +187,18 @@ def _local_processes(fn, shared, batches, jobs, window):
 
     shield_pool_workers()
     executor = get_reusable_executor(max_workers=jobs, env=_worker_environment(jobs))
-    queued = iter(batches)
-    running = {executor.submit(fn, shared[key], tasks) for key, tasks in itertools.islice(queued, window)}
+    # Not more undone than loky's call queue holds (2 per worker + 1), as joblib's pre_dispatch: a work item
+    # still waiting outside that queue when the pool is killed trips loky's manager thread (a KeyError).
+    futures = _windowed(lambda key, tasks: executor.submit(fn, shared[key], tasks),
+                        lambda running: wait(running, return_when=FIRST_COMPLETED), batches, window, 2 * jobs, ordered)
     finished = False
     try:
-        while running:
-            done, running = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
-                yield future.result()
-                for key, tasks in itertools.islice(queued, 1):
-                    running.add(executor.submit(fn, shared[key], tasks))
+        for future in futures:
+            yield future.result()
         finished = True
     finally:
-        if not finished:
-            for future in running:
-                future.cancel()
-            executor.shutdown(wait=False, kill_workers=True)
+        if not finished:  # killing the pool fails what is queued (cancelling it first trips loky's manager thread)
+            executor.shutdown(wait=True, kill_workers=True)  # as joblib aborts: the workers are gone on return
 
 
 def _dask_client(jobs: int, where: Backend):
@@ -180,8 +215,8 @@ def _dask_client(jobs: int, where: Backend):
                                       f"({type(exc).__name__}: {exc})") from None
 
 
-def _dask(fn, shared, batches, jobs, where, window):
-    from distributed import as_completed
+def _dask(fn, shared, batches, jobs, where, window, ordered):
+    from distributed import wait
 
     client, cluster = _dask_client(jobs, where)
 
@@ -190,14 +225,12 @@ def _dask(fn, shared, batches, jobs, where, window):
             # A cluster reached by address may have more workers than --jobs: keep every one of them busy.
             limit = window or WINDOW_PER_WORKER * max(jobs, sum(client.nthreads().values()))
             scattered = {key: client.scatter(value, broadcast=False) for key, value in shared.items()}
-            queued = iter(batches)
-            running = as_completed([client.submit(fn, scattered[key], tasks, pure=False)
-                                    for key, tasks in itertools.islice(queued, limit)])
-            for future in running:
+            futures = _windowed(lambda key, tasks: client.submit(fn, scattered[key], tasks, pure=False),
+                                lambda running: wait(running, return_when="FIRST_COMPLETED"), batches, limit, limit,
+                                ordered)
+            for future in futures:
                 yield future.result()
                 future.release()
-                for key, tasks in itertools.islice(queued, 1):
-                    running.add(client.submit(fn, scattered[key], tasks, pure=False))
         finally:
             client.close()
             if cluster is not None:

@@ -7,7 +7,7 @@ from tqdm import tqdm
 
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.scenario.schema import Scenario
-from liaison_cli.campaign.backends import LOCAL, WINDOW_PER_WORKER, Backend, map_batches
+from liaison_cli.campaign.backends import LOCAL, Backend, map_batches
 from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
 from liaison_cli import interrupts
 
@@ -52,8 +52,8 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
                   description: str | None = None, where: Backend = LOCAL):
     """Yield the outcomes of runs 0 … n_runs-1 in run order, as they finish.
 
-    Memory is bounded by the fan-out's window (batches submitted and not yet consumed) times the batch size,
-    not by `n_runs`: a run that finished ahead of its turn waits in a reorder buffer no larger than that.
+    Memory is bounded by the fan-out's window (batches submitted and not yet consumed, a batch that finished
+    ahead of its turn included) times the batch size, not by `n_runs`.
     """
     bar = tqdm(total=n_runs, desc=description or problem.scenario.name, unit="run", disable=not progress,
                leave=False)
@@ -79,14 +79,10 @@ def _fanned_out_in_run_order(problem: Problem, runs: range, jobs: int, where: Ba
     # A few runs per batch keeps the pipes busy without starving the bar.
     chunk = max(1, min(8, len(runs) // (4 * jobs)))
     batches = ((0, tuple(RunTask(run) for run in runs[start : start + chunk])) for start in range(0, len(runs), chunk))
-    waiting, next_run = {}, runs.start
-    for batch in map_batches(execute_batch, {0: problem}, batches, where, jobs, window=WINDOW_PER_WORKER * jobs):
+    for batch in map_batches(execute_batch, {0: problem}, batches, where, jobs, ordered=True):
         if interrupts.requested():
             raise KeyboardInterrupt
-        waiting.update((outcome.run, outcome) for outcome in batch)
-        while next_run in waiting:
-            yield waiting.pop(next_run)
-            next_run += 1
+        yield from batch
 
 
 def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
