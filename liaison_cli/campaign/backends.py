@@ -12,6 +12,7 @@ Order of completion is not defined; callers key results by task id, so numbers n
 import itertools
 import os
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from liaison_cli.errors import LiaisonError
@@ -215,10 +216,45 @@ def _dask_client(jobs: int, where: Backend):
                                       f"({type(exc).__name__}: {exc})") from None
 
 
+_SESSIONS: dict = {}  # (backend, jobs) -> (client, cluster) of an open `session` block, once first used
+
+
+@contextmanager
+def session(where: Backend, jobs: int):
+    """One dask client (and its LocalCluster) for every fan-out inside the block (a study's cells), started at
+    the first, instead of one per fan-out: a LocalCluster takes seconds to start. joblib needs none: its pool
+    is kept between calls."""
+    key = (where, jobs)
+    if where.name != "dask" or key in _SESSIONS:
+        yield
+        return
+    _SESSIONS[key] = None
+    try:
+        yield
+    finally:
+        opened = _SESSIONS.pop(key)
+        if opened is not None:
+            _close(*opened)
+
+
+def _close(client, cluster) -> None:
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
 def _dask(fn, shared, batches, jobs, where, window, ordered):
     from distributed import wait
 
-    client, cluster = _dask_client(jobs, where)
+    in_session = (where, jobs)
+    owned = in_session not in _SESSIONS
+    if owned:
+        opened = _dask_client(jobs, where)
+    else:
+        if _SESSIONS[in_session] is None:
+            _SESSIONS[in_session] = _dask_client(jobs, where)
+        opened = _SESSIONS[in_session]
+    client = opened[0]
 
     def generate():
         try:
@@ -232,8 +268,7 @@ def _dask(fn, shared, batches, jobs, where, window, ordered):
                 yield future.result()
                 future.release()
         finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            if owned:
+                _close(*opened)
 
     return generate()

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
-from liaison_cli.campaign.backends import LOCAL, Backend
+from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
@@ -172,21 +172,22 @@ def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, pr
     store = CellStore(work, "study003", source_digest(__file__))
     results, scenarios = [], {}
     try:
-        for index, point in enumerate(points):
-            for mission, scenario in missions:
-                base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
-                if dsn_noise is not None:  # otherwise the file's own ground-link noise
-                    base = with_dsn_noise(base, dsn_noise)
-                shared: dict = {}  # the cases differ only in links: their trajectories are flown once
-                for case in CASES:
-                    reduced = case_scenario(base, mission, case)
-                    scenarios[(index, mission, case)] = reduced
-                    tables = store.cell(f"p{index}_{mission}_{case}", reduced, runs, lambda: _case_tables(
-                        reduced, mission, case, runs, jobs, progress, shared, where))
-                    for part in tables.values():
-                        for key, value in point.items():
-                            part[key] = value
-                    results.append(tables)
+        with session(where, jobs):  # one dask cluster for every cell
+            for index, point in enumerate(points):
+                for mission, scenario in missions:
+                    base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
+                    if dsn_noise is not None:  # otherwise the file's own ground-link noise
+                        base = with_dsn_noise(base, dsn_noise)
+                    shared: dict = {}  # the cases differ only in links: their trajectories are flown once
+                    for case in CASES:
+                        reduced = case_scenario(base, mission, case)
+                        scenarios[(index, mission, case)] = reduced
+                        tables = store.cell(f"p{index}_{mission}_{case}", reduced, runs, lambda: _case_tables(
+                            reduced, mission, case, runs, jobs, progress, shared, where))
+                        for part in tables.values():
+                            for key, value in point.items():
+                                part[key] = value
+                        results.append(tables)
     except KeyboardInterrupt:
         raise store.interrupted(len(points) * len(missions) * len(CASES)) from None
     summary = pd.concat([r["summary"] for r in results], ignore_index=True)

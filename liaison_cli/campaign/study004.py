@@ -29,7 +29,7 @@ import pandas as pd
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.error_budget import error_budget
-from liaison_cli.campaign.backends import LOCAL, Backend
+from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.campaign.study003 import StudyError
@@ -173,24 +173,25 @@ def run_study(transmitters: list[tuple[str, Scenario]], runs: int, jobs: int = 2
     store = CellStore(work, "study004", source_digest(__file__))
     rows, histories = [], []
     try:
-        for transmitter, scenario in transmitters:
-            if not all(link.second_receiver is not None for link in scenario.links):
-                raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a "
-                                 "second_receiver")
-            shared: dict = {}
-            for index, point in enumerate(points):
-                base = apply_overrides(scenario, point, f"{transmitter} {point}") if point else scenario
-                for link_index, link in enumerate(base.links):
-                    one_pair = pair_scenario(base, transmitter, link_index)
-                    tables = store.cell(f"p{index}_{transmitter}_{pair_name(link)}", one_pair, runs,
-                                        lambda: _pair_tables(one_pair, transmitter, pair_name(link), runs, jobs,
-                                                             progress, shared, where))
-                    row, history = tables["summary"].to_dict("records")[0], tables["history"]
-                    for key, value in point.items():
-                        row[key] = value
-                        history[key] = value
-                    rows.append(row)
-                    histories.append(history)
+        with session(where, jobs):  # one dask cluster for every cell
+            for transmitter, scenario in transmitters:
+                if not all(link.second_receiver is not None for link in scenario.links):
+                    raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a "
+                                     "second_receiver")
+                shared: dict = {}
+                for index, point in enumerate(points):
+                    base = apply_overrides(scenario, point, f"{transmitter} {point}") if point else scenario
+                    for link_index, link in enumerate(base.links):
+                        one_pair = pair_scenario(base, transmitter, link_index)
+                        tables = store.cell(f"p{index}_{transmitter}_{pair_name(link)}", one_pair, runs,
+                                            lambda: _pair_tables(one_pair, transmitter, pair_name(link), runs, jobs,
+                                                                 progress, shared, where))
+                        row, history = tables["summary"].to_dict("records")[0], tables["history"]
+                        for key, value in point.items():
+                            row[key] = value
+                            history[key] = value
+                        rows.append(row)
+                        histories.append(history)
     except KeyboardInterrupt:
         total = len(points) * sum(len(scenario.links) for _, scenario in transmitters)
         raise store.interrupted(total) from None
