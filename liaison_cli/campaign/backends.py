@@ -35,6 +35,9 @@ class Backend:
 
 
 LOCAL = Backend()
+# The thread-pool sizes a worker process reads at start (OpenMP, the BLAS libraries, numba, numexpr).
+THREAD_POOL_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
+                         "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS", "NUMEXPR_NUM_THREADS")
 
 
 class BackendError(LiaisonError):
@@ -174,10 +177,9 @@ def _worker_environment(jobs: int) -> dict:
     """What joblib gives its workers: thread pools (BLAS, OpenMP, numba) sized to the cores per worker, unless
     this process's environment already sets them, so `jobs` workers do not oversubscribe the machine."""
     from joblib import cpu_count
-    from joblib._parallel_backends import ParallelBackendBase
 
     threads = max(cpu_count() // jobs, 1)
-    return {var: str(os.environ.get(var, threads)) for var in ParallelBackendBase.MAX_NUM_THREADS_VARS}
+    return {var: str(os.environ.get(var, threads)) for var in THREAD_POOL_VARIABLES}
 
 
 def _local_processes(fn, shared, batches, jobs, window, ordered):
