@@ -61,12 +61,14 @@ def test_run_writes_the_same_bytes_on_one_process_a_pool_and_dask(tmp_path, monk
 
 
 @pytest.mark.parametrize("command", [["run", SCENARIOS / "smoke.yaml"], ["compare", SCENARIOS / "smoke.yaml"],
-                                     ["table3"], ["study003"], ["study004"], ["sweep", "--sigma", "100"]])
+                                     ["table3"], ["study003"], ["study004"], ["sweep", "--sigma", "100"],
+                                     ["tune", SCENARIOS / "smoke.yaml"]])
 def test_every_long_command_checks_its_backend_before_any_work(tmp_path, command, sigint_kept):
     """The shared options (cli.common): an unknown backend, and a scheduler without dask, are one line, exit 2."""
-    proc = run_cli_in_process(*command, "--backend", "spark", "--output", tmp_path / "out")
+    where = ["--work", tmp_path / "out"] if command[0] == "tune" else ["--output", tmp_path / "out"]
+    proc = run_cli_in_process(*command, "--backend", "spark", *where)
     assert_one_line_error(proc, "--backend", ["'spark'", "joblib, dask"])
-    proc = run_cli_in_process(*command, "--scheduler", "tcp://127.0.0.1:8786", "--output", tmp_path / "out")
+    proc = run_cli_in_process(*command, "--scheduler", "tcp://127.0.0.1:8786", *where)
     assert_one_line_error(proc, "--scheduler", ["only used with --backend dask"])
     assert not (tmp_path / "out").exists()
 
