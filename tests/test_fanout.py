@@ -166,3 +166,20 @@ def test_backends_module_is_the_only_place_that_starts_workers():
     found = sorted(str(path.relative_to(package)) for path in package.rglob("*.py")
                    if any(word in path.read_text() for word in starters))
     assert found == ["campaign/backends.py"], found
+
+
+def test_an_interrupt_that_compiled_code_turned_into_a_system_error_still_says_what_is_saved(tmp_path):
+    """numba reports a Ctrl-C inside compiled code as a SystemError chained to the KeyboardInterrupt: the study
+    still ends with its own line (cells saved, how to resume); any other SystemError passes through."""
+    from liaison_cli.campaign.study_cells import StudyInterrupted
+
+    store = CellStore(tmp_path / "work", "test", "code")
+    with pytest.raises(StudyInterrupted, match=r"interrupted: 0 of 4 cells saved in .*work; rerun the same"):
+        with store.saving_on_interrupt(4):
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt:
+                raise SystemError("<built-in function> returned a result with an exception set")
+    with pytest.raises(SystemError, match="unrelated"):
+        with store.saving_on_interrupt(4):
+            raise SystemError("unrelated")

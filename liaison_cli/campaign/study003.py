@@ -171,25 +171,23 @@ def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, pr
     points = grid_points(grid)
     store = CellStore(work, "study003", source_digest(__file__))
     results, scenarios = [], {}
-    try:
-        with session(where, jobs):  # one dask cluster for every cell
-            for index, point in enumerate(points):
-                for mission, scenario in missions:
-                    base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
-                    if dsn_noise is not None:  # otherwise the file's own ground-link noise
-                        base = with_dsn_noise(base, dsn_noise)
-                    shared: dict = {}  # the cases differ only in links: their trajectories are flown once
-                    for case in CASES:
-                        reduced = case_scenario(base, mission, case)
-                        scenarios[(index, mission, case)] = reduced
-                        tables = store.cell(f"p{index}_{mission}_{case}", reduced, runs, lambda: _case_tables(
-                            reduced, mission, case, runs, jobs, progress, shared, where))
-                        for part in tables.values():
-                            for key, value in point.items():
-                                part[key] = value
-                        results.append(tables)
-    except KeyboardInterrupt:
-        raise store.interrupted(len(points) * len(missions) * len(CASES)) from None
+    cells = len(points) * len(missions) * len(CASES)
+    with store.saving_on_interrupt(cells), session(where, jobs):  # session: one dask cluster for every cell
+        for index, point in enumerate(points):
+            for mission, scenario in missions:
+                base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
+                if dsn_noise is not None:  # otherwise the file's own ground-link noise
+                    base = with_dsn_noise(base, dsn_noise)
+                shared: dict = {}  # the cases differ only in links: their trajectories are flown once
+                for case in CASES:
+                    reduced = case_scenario(base, mission, case)
+                    scenarios[(index, mission, case)] = reduced
+                    tables = store.cell(f"p{index}_{mission}_{case}", reduced, runs, lambda: _case_tables(
+                        reduced, mission, case, runs, jobs, progress, shared, where))
+                    for part in tables.values():
+                        for key, value in point.items():
+                            part[key] = value
+                    results.append(tables)
     summary = pd.concat([r["summary"] for r in results], ignore_index=True)
     history = pd.concat([r["history"] for r in results], ignore_index=True)
     return summary, history, scenarios

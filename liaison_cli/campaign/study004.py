@@ -172,29 +172,26 @@ def run_study(transmitters: list[tuple[str, Scenario]], runs: int, jobs: int = 2
     points = grid_points(grid)
     store = CellStore(work, "study004", source_digest(__file__))
     rows, histories = [], []
-    try:
-        with session(where, jobs):  # one dask cluster for every cell
-            for transmitter, scenario in transmitters:
-                if not all(link.second_receiver is not None for link in scenario.links):
-                    raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a "
-                                     "second_receiver")
-                shared: dict = {}
-                for index, point in enumerate(points):
-                    base = apply_overrides(scenario, point, f"{transmitter} {point}") if point else scenario
-                    for link_index, link in enumerate(base.links):
-                        one_pair = pair_scenario(base, transmitter, link_index)
-                        tables = store.cell(f"p{index}_{transmitter}_{pair_name(link)}", one_pair, runs,
-                                            lambda: _pair_tables(one_pair, transmitter, pair_name(link), runs, jobs,
-                                                                 progress, shared, where))
-                        row, history = tables["summary"].to_dict("records")[0], tables["history"]
-                        for key, value in point.items():
-                            row[key] = value
-                            history[key] = value
-                        rows.append(row)
-                        histories.append(history)
-    except KeyboardInterrupt:
-        total = len(points) * sum(len(scenario.links) for _, scenario in transmitters)
-        raise store.interrupted(total) from None
+    cells = len(points) * sum(len(scenario.links) for _, scenario in transmitters)
+    with store.saving_on_interrupt(cells), session(where, jobs):  # session: one dask cluster for every cell
+        for transmitter, scenario in transmitters:
+            if not all(link.second_receiver is not None for link in scenario.links):
+                raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a "
+                                 "second_receiver")
+            shared: dict = {}
+            for index, point in enumerate(points):
+                base = apply_overrides(scenario, point, f"{transmitter} {point}") if point else scenario
+                for link_index, link in enumerate(base.links):
+                    one_pair = pair_scenario(base, transmitter, link_index)
+                    tables = store.cell(f"p{index}_{transmitter}_{pair_name(link)}", one_pair, runs,
+                                        lambda: _pair_tables(one_pair, transmitter, pair_name(link), runs, jobs,
+                                                             progress, shared, where))
+                    row, history = tables["summary"].to_dict("records")[0], tables["history"]
+                    for key, value in point.items():
+                        row[key] = value
+                        history[key] = value
+                    rows.append(row)
+                    histories.append(history)
     return pd.DataFrame(rows), pd.concat(histories, ignore_index=True)
 
 

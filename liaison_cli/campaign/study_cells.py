@@ -13,13 +13,14 @@ them); liaison deletes nothing there.
 
 import hashlib
 import json
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import pandas as pd
 
-from liaison_cli import __version__, core_source_hash
+from liaison_cli import __version__, core_source_hash, interrupts
 from liaison_cli.campaign.sweep_plan import scenario_hash
 from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.schema import Scenario
@@ -74,7 +75,18 @@ class CellStore:
         self.computed += 1
         return parts
 
-    def interrupted(self, total: int) -> StudyInterrupted:
+    @contextmanager
+    def saving_on_interrupt(self, total: int):
+        """Ctrl-C inside the block (or the SystemError numba makes of it in compiled code) ends the study with
+        one line saying how many of its `total` cells are saved and how to resume."""
+        try:
+            yield
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not interrupts.caused_by_interrupt(exc):
+                raise
+            raise self._interrupted(total) from None
+
+    def _interrupted(self, total: int) -> StudyInterrupted:
         finished = self.computed + self.reused
         if self.folder is None:
             return StudyInterrupted(f"interrupted after {finished} of {total} cells; nothing was written")
