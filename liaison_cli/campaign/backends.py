@@ -1,18 +1,43 @@
-"""Fan-out backends: run `fn(shared[key], tasks)` for every batch and yield results as they finish.
+"""The one fan-out of liaison: run `fn(shared[key], tasks)` for every batch and yield results as they finish
+(map_batches). Every long command goes through it: `run`, `compare`, `table3` and the 003 / 004 studies through
+runner.iter_outcomes (its ordered layer), `sweep` and `tune` directly.
 
-- `joblib` (default): local processes; `jobs=1` runs in this process.
+- `joblib` (default): local processes (joblib's loky pool); `jobs=1` runs in this process.
 - `dask`: a dask.distributed cluster (`scheduler="tcp://host:8786"`), or a LocalCluster of `jobs`
   workers when no scheduler is given. Shared objects (a scenario's truth arrays) are scattered once.
 
 Order of completion is not defined; callers key results by task id, so numbers never depend on it.
 """
 
-from collections.abc import Callable, Iterator
+import itertools
+import os
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 
 from liaison_cli.errors import LiaisonError
 from liaison_cli.interrupts import shield_pool_workers
 
 BACKENDS = ("joblib", "dask")
+# Batches submitted and not yet consumed, per worker: enough that no worker waits for the next batch while the
+# caller handles a result, few enough that memory stays bounded whatever the number of runs.
+WINDOW_PER_WORKER = 4
+
+
+@dataclass(frozen=True)
+class Backend:
+    """Where batches run: `name` joblib (local processes) or dask (the cluster at `scheduler`, or a LocalCluster
+    when it is None); `connect_timeout_s` bounds the wait for that scheduler."""
+
+    name: str = "joblib"
+    scheduler: str | None = None
+    connect_timeout_s: float = 20.0
+
+
+LOCAL = Backend()
+# The thread-pool sizes a worker process reads at start (OpenMP, the BLAS libraries, numba, numexpr).
+THREAD_POOL_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
+                         "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS", "NUMEXPR_NUM_THREADS")
 
 
 class BackendError(LiaisonError):
@@ -89,47 +114,163 @@ def probe_scheduler(scheduler: str, timeout_s: float) -> None:
         raise BackendUnavailableError(f"{where}: answered, but not as a dask scheduler")
 
 
-def map_batches(fn: Callable, shared: dict, batches: list, backend: str = "joblib", jobs: int = 2,
-                scheduler: str | None = None, connect_timeout_s: float = 20.0) -> Iterator:
-    """batches: list of (key, tasks); yields fn(shared[key], tasks) in completion order."""
-    check_backend(backend, scheduler)
-    if not batches:
+def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = LOCAL, jobs: int = 2,
+                window: int | None = None, ordered: bool = False) -> Iterator:
+    """batches: (key, tasks) pairs, read lazily; yields fn(shared[key], tasks) as they finish, or, with
+    `ordered`, in the order of `batches`.
+
+    At most `window` batches (default: WINDOW_PER_WORKER per worker) are submitted and not yet yielded: in
+    order, a finished batch waiting for an earlier one counts too, so what is held here, in the pipes and in
+    the workers does not grow with the number of batches. A generator left early (Ctrl-C, an error in the
+    caller) stops the workers and drops what is queued."""
+    check_backend(where.name, where.scheduler)
+    queued = iter(batches)
+    first = next(queued, None)
+    if first is None:  # nothing to do: no pool, no cluster
         return iter(())
-    if backend == "dask":
-        return _dask(fn, shared, batches, jobs, scheduler, connect_timeout_s)
+    batches = itertools.chain([first], queued)
+    if where.name == "dask":
+        return _dask(fn, shared, batches, jobs, where, window, ordered)
     if jobs == 1:
         return (fn(shared[key], tasks) for key, tasks in batches)
-    from joblib import Parallel, delayed
+    return _local_processes(fn, shared, batches, jobs, window or WINDOW_PER_WORKER * jobs, ordered)
+
+
+def _windowed(submit: Callable, wait_first: Callable, batches: Iterator, window: int, in_flight_limit: int,
+              ordered: bool) -> Iterator:
+    """Yield the futures of `submit(key, tasks)` for every batch once done (in completion or batch order),
+    keeping at most `window` submitted and not yet yielded, and at most `in_flight_limit` not yet done."""
+    queued = enumerate(batches)
+    outstanding: dict = {}  # batch index -> future, submitted and not yet yielded
+    exhausted = False
+    while True:
+        in_flight = sum(not future.done() for future in outstanding.values())
+        while not exhausted and len(outstanding) < window and in_flight < in_flight_limit:
+            item = next(queued, None)
+            exhausted = item is None
+            if not exhausted:
+                index, (key, tasks) = item
+                outstanding[index] = submit(key, tasks)
+                in_flight += 1
+        if not outstanding:
+            return
+        ready = _ready(outstanding, ordered)
+        if not ready:
+            wait_first([future for future in outstanding.values() if not future.done()])
+        for index in ready:
+            yield outstanding.pop(index)
+
+
+def _ready(outstanding: dict, ordered: bool) -> list:
+    """The batch indexes that may be yielded now: every finished one, or in order, the finished run of them
+    from the oldest on."""
+    if not ordered:
+        return [index for index, future in outstanding.items() if future.done()]
+    ready, index = [], min(outstanding)
+    while index in outstanding and outstanding[index].done():
+        ready.append(index)
+        index += 1
+    return ready
+
+
+def _worker_environment(jobs: int) -> dict:
+    """What joblib gives its workers: thread pools (BLAS, OpenMP, numba) sized to the cores per worker, unless
+    this process's environment already sets them, so `jobs` workers do not oversubscribe the machine."""
+    from joblib import cpu_count
+
+    threads = max(cpu_count() // jobs, 1)
+    return {var: str(os.environ.get(var, threads)) for var in THREAD_POOL_VARIABLES}
+
+
+def _local_processes(fn, shared, batches, jobs, window, ordered):
+    """joblib's process pool (loky's reusable executor: started once per process, kept between calls)."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from joblib.externals.loky import get_reusable_executor
 
     shield_pool_workers()
-    parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    return parallel(delayed(fn)(shared[key], tasks) for key, tasks in batches)
-
-
-def _dask(fn, shared, batches, jobs, scheduler, connect_timeout_s):
-    from distributed import Client, LocalCluster, as_completed
-
-    cluster = None
+    executor = get_reusable_executor(max_workers=jobs, env=_worker_environment(jobs))
+    # Not more undone than loky's call queue holds (2 per worker + 1), as joblib's pre_dispatch: a work item
+    # still waiting outside that queue when the pool is killed trips loky's manager thread (a KeyError).
+    futures = _windowed(lambda key, tasks: executor.submit(fn, shared[key], tasks),
+                        lambda running: wait(running, return_when=FIRST_COMPLETED), batches, window, 2 * jobs, ordered)
+    finished = False
     try:
-        if scheduler:
-            probe_scheduler(scheduler, connect_timeout_s)
-            client = Client(scheduler, timeout=f"{connect_timeout_s}s")
-        else:
-            cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
-            client = Client(cluster)
+        for future in futures:
+            yield future.result()
+        finished = True
+    finally:
+        if not finished:  # killing the pool fails what is queued (cancelling it first trips loky's manager thread)
+            executor.shutdown(wait=True, kill_workers=True)  # as joblib aborts: the workers are gone on return
+
+
+def _dask_client(jobs: int, where: Backend):
+    from distributed import Client, LocalCluster
+
+    try:
+        if where.scheduler:
+            probe_scheduler(where.scheduler, where.connect_timeout_s)
+            return Client(where.scheduler, timeout=f"{where.connect_timeout_s}s"), None
+        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
+        return Client(cluster), cluster
     except (OSError, TimeoutError) as exc:
-        raise BackendUnavailableError(f"--scheduler {scheduler!r}: cannot connect ({type(exc).__name__}: {exc})") from None
+        raise BackendUnavailableError(f"--scheduler {where.scheduler!r}: cannot connect "
+                                      f"({type(exc).__name__}: {exc})") from None
+
+
+_SESSIONS: dict = {}  # (backend, jobs) -> (client, cluster) of an open `session` block, once first used
+
+
+@contextmanager
+def session(where: Backend, jobs: int):
+    """One dask client (and its LocalCluster) for every fan-out inside the block (a study's cells), started at
+    the first, instead of one per fan-out: a LocalCluster takes seconds to start. joblib needs none: its pool
+    is kept between calls."""
+    key = (where, jobs)
+    if where.name != "dask" or key in _SESSIONS:
+        yield
+        return
+    _SESSIONS[key] = None
+    try:
+        yield
+    finally:
+        opened = _SESSIONS.pop(key)
+        if opened is not None:
+            _close(*opened)
+
+
+def _close(client, cluster) -> None:
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def _dask(fn, shared, batches, jobs, where, window, ordered):
+    from distributed import wait
+
+    in_session = (where, jobs)
+    owned = in_session not in _SESSIONS
+    if owned:
+        opened = _dask_client(jobs, where)
+    else:
+        if _SESSIONS[in_session] is None:
+            _SESSIONS[in_session] = _dask_client(jobs, where)
+        opened = _SESSIONS[in_session]
+    client = opened[0]
 
     def generate():
         try:
+            # A cluster reached by address may have more workers than --jobs: keep every one of them busy.
+            limit = window or WINDOW_PER_WORKER * max(jobs, sum(client.nthreads().values()))
             scattered = {key: client.scatter(value, broadcast=False) for key, value in shared.items()}
-            futures = [client.submit(fn, scattered[key], tasks, pure=False) for key, tasks in batches]
-            for future in as_completed(futures):
+            futures = _windowed(lambda key, tasks: client.submit(fn, scattered[key], tasks, pure=False),
+                                lambda running: wait(running, return_when="FIRST_COMPLETED"), batches, limit, limit,
+                                ordered)
+            for future in futures:
                 yield future.result()
                 future.release()
         finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            if owned:
+                _close(*opened)
 
     return generate()

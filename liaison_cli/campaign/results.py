@@ -15,6 +15,7 @@ import numpy as np
 
 from liaison_cli import __version__
 from liaison_cli.analysis.metrics import nees_band
+from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.runner import CampaignResult, iter_outcomes
 from liaison_cli.campaign.worker import RunOutcome
 from liaison_cli.scenario.schema import Scenario
@@ -282,7 +283,8 @@ def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dt
 
 
 def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int | None = None, jobs: int = 2,
-                    progress: bool = True, float_dtype="float32") -> tuple[Problem, list[dict]]:
+                    progress: bool = True, float_dtype="float32", where: Backend = LOCAL
+                    ) -> tuple[Problem, list[dict]]:
     """Run a campaign and write its tables as runs finish: memory does not grow with the run count.
     Returns the problem and the summary rows."""
     started = time.perf_counter()
@@ -292,7 +294,7 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     if problem.observed is not None:  # measurements from a file: one run, no Monte Carlo
         n_runs = 1
-    summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress), n_runs, out_dir,
+    summary = write_outcomes(problem, iter_outcomes(problem, n_runs, jobs, progress, where=where), n_runs, out_dir,
                              scenario_text, float_dtype)
     log.info("%s: %d runs estimated and written in %.2f s (%d job(s))", scenario.name, n_runs,
              time.perf_counter() - prepared, jobs)
@@ -300,15 +302,15 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
 
 
 def summarise_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
-                       description: str | None = None, truth_cache: dict | None = None
-                       ) -> tuple[Problem, "pd.DataFrame"]:
+                       description: str | None = None, truth_cache: dict | None = None,
+                       where: Backend = LOCAL) -> tuple[Problem, "pd.DataFrame"]:
     """Run a campaign and keep only its summary rows (for tables across scenarios: compare, Table 3)."""
     started = time.perf_counter()
     problem = prepare_problem(scenario, truth_cache)
     prepared = time.perf_counter()
     log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
-    rows = [row for outcome in iter_outcomes(problem, n_runs, jobs, progress, description)
+    rows = [row for outcome in iter_outcomes(problem, n_runs, jobs, progress, description, where)
             for row in _summary_rows(problem, outcome)]
     log.info("%s: %d runs estimated in %.2f s (%d job(s))", scenario.name, n_runs, time.perf_counter() - prepared,
              jobs)

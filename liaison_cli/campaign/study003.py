@@ -18,12 +18,15 @@ study over a grid of settings (e.g. filter.underweighting=0,0.2) so a ranking's 
 """
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.schema import DEPARTURE_ORBIT, Scenario, apply_overrides
@@ -150,32 +153,41 @@ def _statistics(result, mission: str, case: str) -> CaseResult:
     return CaseResult(mission, case, pd.DataFrame(rows), pd.concat(history, ignore_index=True))
 
 
+def _case_tables(scenario: Scenario, mission: str, case: str, runs: int, jobs: int, progress: bool,
+                 truth_cache: dict, where: Backend) -> dict:
+    campaign = run_campaign(scenario, runs=runs, jobs=jobs, progress=progress, description=f"{mission} {case}",
+                            truth_cache=truth_cache, where=where)
+    result = _statistics(campaign, mission, case)
+    return {"summary": result.summary, "history": result.history}
+
+
 def run_study(missions: list[tuple[str, Scenario]], runs: int, jobs: int = 2, progress: bool = True,
-              grid: list[tuple[str, list]] | None = None, dsn_noise: str | None = None):
+              grid: list[tuple[str, list]] | None = None, dsn_noise: str | None = None, where: Backend = LOCAL,
+              work: Path | None = None):
     """Every grid point x mission x case: (summary table, histories table, {(point, mission, case): scenario}).
     A grid point is a dict of overrides (apply_overrides keys) applied to every mission's scenario; with no
-    grid, one point without overrides. Grid keys become columns of both tables."""
-    import itertools
-
-    axes = grid or []
-    points = [dict(zip([key for key, _ in axes], values)) for values in itertools.product(*[v for _, v in axes])]
+    grid, one point without overrides. Grid keys become columns of both tables. `work`: the folder of finished
+    cells (study_cells): an interrupted study started again computes only the cells missing there."""
+    points = grid_points(grid)
+    store = CellStore(work, "study003", source_digest(__file__))
     results, scenarios = [], {}
-    for index, point in enumerate(points or [{}]):
-        for mission, scenario in missions:
-            base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
-            if dsn_noise is not None:  # otherwise the file's own ground-link noise
-                base = with_dsn_noise(base, dsn_noise)
-            shared: dict = {}  # the cases differ only in links: their trajectories are flown once
-            for case in CASES:
-                reduced = case_scenario(base, mission, case)
-                scenarios[(index, mission, case)] = reduced
-                campaign = run_campaign(reduced, runs=runs, jobs=jobs, progress=progress,
-                                        description=f"{mission} {case}", truth_cache=shared)
-                result = _statistics(campaign, mission, case)
-                for part in (result.summary, result.history):
-                    for key, value in point.items():
-                        part[key] = value
-                results.append(result)
-    summary = pd.concat([r.summary for r in results], ignore_index=True)
-    history = pd.concat([r.history for r in results], ignore_index=True)
+    cells = len(points) * len(missions) * len(CASES)
+    with store.saving_on_interrupt(cells), session(where, jobs):  # session: one dask cluster for every cell
+        for index, point in enumerate(points):
+            for mission, scenario in missions:
+                base = apply_overrides(scenario, point, f"{mission} {point}") if point else scenario
+                if dsn_noise is not None:  # otherwise the file's own ground-link noise
+                    base = with_dsn_noise(base, dsn_noise)
+                shared: dict = {}  # the cases differ only in links: their trajectories are flown once
+                for case in CASES:
+                    reduced = case_scenario(base, mission, case)
+                    scenarios[(index, mission, case)] = reduced
+                    tables = store.cell(f"p{index}_{mission}_{case}", reduced, runs, lambda: _case_tables(
+                        reduced, mission, case, runs, jobs, progress, shared, where))
+                    for part in tables.values():
+                        for key, value in point.items():
+                            part[key] = value
+                    results.append(tables)
+    summary = pd.concat([r["summary"] for r in results], ignore_index=True)
+    history = pd.concat([r["history"] for r in results], ignore_index=True)
     return summary, history, scenarios

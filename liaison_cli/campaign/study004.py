@@ -21,7 +21,7 @@ Per transmitter and pair:
   the epochs that have a measurement, and the share of such epochs.
 """
 
-import itertools
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -29,7 +29,9 @@ import pandas as pd
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.error_budget import error_budget
+from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.campaign.study003 import StudyError
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.scenario.schema import Scenario, apply_overrides
@@ -152,31 +154,44 @@ def _dop(problem) -> np.ndarray:
     return tdoa_dop(first, transmitter, second)
 
 
+def _pair_tables(scenario: Scenario, transmitter: str, pair: str, runs: int, jobs: int, progress: bool,
+                 truth_cache: dict, where: Backend) -> dict:
+    campaign = run_campaign(scenario, runs=runs, jobs=jobs, progress=progress, description=f"{transmitter} {pair}",
+                            truth_cache=truth_cache, where=where)
+    row, history = _statistics(campaign, transmitter, pair)
+    return {"summary": pd.DataFrame([row]), "history": history}
+
+
 def run_study(transmitters: list[tuple[str, Scenario]], runs: int, jobs: int = 2, progress: bool = True,
-              grid: list[tuple[str, list]] | None = None):
+              grid: list[tuple[str, list]] | None = None, where: Backend = LOCAL, work: Path | None = None):
     """(summary, histories): one row / history per grid point, transmitter and receiver pair. A grid point is
     a dict of overrides (apply_overrides keys, e.g. filter.process_noise_accel_m_s2) applied to every
     transmitter's scenario; grid keys become columns. A transmitter's pairs share its trajectories
-    (propagated and corrected once) across pairs and grid points."""
-    axes = grid or []
-    points = [dict(zip([key for key, _ in axes], values)) for values in itertools.product(*[v for _, v in axes])]
+    (propagated and corrected once) across pairs and grid points. `work`: the folder of finished cells
+    (study_cells): an interrupted study started again computes only the cells missing there."""
+    points = grid_points(grid)
+    store = CellStore(work, "study004", source_digest(__file__))
     rows, histories = [], []
-    for transmitter, scenario in transmitters:
-        if not all(link.second_receiver is not None for link in scenario.links):
-            raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a second_receiver")
-        shared: dict = {}
-        for point in points or [{}]:
-            base = apply_overrides(scenario, point, f"{transmitter} {point}") if point else scenario
-            for index, link in enumerate(base.links):
-                campaign = run_campaign(pair_scenario(base, transmitter, index), runs=runs, jobs=jobs,
-                                        progress=progress, description=f"{transmitter} {pair_name(link)}",
-                                        truth_cache=shared)
-                row, history = _statistics(campaign, transmitter, pair_name(link))
-                for key, value in point.items():
-                    row[key] = value
-                    history[key] = value
-                rows.append(row)
-                histories.append(history)
+    cells = len(points) * sum(len(scenario.links) for _, scenario in transmitters)
+    with store.saving_on_interrupt(cells), session(where, jobs):  # session: one dask cluster for every cell
+        for transmitter, scenario in transmitters:
+            if not all(link.second_receiver is not None for link in scenario.links):
+                raise StudyError(f"{scenario.name}: 004's study runs receiver pairs: every link needs a "
+                                 "second_receiver")
+            shared: dict = {}
+            for index, point in enumerate(points):
+                base = apply_overrides(scenario, point, f"{transmitter} {point}") if point else scenario
+                for link_index, link in enumerate(base.links):
+                    one_pair = pair_scenario(base, transmitter, link_index)
+                    tables = store.cell(f"p{index}_{transmitter}_{pair_name(link)}", one_pair, runs,
+                                        lambda: _pair_tables(one_pair, transmitter, pair_name(link), runs, jobs,
+                                                             progress, shared, where))
+                    row, history = tables["summary"].to_dict("records")[0], tables["history"]
+                    for key, value in point.items():
+                        row[key] = value
+                        history[key] = value
+                    rows.append(row)
+                    histories.append(history)
     return pd.DataFrame(rows), pd.concat(histories, ignore_index=True)
 
 

@@ -11,6 +11,7 @@ import pandas as pd
 import yaml
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.results import summarise_campaign
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 
@@ -138,7 +139,7 @@ class Table3Computed:
     seeds: dict
 
 
-def compute_table3(scenarios_dir, runs: int, jobs: int, progress: bool) -> Table3Computed:
+def compute_table3(scenarios_dir, runs: int, jobs: int, progress: bool, where: Backend = LOCAL) -> Table3Computed:
     """Run the paper's six cases (each formation file at 150 and 300 m) and compare with the paper."""
     loaded = {}
     for case in cases():
@@ -149,7 +150,7 @@ def compute_table3(scenarios_dir, runs: int, jobs: int, progress: bool) -> Table
         base, text = loaded[case.formation]
         config = apply_overrides(base, {"noise.sigma_m": case.sigma_m}, f"table3 case {case.label}")
         problem, summary = summarise_campaign(config, runs=runs, jobs=jobs, progress=progress,
-                                              description=case.label, truth_cache=truth_cache)
+                                              description=case.label, truth_cache=truth_cache, where=where)
         rows += case_rows(case.formation, case.sigma_m, problem.spacecraft, summary)
         summaries.append(summary.assign(formation=case.formation, sigma_m=case.sigma_m))
         texts[case.formation] = text

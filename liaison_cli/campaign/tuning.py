@@ -36,6 +36,7 @@ import pandas as pd
 import yaml
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
 from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.schema import Scenario, apply_overrides
@@ -164,17 +165,20 @@ class TuningCase:
     source: str
 
 
-def _run_point_sweep(case: TuningCase, base: Scenario, grid, runs: int, folder: Path, jobs: int, progress: bool):
+def _run_point_sweep(case: TuningCase, base: Scenario, grid, runs: int, folder: Path, jobs: int, progress: bool,
+                     where: Backend):
     """One sweep of `base` over `grid` (resumable, in `folder`/<plan key>) -> (plan, runs table)."""
     text = case.text if base is case.scenario else yaml.safe_dump(base.model_dump(mode="json", exclude_none=True))
     plan = plan_sweep([(base, text, case.source)], grid, runs, f"tune-{case.label}")
     out_dir = folder / plan.key()
     with sweep_lock(out_dir), resumable_output(out_dir, False, plan.key()) as work_dir:
-        result = run_sweep(plan, work_dir, jobs=jobs, progress=progress)
+        result = run_sweep(plan, work_dir, where.name, jobs, where.scheduler, progress,
+                           connect_timeout_s=where.connect_timeout_s)
     return plan, result.runs_table
 
 
-def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False) -> pd.DataFrame:
+def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False,
+              where: Backend = LOCAL) -> pd.DataFrame:
     """The table rows of one scenario: per estimated spacecraft, the shipped settings' statistics and the
     rule-chosen rung's (module docstring), with every rung's statistics in the 'ladder' rows."""
     scenario = case.scenario
@@ -183,7 +187,7 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
     ladder_stats, shipped_stats = [], None
     if scenario.estimator_descriptor().process_noise:
         plan, table = _run_point_sweep(case, ladder_base(scenario, ladder), [(SNC_KEY, list(ladder))], runs, folder,
-                                       jobs, progress)
+                                       jobs, progress, where)
         stats = rung_statistics(table)
         shipped_hash = scenario_hash(scenario)
         for point in plan.points:
@@ -192,7 +196,7 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
             if point.point_hash == shipped_hash:  # the shipped settings are this rung: no second campaign
                 shipped_stats = mine
     if shipped_stats is None:
-        _, table = _run_point_sweep(case, scenario, [], runs, folder, jobs, progress)
+        _, table = _run_point_sweep(case, scenario, [], runs, folder, jobs, progress, where)
         shipped_stats = rung_statistics(table)
         shipped_stats = shipped_stats[shipped_stats.spacecraft.isin(estimated)]
     chosen, verdict = choose(ladder_stats) if ladder_stats else (None, VERDICT_BATCH)
@@ -211,11 +215,11 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
 
 
 def tune(cases: list[TuningCase], ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False,
-         on_case=None) -> pd.DataFrame:
+         on_case=None, where: Backend = LOCAL) -> pd.DataFrame:
     """Every case's rows (tune_case), in the order given; `on_case(label)` is called as each one starts."""
     frames = []
     for case in cases:
         if on_case is not None:
             on_case(case.label)
-        frames.append(tune_case(case, ladder, runs, Path(work), jobs, progress))
+        frames.append(tune_case(case, ladder, runs, Path(work), jobs, progress, where))
     return pd.concat(frames, ignore_index=True)

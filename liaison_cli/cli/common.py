@@ -1,5 +1,6 @@
 """What every command shares: exit codes, one-line errors instead of tracebacks, the --runs cap and the
-first-compilation notice, and the checks on names given on the command line."""
+first-compilation notice, the checks on names given on the command line, and the options of every command
+that fans runs out (--jobs, --backend, --scheduler, --scheduler-timeout: `fan_out` checks them)."""
 
 import functools
 from typing import Annotated
@@ -122,9 +123,36 @@ def echo_json(document: dict) -> None:
     typer.echo(to_json_text(document))
 
 
+def jobs_option(help_text: str = "worker processes (joblib) or LocalCluster workers (dask)"):
+    return typer.Option(2, "--jobs", min=1, help=help_text)
+
+
+def backend_option():
+    return typer.Option("joblib", "--backend", help="joblib (local processes) or dask (dask.distributed)")
+
+
+def scheduler_option():
+    return typer.Option(None, "--scheduler", help="dask scheduler address, e.g. tcp://host:8786 (default with "
+                                                  "--backend dask: a LocalCluster of --jobs workers)")
+
+
+def scheduler_timeout_option():
+    return typer.Option(20.0, "--scheduler-timeout", min=0.1, help="seconds to wait for the dask scheduler")
+
+
+def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float):
+    """The backend the options name (campaign.backends.Backend), checked before any work: an unknown backend or
+    a malformed address is one line, exit 2; a scheduler that does not answer within the timeout, exit 3."""
+    from liaison_cli.campaign.backends import Backend, check_backend, probe_scheduler
+
+    check_backend(backend, scheduler)
+    if scheduler:
+        probe_scheduler(scheduler, scheduler_timeout_s)
+    return Backend(backend, scheduler, scheduler_timeout_s)
+
+
 # --- Options the study and orbit commands share (cli/studies.py, cli/orbits.py) -------------------------
-# Annotated aliases: each command keeps its own default in its signature (`jobs: JobsOption = 2`).
-JobsOption = Annotated[int, typer.Option("--jobs", min=1, help="worker processes")]
+# Annotated aliases: each command keeps its own default in its signature (`quiet: QuietOption = False`).
 QuietOption = Annotated[bool, typer.Option("--quiet", help="no progress bar")]
 StudyOverwriteOption = Annotated[bool, typer.Option("--overwrite", help="replace an earlier study there")]
 StudyGridOption = Annotated[list[str], typer.Option(

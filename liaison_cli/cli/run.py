@@ -10,11 +10,16 @@ import typer
 
 from liaison_cli.cli.common import (
     EXIT_ALL_DIVERGED,
+    backend_option,
     check_runs,
     echo_json,
     fail,
+    fan_out,
+    jobs_option,
     json_option,
     refuse_repeated_labels,
+    scheduler_option,
+    scheduler_timeout_option,
     user_errors,
 )
 from liaison_cli.cli.root import app
@@ -35,7 +40,10 @@ log = logging.getLogger("liaison")
 def run(
     scenario: Path = typer.Argument(..., help="scenario YAML file"),
     runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs (default: the scenario's)"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
@@ -48,6 +56,7 @@ def run(
     from liaison_cli.storage import staged_output
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     started = time.perf_counter()
     config, text = load_scenario(scenario)
     log.info("read and checked %s in %.2f s", scenario, time.perf_counter() - started)
@@ -55,7 +64,7 @@ def run(
     with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
         problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
                                            progress=not quiet and sys.stderr.isatty(),
-                                           float_dtype="float64" if float64 else "float32")
+                                           float_dtype="float64" if float64 else "float32", where=where)
     if as_json:
         from liaison_cli.report.json_summary import run_document
 
@@ -90,7 +99,10 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
 @user_errors
 def table3(
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per case"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/table3"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     scenarios: Path = typer.Option(Path("scenarios"), "--scenarios", help="folder holding the paper's scenario files"),
@@ -101,8 +113,9 @@ def table3(
     from liaison_cli.storage import staged_output
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     with staged_output(output, overwrite) as stage:
-        result = run_table3(scenarios, stage, runs, jobs, progress=not quiet and sys.stderr.isatty())
+        result = run_table3(scenarios, stage, runs, jobs, progress=not quiet and sys.stderr.isatty(), where=where)
     typer.echo(result.markdown)
     typer.echo(f"results: {output}")
 
@@ -112,7 +125,10 @@ def table3(
 def compare(
     scenarios: list[Path] = typer.Argument(..., help="scenario YAML files to run side by side"),
     runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs per scenario (default: each scenario's)"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/compare"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
@@ -125,13 +141,15 @@ def compare(
     from liaison_cli.storage import staged_output
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     loaded = [(path, *load_scenario(path)) for path in scenarios]
     refuse_repeated_labels([(path, config.name) for path, config, _ in loaded], "name")
     rows, summaries, texts = [], [], {}
     with staged_output(output, overwrite) as stage:
         for path, config, text in loaded:
             _, summary = summarise_campaign(config, runs=runs, jobs=jobs,
-                                            progress=not quiet and sys.stderr.isatty(), description=config.name)
+                                            progress=not quiet and sys.stderr.isatty(), description=config.name,
+                                            where=where)
             rows.append(compare_rows(config, summary))
             summaries.append(summary.assign(scenario=config.name))
             texts[config.name] = text

@@ -6,12 +6,16 @@ import typer
 
 from liaison_cli import __version__
 from liaison_cli.cli.common import (
-    JobsOption,
     QuietOption,
     StudyGridOption,
     StudyOverwriteOption,
+    backend_option,
     check_runs,
+    fan_out,
+    jobs_option,
     refuse_repeated_labels,
+    scheduler_option,
+    scheduler_timeout_option,
     user_errors,
 )
 from liaison_cli.cli.root import app
@@ -44,6 +48,15 @@ def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, hist
     typer.echo(f"results: {output}")
 
 
+def work_option():
+    return typer.Option(None, "--work", help="folder of the finished cells, so that an interrupted study resumes "
+                                             "(default: the output folder's name + .work, beside it)")
+
+
+def _work_folder(work: Path | None, output: Path) -> Path:
+    return work if work is not None else output.parent / f"{output.name}.work"
+
+
 STUDY003_MISSIONS = ("scenarios/003/cassini.yaml", "scenarios/003/mer_a.yaml", "scenarios/003/msl.yaml")
 
 
@@ -53,9 +66,13 @@ def study003(
     scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="missions' full-set scenarios "
                                            "(default: scenarios/003/cassini, mer_a, msl)"),
     runs: int = typer.Option(50, "--runs", min=1, help="Monte Carlo runs per mission and case"),
-    jobs: JobsOption = 2,
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/study003"), "--output", help="result folder"),
     overwrite: StudyOverwriteOption = False,
+    work: Path = work_option(),
     grid: StudyGridOption = None,
     dsn_noise: str = typer.Option(None, "--dsn-noise", help="set every ground link's noise to one of 003's "
                                   "readings: table2 (10 m, 0.5 mm/s) or text (1 m, 0.1 mm/s); default: the files'"),
@@ -67,13 +84,14 @@ def study003(
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     if dsn_noise is not None and dsn_noise not in DSN_NOISE_READINGS:
         raise LiaisonError(f"--dsn-noise {dsn_noise!r}: allowed: {', '.join(DSN_NOISE_READINGS)}")
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
     loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
     summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
-                                    grid=axes, dsn_noise=dsn_noise)
+                                    grid=axes, dsn_noise=dsn_noise, where=where, work=_work_folder(work, output))
     first = loaded[0][1]
     noise = (f"003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}" if dsn_noise else "as in the scenario files")
     typer.echo(f"003 study, {runs} runs per case, DSN noise: {noise}; "
@@ -105,9 +123,13 @@ def study004(
                                            "per receiver pair (default: scenarios/004/eml2_halo, dro, "
                                            "low_energy_transfer)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
-    jobs: JobsOption = 2,
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/study004"), "--output", help="result folder"),
     overwrite: StudyOverwriteOption = False,
+    work: Path = work_option(),
     grid: StudyGridOption = None,
     quiet: QuietOption = False,
 ):
@@ -119,12 +141,13 @@ def study004(
     from liaison_cli.report.study004 import draw_histories, format_rankings, format_table
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
     keys = [k for k, _ in axes]
     loaded = _load_study(scenarios or [Path(p) for p in STUDY004_TRANSMITTERS])
     summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
-                                 grid=axes)
+                                 grid=axes, where=where, work=_work_folder(work, output))
     header = [f"004 study, {runs} runs per case. LinCov: steady state = median 3σ over the last quarter; converged "
               "= 3σ position below twice it from then on. EKF: a run converged when its position error stays below "
               "twice LinCov's steady 3σ (not before its initial batch hands over); steady state and convergence are "

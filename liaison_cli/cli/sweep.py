@@ -6,7 +6,9 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from liaison_cli.cli.common import EXIT_ALL_DIVERGED, check_runs, echo_json, fail, json_option, plain_name, user_errors
+from liaison_cli.cli.common import (EXIT_ALL_DIVERGED, backend_option, check_runs, echo_json, fail, fan_out,
+                                    jobs_option, json_option, plain_name, scheduler_option, scheduler_timeout_option,
+                                    user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 from liaison_cli.report.run_text import left as _left, right as _right
@@ -56,11 +58,10 @@ def sweep(
     grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2,... over any scenario field by dotted path "
                                                         "(may repeat; full factorial)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per grid point"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes (joblib) or LocalCluster workers (dask)"),
-    backend: str = typer.Option("joblib", "--backend", help="joblib (local processes) or dask (dask.distributed)"),
-    scheduler: str = typer.Option(None, "--scheduler", help="dask scheduler address, e.g. tcp://host:8786"),
-    scheduler_timeout: float = typer.Option(20.0, "--scheduler-timeout", min=0.1,
-                                            help="seconds to wait for the dask scheduler"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     name: str = typer.Option(None, "--name", help="sweep name (default: fig15 for the paper's formations)"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/sweep-<name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="discard an existing sweep in the folder"),
@@ -73,13 +74,10 @@ def sweep(
     from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
     from liaison_cli.storage import resumable_output
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.campaign.backends import check_backend, probe_scheduler
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
     check_runs(runs)
-    check_backend(backend, scheduler)
-    if scheduler:  # before the lock and any work: a bad scheduler is one line within --scheduler-timeout
-        probe_scheduler(scheduler, scheduler_timeout)
+    fan_out(backend, scheduler, scheduler_timeout)  # before the lock and any work: a bad scheduler is one line
     paths = list(scenario_args or []) + list(scenario_opts or [])
     default_formations = not paths
     if default_formations:

@@ -6,7 +6,8 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import check_runs, user_errors
+from liaison_cli.cli.common import (backend_option, check_runs, fan_out, jobs_option, scheduler_option,
+                                    scheduler_timeout_option, user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
 from liaison_cli.errors import LiaisonError
@@ -20,7 +21,10 @@ def tune(
     ladder: str = typer.Option(None, "--ladder", help="process-noise rungs in m/s^2, a comma list "
                                "[default: 1e-10,1e-9,1e-8,1e-7,1e-6,1e-5]"),
     runs: int = typer.Option(20, "--runs", min=1, help="Monte Carlo runs per rung"),
-    jobs: int = typer.Option(2, "--jobs", min=1, help="worker processes"),
+    jobs: int = jobs_option(),
+    backend: str = backend_option(),
+    scheduler: str = scheduler_option(),
+    scheduler_timeout: float = scheduler_timeout_option(),
     work: Path = typer.Option(Path("results/tune"), "--work", help="folder of the rungs' sweeps (resumed, reused)"),
     table: Path = typer.Option(Path("results/tune/consistency.md"), "--table",
                                help="the Markdown table to write; the Parquet goes beside it (.parquet)"),
@@ -32,13 +36,14 @@ def tune(
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
     check_runs(runs)
+    where = fan_out(backend, scheduler, scheduler_timeout)
     rungs = parse_ladder(ladder)
     if table.suffix != ".md" or table.is_dir():
         raise LiaisonError(f"--table {table}: allowed: a Markdown file path ending in .md (the Parquet goes beside it)")
     loaded = _load_study(scenarios)
     cases = [TuningCase(name, scenario, text, str(path)) for path, (name, scenario, text) in zip(scenarios, loaded)]
     frame = run_tuning(cases, rungs, runs, work, jobs, progress=not quiet and sys.stderr.isatty(),
-                       on_case=None if quiet else lambda label: typer.echo(f"tune: {label}", err=True))
+                       on_case=None if quiet else lambda label: typer.echo(f"tune: {label}", err=True), where=where)
     typer.echo(format_ladder(frame))
     settle = sorted({(case.scenario.settle_days(), case.label) for case in cases})
     other = [f"{label} {days:g} d" for days, label in settle if days != 1.0]

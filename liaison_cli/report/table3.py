@@ -8,6 +8,7 @@ import pandas as pd
 
 from liaison_cli import __version__
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.table3 import FORMATIONS, compute_table3, paper_table3, tolerances
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
@@ -54,10 +55,11 @@ class Table3Result:
     markdown: str
 
 
-def run_table3(scenarios_dir, out_dir, runs: int, jobs: int, progress: bool) -> Table3Result:
+def run_table3(scenarios_dir, out_dir, runs: int, jobs: int, progress: bool,
+               where: Backend = LOCAL) -> Table3Result:
     """Run the paper's six cases (campaign.table3), compare with the paper and write table3.parquet,
     summary.parquet and table3.md into `out_dir` (which must exist)."""
-    computed = compute_table3(scenarios_dir, runs, jobs, progress)
+    computed = compute_table3(scenarios_dir, runs, jobs, progress, where)
     meta = {
         "package": "liaison",
         "package_version": __version__,

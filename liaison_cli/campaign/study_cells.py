@@ -1,0 +1,103 @@
+"""A study's finished cells on disk, so that an interrupted study resumes where it stopped (study003, study004).
+
+A study's work is cells (003: grid point x mission x case; 004: grid point x transmitter x receiver pair), each
+one Monte Carlo campaign through the fan-out (runner) reduced to a few tables. Each finished cell's tables are
+written atomically (storage) into the study's work folder as `<cell>-<key>.<part>.parquet`, then
+`<cell>-<key>.done` last: a cell counts as finished only once its `.done` is there. The key is a digest of
+everything the cell's numbers depend on: the study, the cell's effective scenario (sweep_plan.scenario_hash, as
+a sweep's manifest records it), the run count, liaison's version, its numeric core (core_source_hash) and the
+source of the study module that reduces the runs, so a changed scenario, run count or liaison never reuses a
+stale cell. The cells are kept after the study is written (running it again, e.g. with --overwrite, reuses
+them); liaison deletes nothing there.
+"""
+
+import hashlib
+import json
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import pandas as pd
+
+from liaison_cli import __version__, core_source_hash, interrupts
+from liaison_cli.campaign.sweep_plan import scenario_hash
+from liaison_cli.errors import LiaisonError
+from liaison_cli.scenario.schema import Scenario
+from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+
+CELL_FORMAT = 1  # the files' layout; part of the key, so a new layout never reads an old cell
+
+
+class StudyInterrupted(LiaisonError):
+    """Ctrl-C: the finished cells are in the work folder; the same command resumes."""
+
+    exit_code = 130
+
+
+def source_digest(module_file: str) -> str:
+    return hashlib.sha256(Path(module_file).read_bytes()).hexdigest()[:16]
+
+
+@dataclass
+class CellStore:
+    """`folder`: the work folder (None: nothing stored, every cell computed); `study`: its name; `code`: the
+    digest of the study module's source (source_digest)."""
+
+    folder: Path | None
+    study: str
+    code: str
+    computed: int = 0
+    reused: int = 0
+
+    def _key(self, scenario: Scenario, runs: int) -> str:
+        inputs = {"format": CELL_FORMAT, "study": self.study, "scenario": scenario_hash(scenario), "runs": runs,
+                  "version": __version__, "core": core_source_hash(), "code": self.code}
+        return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()[:16]
+
+    def cell(self, label: str, scenario: Scenario, runs: int, compute: Callable[[], dict]) -> dict:
+        """The cell's tables ({part: DataFrame}): read back when a finished copy is stored, else computed by
+        `compute()` and stored before they are returned."""
+        if self.folder is None:
+            self.computed += 1
+            return compute()
+        stem = self.folder / f"{label}-{self._key(scenario, runs)}"
+        done = stem.with_suffix(".done")
+        if done.exists():
+            self.reused += 1
+            return {part: pd.read_parquet(f"{stem}.{part}.parquet") for part in json.loads(done.read_text())["parts"]}
+        parts = compute()
+        self.folder.mkdir(parents=True, exist_ok=True)
+        meta = {"package": "liaison", "version": __version__, "study": self.study, "cell": label, "runs": runs}
+        for part, frame in parts.items():
+            write_parquet_atomic(frame, f"{stem}.{part}.parquet", meta)
+        write_text_atomic(json.dumps({**meta, "parts": list(parts)}, sort_keys=True) + "\n", done)
+        self.computed += 1
+        return parts
+
+    @contextmanager
+    def saving_on_interrupt(self, total: int):
+        """Ctrl-C inside the block (or the SystemError numba makes of it in compiled code) ends the study with
+        one line saying how many of its `total` cells are saved and how to resume."""
+        try:
+            yield
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not interrupts.caused_by_interrupt(exc):
+                raise
+            raise self._interrupted(total) from None
+
+    def _interrupted(self, total: int) -> StudyInterrupted:
+        finished = self.computed + self.reused
+        if self.folder is None:
+            return StudyInterrupted(f"interrupted after {finished} of {total} cells; nothing was written")
+        return StudyInterrupted(f"interrupted: {finished} of {total} cells saved in {self.folder}; rerun the same "
+                                "command to resume")
+
+
+def grid_points(grid: list[tuple[str, list]] | None) -> list[dict]:
+    """A study's grid (--grid axes) as its points (dicts of overrides), full factorial; no grid: one point
+    without overrides."""
+    import itertools
+
+    axes = grid or []
+    return [dict(zip([key for key, _ in axes], values)) for values in itertools.product(*[v for _, v in axes])]

@@ -1,0 +1,185 @@
+"""The one fan-out (campaign.backends.map_batches) and what rides on it: a bounded window of work in flight,
+the same bytes from `liaison run` on one process, a process pool and dask, the backend options of the long
+commands, and the 003 / 004 studies resuming from their finished cells."""
+
+import operator
+import signal
+
+import pytest
+
+from liaison_cli.campaign import backends, runner, study004
+from liaison_cli.campaign.backends import Backend, map_batches
+from liaison_cli.campaign.study_cells import CellStore
+from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
+
+
+@pytest.fixture
+def sigint_kept():
+    """The CLI run in this process installs its SIGINT handler (and, once interrupted, ignores SIGINT):
+    the test runner's own handler is put back afterwards."""
+    previous = signal.getsignal(signal.SIGINT)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.parametrize("ordered", [False, True])
+def test_the_pool_never_holds_more_than_its_window(ordered):
+    """Batches are read from the caller's iterable only as results are taken: at most `window` are submitted
+    and not yet consumed (in order: a batch done before an earlier one included), whatever the number of
+    batches (bounded memory for any run count)."""
+    taken = {"read": 0, "consumed": 0}
+
+    def batches():
+        for index in range(40):
+            taken["read"] += 1
+            yield 0, index
+
+    results = []
+    for value in map_batches(operator.add, {0: 1000}, batches(), Backend("joblib"), jobs=2, window=3, ordered=ordered):
+        assert taken["read"] - taken["consumed"] <= 3, taken
+        taken["consumed"] += 1
+        results.append(value)
+    assert (results if ordered else sorted(results)) == [1000 + index for index in range(40)]
+
+
+def test_run_writes_the_same_bytes_on_one_process_a_pool_and_dask(tmp_path, monkeypatch, sigint_kept):
+    """`liaison run` with --jobs 1 (this process), --jobs 2 forced into the pool (runner.POOL_MIN_STATE_EPOCHS
+    set to 0, so the comparison can fail) and --backend dask (a LocalCluster): byte-identical Parquet. One run
+    per batch here, so runs finish out of order and the reorder buffer is used."""
+    short = tmp_path / "smoke.yaml"
+    short.write_text((SCENARIOS / "smoke.yaml").read_text().replace("duration_days: 1.25", "duration_days: 0.3"))
+    assert "duration_days: 0.3" in short.read_text()
+    monkeypatch.setattr(runner, "POOL_MIN_STATE_EPOCHS", 0)
+    options = {"one": ["--jobs", "1"], "pool": ["--jobs", "2"], "dask": ["--jobs", "2", "--backend", "dask"]}
+    for label, extra in options.items():
+        proc = run_cli_in_process("run", short, "--runs", "7", *extra, "--quiet", "--output", tmp_path / label)
+        assert proc.returncode == 0, proc.stderr
+    for name in ("summary.parquet", "timeseries.parquet", "residuals.parquet", "consistency.parquet"):
+        one = (tmp_path / "one" / name).read_bytes()
+        assert one == (tmp_path / "pool" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("command", [["run", SCENARIOS / "smoke.yaml"], ["compare", SCENARIOS / "smoke.yaml"],
+                                     ["table3"], ["study003"], ["study004"], ["sweep", "--sigma", "100"],
+                                     ["tune", SCENARIOS / "smoke.yaml"]])
+def test_every_long_command_checks_its_backend_before_any_work(tmp_path, command, sigint_kept):
+    """The shared options (cli.common): an unknown backend, and a scheduler without dask, are one line, exit 2."""
+    where = ["--work", tmp_path / "out"] if command[0] == "tune" else ["--output", tmp_path / "out"]
+    proc = run_cli_in_process(*command, "--backend", "spark", *where)
+    assert_one_line_error(proc, "--backend", ["'spark'", "joblib, dask"])
+    proc = run_cli_in_process(*command, "--scheduler", "tcp://127.0.0.1:8786", *where)
+    assert_one_line_error(proc, "--scheduler", ["only used with --backend dask"])
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_cell_is_reused_only_for_the_same_scenario_runs_and_liaison(tmp_path, monkeypatch):
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    store = CellStore(tmp_path / "work", "test", "code-1")
+    computed = []
+
+    def cell(scenario_, runs, store_=store):
+        return store_.cell("cell", scenario_, runs, lambda: computed.append(1) or {"t": _frame(len(computed))})
+
+    first = cell(scenario, 2)
+    assert cell(scenario, 2)["t"].equals(first["t"]) and len(computed) == 1
+    cell(scenario, 3)  # another run count
+    cell(apply_overrides(scenario, {"monte_carlo.seed": 8}), 2)  # another scenario
+    cell(scenario, 2, CellStore(tmp_path / "work", "test", "code-2"))  # the study's code changed
+    monkeypatch.setattr("liaison_cli.campaign.study_cells.__version__", "0.0.0-other")
+    cell(scenario, 2)  # another liaison
+    assert len(computed) == 5
+
+
+def _frame(value):
+    import pandas as pd
+
+    return pd.DataFrame({"value": [float(value)], "label": ["x"]})
+
+
+def _one_day_halo(tmp_path):
+    """004's EML2 halo transmitter over one day (three receiver pairs: three cells)."""
+    halo = (SCENARIOS / "004" / "eml2_halo.yaml").read_text()
+    short = tmp_path / "eml2_halo.yaml"
+    short.write_text(halo.replace("duration_days: 14.75", "duration_days: 1")
+                     .replace("initial_batch_max_hours: 96", "initial_batch_max_hours: 12")
+                     .replace("settle_days: 6 ", "settle_days: 0.5 "))
+    assert short.read_text().count("duration_days: 1\n") == 1
+    return short
+
+
+@pytest.mark.slow  # about 25 s: the LocalCluster's workers start and load the compiled core
+def test_a_study_on_dask_writes_the_tables_of_one_process(tmp_path, monkeypatch, sigint_kept):
+    """study004 on a dask LocalCluster (one for all its cells, backends.session) and on this process alone:
+    byte-identical tables."""
+    started = []
+    original = backends._dask_client
+    monkeypatch.setattr(backends, "_dask_client", lambda *args: started.append(1) or original(*args))
+    short = _one_day_halo(tmp_path)
+    for label, extra in {"one": ["--jobs", "1"], "dask": ["--jobs", "2", "--backend", "dask"]}.items():
+        proc = run_cli_in_process("study004", short, "--runs", "3", *extra, "--quiet", "--output", tmp_path / label)
+        assert proc.returncode == 0, proc.stderr
+    assert len(started) == 1
+    for name in ("summary.parquet", "histories.parquet", "table.md"):
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes(), name
+
+
+def test_an_interrupted_study_resumes_its_missing_cells_and_writes_the_same_bytes(tmp_path, monkeypatch,
+                                                                                    sigint_kept):
+    """004 over three receiver pairs (three cells), interrupted after its first cell: exit 130 naming the work
+    folder; the same command again computes only the two missing cells, and its tables are byte-identical to
+    those of a study that was never interrupted."""
+    command = ["study004", _one_day_halo(tmp_path), "--runs", "1", "--jobs", "1", "--quiet"]
+    assert run_cli_in_process(*command, "--output", tmp_path / "whole").returncode == 0
+
+    original, computed = study004._pair_tables, []
+
+    def interrupted_after_one_cell(scenario, *args):
+        if computed:
+            raise KeyboardInterrupt
+        computed.append(scenario.name)
+        return original(scenario, *args)
+
+    monkeypatch.setattr(study004, "_pair_tables", interrupted_after_one_cell)
+    proc = run_cli_in_process(*command, "--output", tmp_path / "resumed")
+    assert proc.returncode == 130, proc.stderr
+    assert f"interrupted: 1 of 3 cells saved in {tmp_path / 'resumed.work'}" in proc.stderr
+    assert not (tmp_path / "resumed").exists() and len(list((tmp_path / "resumed.work").glob("*.done"))) == 1
+
+    def counted(scenario, *args):
+        computed.append(scenario.name)
+        return original(scenario, *args)
+
+    monkeypatch.setattr(study004, "_pair_tables", counted)
+    assert run_cli_in_process(*command, "--output", tmp_path / "resumed").returncode == 0
+    assert len(computed) == 3 and computed[0] not in computed[1:]  # the finished cell was not recomputed
+    for name in ("summary.parquet", "histories.parquet", "table.md"):
+        assert (tmp_path / "whole" / name).read_bytes() == (tmp_path / "resumed" / name).read_bytes(), name
+
+
+def test_backends_module_is_the_only_place_that_starts_workers():
+    """One fan-out path: no other module of the package imports joblib's Parallel or a dask client."""
+    from pathlib import Path
+
+    package = Path(backends.__file__).resolve().parents[1]
+    starters = ("Parallel(", "get_reusable_executor", "LocalCluster(", "Client(")
+    found = sorted(str(path.relative_to(package)) for path in package.rglob("*.py")
+                   if any(word in path.read_text() for word in starters))
+    assert found == ["campaign/backends.py"], found
+
+
+def test_an_interrupt_that_compiled_code_turned_into_a_system_error_still_says_what_is_saved(tmp_path):
+    """numba reports a Ctrl-C inside compiled code as a SystemError chained to the KeyboardInterrupt: the study
+    still ends with its own line (cells saved, how to resume); any other SystemError passes through."""
+    from liaison_cli.campaign.study_cells import StudyInterrupted
+
+    store = CellStore(tmp_path / "work", "test", "code")
+    with pytest.raises(StudyInterrupted, match=r"interrupted: 0 of 4 cells saved in .*work; rerun the same"):
+        with store.saving_on_interrupt(4):
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt:
+                raise SystemError("<built-in function> returned a result with an exception set")
+    with pytest.raises(SystemError, match="unrelated"):
+        with store.saving_on_interrupt(4):
+            raise SystemError("unrelated")
