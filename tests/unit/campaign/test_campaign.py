@@ -42,23 +42,6 @@ def test_smoke_run_writes_results_with_provenance(tmp_path):
     assert not list(out.glob(".*.tmp"))
 
 
-def test_jobs_1_and_jobs_2_give_byte_identical_parquet(tmp_path):
-    """Enough runs that --jobs 2 really fans out to the process pool (above runner.POOL_MIN_STATE_EPOCHS;
-    below it both would run in the CLI process and the comparison could not fail)."""
-    from liaison_cli.campaign.runner import POOL_MIN_STATE_EPOCHS
-    from liaison_cli.scenario.setup import prepare_problem
-
-    problem = prepare_problem(load_scenario(SCENARIOS / "smoke.yaml")[0])
-    runs = POOL_MIN_STATE_EPOCHS // (len(problem.times_s) * problem.filter.layout.n) + 1
-    assert runs * len(problem.times_s) * problem.filter.layout.n >= POOL_MIN_STATE_EPOCHS
-    for jobs in (1, 2):
-        proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", runs, "--jobs", jobs, "--quiet",
-                       "--output", tmp_path / f"j{jobs}")
-        assert proc.returncode == 0, proc.stderr
-    for name in ("summary.parquet", "timeseries.parquet", "residuals.parquet"):
-        assert (tmp_path / "j1" / name).read_bytes() == (tmp_path / "j2" / name).read_bytes()
-
-
 def test_a_process_pool_gives_the_numbers_of_the_main_process(monkeypatch):
     """Small campaigns stay in the CLI process (runner.POOL_MIN_STATE_EPOCHS); forced into the pool, the same
     runs give bit-identical histories, though the workers import less (no pandas, no pyarrow)."""
