@@ -1,3 +1,4 @@
+import signal
 import sys
 from pathlib import Path
 
@@ -58,3 +59,12 @@ def assert_one_line_error(proc, path, fragments, code: int = 2) -> None:
     assert len(lines) == 1 and str(path) in lines[0], proc.stderr
     for fragment in fragments:
         assert fragment in lines[0], (fragment, lines[0])
+
+
+@pytest.fixture
+def sigint_kept():
+    """The CLI run in this process installs its SIGINT handler (and, once interrupted, ignores SIGINT):
+    the test runner's own handler is put back afterwards."""
+    previous = signal.getsignal(signal.SIGINT)
+    yield
+    signal.signal(signal.SIGINT, previous)

@@ -1,26 +1,17 @@
 """The one fan-out (campaign.backends.map_batches) and what rides on it: a bounded window of work in flight,
 the same bytes from `liaison run` on one process, a process pool and dask, the backend options of the long
-commands, and the 003 / 004 studies resuming from their finished cells."""
+commands, and which study cells are reused (the 004 study's own resume and dask runs are tested beside it, in
+tests/studies/test_study004.py, where its compiled kernels are already loaded)."""
 
 import operator
-import signal
 
 import pytest
 
-from liaison_cli.campaign import backends, runner, study004
+from liaison_cli.campaign import backends, runner
 from liaison_cli.campaign.backends import Backend, map_batches
 from liaison_cli.campaign.study_cells import CellStore
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
-
-
-@pytest.fixture
-def sigint_kept():
-    """The CLI run in this process installs its SIGINT handler (and, once interrupted, ignores SIGINT):
-    the test runner's own handler is put back afterwards."""
-    previous = signal.getsignal(signal.SIGINT)
-    yield
-    signal.signal(signal.SIGINT, previous)
 
 
 @pytest.mark.parametrize("ordered", [False, True])
@@ -95,66 +86,6 @@ def _frame(value):
     import pandas as pd
 
     return pd.DataFrame({"value": [float(value)], "label": ["x"]})
-
-
-def _one_day_halo(tmp_path):
-    """004's EML2 halo transmitter over one day (three receiver pairs: three cells)."""
-    halo = (SCENARIOS / "004" / "eml2_halo.yaml").read_text()
-    short = tmp_path / "eml2_halo.yaml"
-    short.write_text(halo.replace("duration_days: 14.75", "duration_days: 1")
-                     .replace("initial_batch_max_hours: 96", "initial_batch_max_hours: 12")
-                     .replace("settle_days: 6 ", "settle_days: 0.5 "))
-    assert short.read_text().count("duration_days: 1\n") == 1
-    return short
-
-
-@pytest.mark.slow  # about 25 s: the LocalCluster's workers start and load the compiled core
-def test_a_study_on_dask_writes_the_tables_of_one_process(tmp_path, monkeypatch, sigint_kept):
-    """study004 on a dask LocalCluster (one for all its cells, backends.session) and on this process alone:
-    byte-identical tables."""
-    started = []
-    original = backends._dask_client
-    monkeypatch.setattr(backends, "_dask_client", lambda *args: started.append(1) or original(*args))
-    short = _one_day_halo(tmp_path)
-    for label, extra in {"one": ["--jobs", "1"], "dask": ["--jobs", "2", "--backend", "dask"]}.items():
-        proc = run_cli_in_process("study004", short, "--runs", "3", *extra, "--quiet", "--output", tmp_path / label)
-        assert proc.returncode == 0, proc.stderr
-    assert len(started) == 1
-    for name in ("summary.parquet", "histories.parquet", "table.md"):
-        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes(), name
-
-
-def test_an_interrupted_study_resumes_its_missing_cells_and_writes_the_same_bytes(tmp_path, monkeypatch,
-                                                                                    sigint_kept):
-    """004 over three receiver pairs (three cells), interrupted after its first cell: exit 130 naming the work
-    folder; the same command again computes only the two missing cells, and its tables are byte-identical to
-    those of a study that was never interrupted."""
-    command = ["study004", _one_day_halo(tmp_path), "--runs", "1", "--jobs", "1", "--quiet"]
-    assert run_cli_in_process(*command, "--output", tmp_path / "whole").returncode == 0
-
-    original, computed = study004._pair_tables, []
-
-    def interrupted_after_one_cell(scenario, *args):
-        if computed:
-            raise KeyboardInterrupt
-        computed.append(scenario.name)
-        return original(scenario, *args)
-
-    monkeypatch.setattr(study004, "_pair_tables", interrupted_after_one_cell)
-    proc = run_cli_in_process(*command, "--output", tmp_path / "resumed")
-    assert proc.returncode == 130, proc.stderr
-    assert f"interrupted: 1 of 3 cells saved in {tmp_path / 'resumed.work'}" in proc.stderr
-    assert not (tmp_path / "resumed").exists() and len(list((tmp_path / "resumed.work").glob("*.done"))) == 1
-
-    def counted(scenario, *args):
-        computed.append(scenario.name)
-        return original(scenario, *args)
-
-    monkeypatch.setattr(study004, "_pair_tables", counted)
-    assert run_cli_in_process(*command, "--output", tmp_path / "resumed").returncode == 0
-    assert len(computed) == 3 and computed[0] not in computed[1:]  # the finished cell was not recomputed
-    for name in ("summary.parquet", "histories.parquet", "table.md"):
-        assert (tmp_path / "whole" / name).read_bytes() == (tmp_path / "resumed" / name).read_bytes(), name
 
 
 def test_backends_module_is_the_only_place_that_starts_workers():
