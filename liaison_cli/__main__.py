@@ -1,3 +1,3 @@
-from liaison_cli.cli import app
+from liaison_cli.cli import main
 
-app(prog_name="liaison")
+main()

@@ -15,6 +15,7 @@ no handler of its own); `ignore_in_worker_process` covers a worker started some 
 """
 
 import signal
+import sys
 import threading
 
 _requested = False
@@ -37,6 +38,21 @@ def install() -> None:
         return
     if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _on_sigint):
         signal.signal(signal.SIGINT, _on_sigint)
+        if sys.unraisablehook is not _quiet_unraisable:
+            _quiet_unraisable.previous = sys.unraisablehook
+            sys.unraisablehook = _quiet_unraisable
+
+
+def _quiet_unraisable(unraisable) -> None:
+    """A Ctrl-C that lands in a C callback (LLVM's, while numba compiles on a cold cache) cannot propagate:
+    Python would print it as an "Exception ignored ... Traceback". The request is remembered (`requested`) and
+    the command stops with its one line; anything else goes to the previous hook."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        return
+    _quiet_unraisable.previous(unraisable)
+
+
+_quiet_unraisable.previous = sys.unraisablehook
 
 
 def ignore_from_now_on() -> None:

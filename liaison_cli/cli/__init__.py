@@ -1,5 +1,6 @@
 """Command-line interface (thin layer: parse, call the campaign and report code, print, map errors to exit
-codes), one module per command group. `app` is the `liaison` entry point (pyproject: liaison_cli.cli:app).
+codes), one module per command group. `main` is the `liaison` entry point (pyproject: liaison_cli.cli:main,
+and `python -m liaison_cli`): the Typer `app`, and a clean exit after Ctrl-C.
 
 root.py holds the Typer app and its root options; common.py the exit codes and error mapping every command
 shares; each other module registers its commands on `app` when imported here."""
@@ -22,5 +23,23 @@ from liaison_cli.cli import (  # noqa: F401  (imported to register their command
 __all__ = ["app", "main"]
 
 
-def main():  # pragma: no cover - console entry point
-    app()
+def main() -> None:
+    """Run the `liaison` command. After Ctrl-C (exit 130: the line is printed, nothing is half-written) the
+    exit handlers run (pool and semaphore clean-up, llvmlite's shutdown mark) and the process then leaves
+    without the rest of the interpreter's teardown: a Ctrl-C that landed while numba compiled can leave LLVM's
+    objects half-built, and finalising them crashed the process (SIGSEGV) after its line was printed."""
+    import atexit
+    import os
+    import sys
+
+    from liaison_cli.cli.common import EXIT_INTERRUPTED
+
+    try:
+        app(prog_name="liaison")
+    except SystemExit as exc:
+        if exc.code == EXIT_INTERRUPTED:
+            atexit._run_exitfuncs()
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(EXIT_INTERRUPTED)
+        raise

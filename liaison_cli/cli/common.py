@@ -44,14 +44,20 @@ def user_errors(func):
         except KeyboardInterrupt:
             interrupts.ignore_from_now_on()  # nothing may turn exit 130 into death by SIGINT now
             fail(_interrupted_message(), EXIT_INTERRUPTED)
-        except SystemError as exc:  # Ctrl-C inside compiled code outside a worker (e.g. errors' check runs)
+        except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
+            if interrupts.caused_by_interrupt(exc):
+                interrupts.ignore_from_now_on()
+                fail(_interrupted_message(), EXIT_INTERRUPTED)
+            where = exc.filename if exc.filename is not None else "file system"
+            fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
+        except Exception as exc:  # noqa: BLE001 - only what a Ctrl-C caused; anything else is re-raised
+            # A Ctrl-C inside compiled code comes back as a SystemError; one that lands while numba compiles
+            # (a cold cache) is swallowed by an LLVM callback and surfaces later as numba's RuntimeError ("no
+            # compiled object yet"). The remembered request (interrupts.requested) tells them apart.
             if not interrupts.caused_by_interrupt(exc):
                 raise
             interrupts.ignore_from_now_on()
             fail(_interrupted_message(), EXIT_INTERRUPTED)
-        except OSError as exc:  # disk full, read-only, not a directory, permission: the path and the cause
-            where = exc.filename if exc.filename is not None else "file system"
-            fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
 
     return wrapper
 

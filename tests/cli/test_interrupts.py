@@ -115,6 +115,62 @@ def test_ctrl_c_in_compare_and_errors_exits_130(tmp_path, command, staged_first)
     assert not out.exists()
 
 
+def test_a_ctrl_c_swallowed_by_a_c_callback_is_not_printed_and_what_it_broke_exits_130(monkeypatch, capsys):
+    """A Ctrl-C that lands in LLVM's callback while numba compiles (a cold cache) cannot propagate: Python
+    hands it to sys.unraisablehook, which used to print "Exception ignored ... Traceback", and numba then failed
+    with its own RuntimeError (a traceback, exit 1; seen in 2 of 9 tries before the fix). Replayed here: the
+    hook stays quiet for a KeyboardInterrupt only, and a command that fails after the request exits 130."""
+    import types
+
+    import typer
+
+    from liaison_cli.cli.common import EXIT_INTERRUPTED, user_errors
+
+    monkeypatch.setattr(signal, "getsignal", lambda signum: signal.default_int_handler)
+    monkeypatch.setattr(signal, "signal", lambda signum, handler: None)
+    interrupts.install()
+    seen = []
+    monkeypatch.setattr(interrupts._quiet_unraisable, "previous", seen.append)
+    sys.unraisablehook(types.SimpleNamespace(exc_value=KeyboardInterrupt()))
+    other = types.SimpleNamespace(exc_value=ValueError("a real one"))
+    sys.unraisablehook(other)
+    assert seen == [other]
+
+    @user_errors
+    def compiling():
+        try:
+            interrupts._on_sigint(signal.SIGINT, None)  # the request, swallowed where it landed
+        except KeyboardInterrupt:
+            pass
+        raise RuntimeError("no compiled object yet for <Library 'apply_burn_covariance'>")
+
+    monkeypatch.setattr(interrupts, "ignore_from_now_on", lambda: None)
+    with pytest.raises(typer.Exit) as stop:
+        compiling()
+    assert stop.value.exit_code == EXIT_INTERRUPTED
+    assert capsys.readouterr().err.startswith("error: interrupted")
+    interrupts.install()  # clears the request
+    with pytest.raises(RuntimeError):  # without a request, a failure is not dressed up as an interrupt
+        user_errors(lambda: (_ for _ in ()).throw(RuntimeError("a real failure")))()
+
+
+def test_ctrl_c_while_the_core_compiles_exits_130_with_one_line(tmp_path):
+    """End to end on an empty compiled-code cache: `errors` interrupted 3 s in, while numba compiles. Before
+    the fix: exit 1 with numba's traceback, or the line and then death by SIGSEGV in the interpreter's
+    teardown (CI on a clean clone)."""
+    env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("NUMBA_CACHE_DIR", None)
+    proc = subprocess.Popen([sys.executable, "-m", "liaison_cli", "errors", str(SCENARIOS / "eml2_lunar.yaml"),
+                             "--check-runs", "400", "--output", str(tmp_path / "out")], cwd=REPO, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(3.0)
+    assert proc.poll() is None, "the command finished before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)
+    _assert_stopped(proc)
+    assert not (tmp_path / "out").exists()
+
+
 def test_pool_workers_start_with_sigint_ignored():
     """joblib's workers inherit an ignored SIGINT (read from /proc), so Ctrl-C while they start or run
     reaches only the main process, which stops the pool. In a fresh process: no pool started earlier."""
