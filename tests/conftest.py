@@ -1,3 +1,4 @@
+import contextlib
 import signal
 import sys
 from pathlib import Path
@@ -37,7 +38,8 @@ def run_cli_in_process(*args):
 
     from liaison_cli.cli import app
 
-    result = CliRunner().invoke(app, [str(a) for a in args])
+    with contextlib.chdir(REPO):  # as run_cli: relative defaults (scenarios/, results/) from the repository
+        result = CliRunner().invoke(app, [str(a) for a in args])
     if result.exception is not None and not isinstance(result.exception, SystemExit):
         raise result.exception
     return SimpleNamespace(returncode=result.exit_code, stderr=result.stderr, stdout=result.stdout)

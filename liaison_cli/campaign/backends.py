@@ -6,7 +6,8 @@ runner.iter_outcomes (its ordered layer), `sweep` and `tune` directly.
 - `dask`: a dask.distributed cluster (`scheduler="tcp://host:8786"`), or a LocalCluster of `jobs`
   workers when no scheduler is given. Shared objects (a scenario's truth arrays) are scattered once.
 
-Order of completion is not defined; callers key results by task id, so numbers never depend on it.
+Results come in completion order, or with `ordered=True` in the order of the batches (a bounded reorder
+buffer); callers key results by task id, so numbers never depend on the order.
 """
 
 import itertools

@@ -5,9 +5,10 @@ one Monte Carlo campaign through the fan-out (runner) reduced to a few tables. E
 written atomically (storage) into the study's work folder as `<cell>-<key>.<part>.parquet`, then
 `<cell>-<key>.done` last: a cell counts as finished only once its `.done` is there. The key is a digest of
 everything the cell's numbers depend on: the study, the cell's effective scenario (sweep_plan.scenario_hash, as
-a sweep's manifest records it), the run count, liaison's version, its numeric core (core_source_hash) and the
-source of the study module that reduces the runs, so a changed scenario, run count or liaison never reuses a
-stale cell. The cells are kept after the study is written (running it again, e.g. with --overwrite, reuses
+a sweep's manifest records it), the run count, liaison's version, the code of every package that makes a cell's
+numbers (PACKAGE_CODE: from the dynamics to the campaign, comments and docstrings aside) and the source of the
+study module that reduces the runs, so a changed scenario, run count or code never reuses a stale cell (an
+edited checkout keeps its version number, so the version alone would not do). The cells are kept after the study is written (running it again, e.g. with --overwrite, reuses
 them); liaison deletes nothing there.
 """
 
@@ -26,6 +27,9 @@ from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
+# The packages whose code makes a cell's numbers (the setup, the engine, the metrics, the runner).
+PACKAGE_CODE = ("dynamics", "radio", "orbits", "measurements", "estimation", "analysis", "exchange", "scenario",
+                "campaign")
 CELL_FORMAT = 1  # the files' layout; part of the key, so a new layout never reads an old cell
 
 
@@ -52,7 +56,7 @@ class CellStore:
 
     def _key(self, scenario: Scenario, runs: int) -> str:
         inputs = {"format": CELL_FORMAT, "study": self.study, "scenario": scenario_hash(scenario), "runs": runs,
-                  "version": __version__, "core": core_source_hash(), "code": self.code}
+                  "version": __version__, "core": core_source_hash(PACKAGE_CODE), "code": self.code}
         return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()[:16]
 
     def cell(self, label: str, scenario: Scenario, runs: int, compute: Callable[[], dict]) -> dict:
@@ -81,7 +85,8 @@ class CellStore:
         one line saying how many of its `total` cells are saved and how to resume."""
         try:
             yield
-        except (KeyboardInterrupt, SystemError) as exc:
+        except (KeyboardInterrupt, Exception) as exc:  # an Exception only when a Ctrl-C caused it: numba's
+            # SystemError from compiled code, its RuntimeError when one lands while it compiles
             if not interrupts.caused_by_interrupt(exc):
                 raise
             raise self._interrupted(total) from None

@@ -22,6 +22,7 @@ from liaison_cli.campaign.sweep_plan import (SIGMA_KEY, SweepError, SweepInterru
 from liaison_cli.campaign.sweep_tables import build_curve_table, build_runs_table, write_sweep_tables
 from liaison_cli.campaign.runner import warm_up_here
 from liaison_cli.campaign.worker import RunTask, execute_run
+from liaison_cli import interrupts
 from liaison_cli.interrupts import ignore_in_worker_process
 from liaison_cli.scenario.setup import prepare_problem
 
@@ -100,7 +101,11 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
         pending = [t for t in plan.tasks if t.task_id not in done]
         _run_pending(plan, pending, manifest, where, jobs, progress, batch_runs)
         _, records, _ = read_manifest(manifest.path)  # tables come from what is on disk, nothing else
-    except KeyboardInterrupt:  # also before the batches started (setting up, first compilation, starting workers)
+    except (KeyboardInterrupt, Exception) as exc:  # also before the batches started (setting up, first
+        # compilation, starting workers); an Exception only when a Ctrl-C caused it (numba's, when one lands
+        # while it compiles)
+        if not isinstance(exc, KeyboardInterrupt) and not interrupts.caused_by_interrupt(exc):
+            raise
         saved = len(manifest.done() & {t.task_id for t in plan.tasks})
         raise SweepInterrupted(f"interrupted: {saved} of {len(plan.tasks)} tasks saved in {manifest.path}; rerun "
                                "the same command to resume") from None

@@ -38,8 +38,26 @@ def main() -> None:
         app(prog_name="liaison")
     except SystemExit as exc:
         if exc.code == EXIT_INTERRUPTED:
+            _stop_pool_workers()
             atexit._run_exitfuncs()
-            sys.stdout.flush()
-            sys.stderr.flush()
+            for stream in (sys.stdout, sys.stderr):
+                try:
+                    stream.flush()
+                except (OSError, ValueError):  # a closed pipe (liaison ... | head): nothing more to say there
+                    pass
             os._exit(EXIT_INTERRUPTED)
         raise
+
+
+def _stop_pool_workers() -> None:
+    """Kill loky's reusable pool if this process started one and it is still up (its own exit hook is a
+    threading one, which os._exit skips): no worker goes on computing after the prompt is back."""
+    import sys
+
+    reusable = sys.modules.get("joblib.externals.loky.reusable_executor")
+    executor = getattr(reusable, "_executor", None)
+    if executor is not None:
+        try:
+            executor.shutdown(wait=True, kill_workers=True)
+        except Exception:  # noqa: BLE001 - already broken or shut down: nothing left to stop
+            pass

@@ -3,8 +3,10 @@ first-compilation notice, the checks on names given on the command line, and the
 that fans runs out (--jobs, --backend, --scheduler, --scheduler-timeout: `fan_out` checks them)."""
 
 import functools
+import logging
 from typing import Annotated
 
+import click
 import typer
 
 from liaison_cli import interrupts
@@ -50,12 +52,15 @@ def user_errors(func):
                 fail(_interrupted_message(), EXIT_INTERRUPTED)
             where = exc.filename if exc.filename is not None else "file system"
             fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
+        except (click.exceptions.Exit, click.exceptions.ClickException, click.exceptions.Abort):
+            raise  # a command's own exit code and click's usage errors stay as they are
         except Exception as exc:  # noqa: BLE001 - only what a Ctrl-C caused; anything else is re-raised
             # A Ctrl-C inside compiled code comes back as a SystemError; one that lands while numba compiles
             # (a cold cache) is swallowed by an LLVM callback and surfaces later as numba's RuntimeError ("no
             # compiled object yet"). The remembered request (interrupts.requested) tells them apart.
             if not interrupts.caused_by_interrupt(exc):
                 raise
+            logging.getLogger("liaison").info("after Ctrl-C: %s: %s", type(exc).__name__, exc)  # -v shows it
             interrupts.ignore_from_now_on()
             fail(_interrupted_message(), EXIT_INTERRUPTED)
 

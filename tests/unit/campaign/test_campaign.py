@@ -42,6 +42,23 @@ def test_smoke_run_writes_results_with_provenance(tmp_path):
     assert not list(out.glob(".*.tmp"))
 
 
+def test_campaigns_below_the_pool_threshold_stay_in_this_process():
+    """runner.stays_in_process: joblib campaigns of fewer than POOL_MIN_STATE_EPOCHS state-epochs, and every
+    --jobs 1 campaign, run here; larger ones and every dask campaign fan out."""
+    from liaison_cli.campaign.backends import Backend
+    from liaison_cli.campaign.runner import POOL_MIN_STATE_EPOCHS, stays_in_process
+    from liaison_cli.scenario.setup import prepare_problem
+
+    problem = prepare_problem(load_scenario(SCENARIOS / "smoke.yaml")[0])
+    per_run = len(problem.times_s) * problem.filter.layout.n
+    largest_here = (POOL_MIN_STATE_EPOCHS - 1) // per_run
+    local, dask = Backend("joblib", None, 20.0), Backend("dask", None, 20.0)
+    assert stays_in_process(problem, largest_here, 2, local)
+    assert not stays_in_process(problem, largest_here + 1, 2, local)
+    assert stays_in_process(problem, 10 * largest_here, 1, local)
+    assert not stays_in_process(problem, 1, 2, dask) and not stays_in_process(problem, 1, 1, dask)
+
+
 def test_a_process_pool_gives_the_numbers_of_the_main_process(monkeypatch):
     """Small campaigns stay in the CLI process (runner.POOL_MIN_STATE_EPOCHS); forced into the pool, the same
     runs give bit-identical histories, though the workers import less (no pandas, no pyarrow)."""
