@@ -225,3 +225,37 @@ def test_the_vocabulary_check_catches_a_branch_on_kind(tmp_path, text):
     package = _write_fake_package(tmp_path, {"__init__.py": "", "estimation/__init__.py": "",
                                              "estimation/loop.py": text})
     assert len(observable_vocabulary_outside_measurements(package)) == 1
+
+
+def test_every_library_the_package_imports_is_a_declared_dependency():
+    """A module imported by liaison_cli (lazily or not) comes from the standard library, from liaison_cli, or
+    from a distribution named in pyproject's dependencies or extras: one that is merely installed beside it
+    (click arrived with dask here, but typer no longer needs it) would break a clean install."""
+    import importlib.metadata
+    import re
+    import tomllib
+
+    project = tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["project"]
+    declared_specs = list(project["dependencies"]) + [s for extra in project["optional-dependencies"].values()
+                                                      for s in extra]
+    declared = {re.split(r"[\[<>=!~ ;]", spec, maxsplit=1)[0].lower().replace("_", "-") for spec in declared_specs}
+    for spec in declared_specs:  # dask[distributed] installs the distribution `distributed`
+        declared |= {extra.strip().lower() for extra in re.findall(r"\[([^\]]+)\]", spec)[0].split(",")} \
+            if "[" in spec else set()
+    providers = importlib.metadata.packages_distributions()
+    undeclared = set()
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                roots = [alias.name.split(".")[0] for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                roots = [node.module.split(".")[0]]
+            else:
+                continue
+            for root in roots:
+                if root in sys.stdlib_module_names or root == "liaison_cli":
+                    continue
+                names = {d.lower().replace("_", "-") for d in providers.get(root, [root])}
+                if not names & declared:
+                    undeclared.add(f"{path.relative_to(PACKAGE.parent)}: {root} ({', '.join(sorted(names))})")
+    assert not undeclared, sorted(undeclared)

@@ -6,7 +6,6 @@ import functools
 import logging
 from typing import Annotated
 
-import click
 import typer
 
 from liaison_cli import interrupts
@@ -32,6 +31,10 @@ def fail(message: str, code: int) -> None:
     raise typer.Exit(code)
 
 
+# The parser's usage errors: click's ClickException, which typer re-exports or (from 0.2x) vendors.
+_PARSER_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
 def user_errors(func):
     """Turn typed errors into a one-line message and their exit code; never a traceback."""
 
@@ -52,8 +55,8 @@ def user_errors(func):
                 fail(_interrupted_message(), EXIT_INTERRUPTED)
             where = exc.filename if exc.filename is not None else "file system"
             fail(f"{where}: {exc.strerror or exc}", EXIT_OS_ERROR)
-        except (click.exceptions.Exit, click.exceptions.ClickException, click.exceptions.Abort):
-            raise  # a command's own exit code and click's usage errors stay as they are
+        except (typer.Exit, typer.Abort, _PARSER_ERROR):
+            raise  # a command's own exit code and the parser's usage errors stay as they are
         except Exception as exc:  # noqa: BLE001 - only what a Ctrl-C caused; anything else is re-raised
             # A Ctrl-C inside compiled code comes back as a SystemError; one that lands while numba compiles
             # (a cold cache) is swallowed by an LLVM callback and surfaces later as numba's RuntimeError ("no
