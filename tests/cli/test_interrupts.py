@@ -126,6 +126,7 @@ def test_a_ctrl_c_swallowed_by_a_c_callback_is_not_printed_and_what_it_broke_exi
 
     from liaison_cli.cli.common import EXIT_INTERRUPTED, user_errors
 
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # put back after the test
     monkeypatch.setattr(signal, "getsignal", lambda signum: signal.default_int_handler)
     monkeypatch.setattr(signal, "signal", lambda signum, handler: None)
     interrupts.install()
