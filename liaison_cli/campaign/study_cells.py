@@ -15,7 +15,7 @@ them); liaison deletes nothing there.
 import hashlib
 import json
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -53,10 +53,14 @@ class CellStore:
     code: str
     computed: int = 0
     reused: int = 0
+    package_code: str = field(init=False)  # core_source_hash(PACKAGE_CODE), hashed once per study, not per cell
+
+    def __post_init__(self):
+        self.package_code = core_source_hash(PACKAGE_CODE)
 
     def _key(self, scenario: Scenario, runs: int) -> str:
         inputs = {"format": CELL_FORMAT, "study": self.study, "scenario": scenario_hash(scenario), "runs": runs,
-                  "version": __version__, "core": core_source_hash(PACKAGE_CODE), "code": self.code}
+                  "version": __version__, "core": self.package_code, "code": self.code}
         return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()[:16]
 
     def cell(self, label: str, scenario: Scenario, runs: int, compute: Callable[[], dict]) -> dict:
