@@ -50,7 +50,7 @@ class _DigestMemo:
     numeric core costs about 0.1 s, paid on every import otherwise. Keyed by content, so it cannot go stale;
     an unreadable memo is only recomputed, and one that cannot be written is skipped."""
 
-    LIMIT = 400  # entries kept: a few checkouts' worth of the core's ~50 modules
+    LIMIT = 1000  # entries kept: a few checkouts' worth of the ~110 modules study cells hash (campaign.study_cells)
 
     def __init__(self):
         self.path = Path(user_cache_dir()) / "code-digests.json"
