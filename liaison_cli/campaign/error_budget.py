@@ -19,16 +19,23 @@ The budget is the ungated EKF's: LinCov ignores filter.residual_gate_sigma (esti
 the Monte Carlo check runs the scenario's EKF, gate included.
 """
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
+from tqdm import tqdm
 
+from liaison_cli import interrupts
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, fraction, nees_run_band
+from liaison_cli.campaign.backends import LOCAL, Backend, map_batches
+from liaison_cli.campaign.runner import POOL_MIN_STATE_EPOCHS
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.errors import LiaisonError
+from liaison_cli.interrupts import caused_by_interrupt
+from liaison_cli.measurements.registry import kinds_mask
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.lincov import (
     PART_INITIAL,
@@ -40,6 +47,8 @@ from liaison_cli.estimation.lincov import (
 )
 from liaison_cli.scenario.setup import Problem
 
+# lincov_along_truth's compile-time arguments (the model code, the kind set) and where its Dynamics group is.
+LINCOV_LITERALS, LINCOV_DYNAMICS_ARG = (0, 1), 7
 SOURCES = ("initial", "noise", "process", "bias", "measurement_model", "dynamics_model")
 DETERMINISTIC = ("measurement_model", "dynamics_model", "bias_mean")
 
@@ -119,10 +128,10 @@ def error_budget(problem: Problem) -> Budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")
     f = problem.filter
-    args = (f.model, _filter_truth(problem), problem.measurements_true, f.known_states, f.channels(),
-            f.block_layout(), f.dynamics(), f.P0, f.Q, int(f.n_gain), float(f.underweight), f.burns,
+    args = (f.model, kinds_mask(f.channel_kind), _filter_truth(problem), problem.measurements_true, f.known_states,
+            f.channels(), f.block_layout(), f.dynamics(), f.P0, f.Q, int(f.n_gain), float(f.underweight), f.burns,
             TruthErrors(*_inputs(problem)))
-    run_lincov = literal_entry(lincov_along_truth, args, 0)
+    run_lincov = literal_entry(lincov_along_truth, args, LINCOV_LITERALS)
     P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft
     parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),
@@ -140,7 +149,8 @@ def error_budget(problem: Problem) -> Budget:
         from liaison_cli.dynamics.ephemeris_model import with_cr_scaled
 
         off_by_sigma = list(args)
-        off_by_sigma[6] = f.dynamics()._replace(params=with_cr_scaled(f.model_params, 1.0 + cr_sigma))
+        scaled = with_cr_scaled(f.model_params, 1.0 + cr_sigma)
+        off_by_sigma[LINCOV_DYNAMICS_ARG] = f.dynamics()._replace(params=scaled)
         parts["cr"] = _per_spacecraft((run_lincov(*off_by_sigma)[4] - mu_dyn) ** 2, n_sc)
     total_mean = mu_meas + mu_dyn + bias_mean
     parts["deterministic_cross"] = _per_spacecraft(total_mean**2, n_sc) - sum(parts[k] for k in DETERMINISTIC)
@@ -213,57 +223,136 @@ def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> 
     return x0, y, truth
 
 
-def _histories(problem: Problem, runs: int, sources):
-    """The EKF's history of each run with only `sources` on (a diverged run: BudgetError)."""
+@dataclass(frozen=True, eq=False)
+class CheckGroup:
+    """What a check worker shares: the problem, the filter model's measurements along the truth (model_y) and
+    the sources switched on."""
+
+    problem: Problem
+    model_y: np.ndarray
+    sources: tuple
+
+
+@dataclass(frozen=True, eq=False)
+class CheckRun:
+    """One check run (a work unit's result; a worker never raises): group index, run index, squared error (m,
+    n_sc, 2) in m^2 and (m/s)^2, the share of epochs from settle_s on with the NEES in its 95 % band, and the
+    reason it failed ('' when it did not; then squared is None)."""
+
+    group: int
+    run: int
+    squared: np.ndarray | None
+    nees_in_band: float
+    reason: str = ""
+
+
+def check_batch(group: CheckGroup, tasks) -> list[CheckRun]:
+    """Worker side: tasks are (group index, run index, settle_s); the EKF run with only the group's sources on."""
+    interrupts.ignore_in_worker_process()
+    return [_check_run(group, *task) for task in tasks]
+
+
+def _check_run(group: CheckGroup, group_index: int, run: int, settle_s: float) -> CheckRun:
+    problem = group.problem
+    try:
+        x0, y, truth = _source_inputs(problem, run, group.model_y, group.sources)
+        history = estimate(problem.scenario.estimator, problem.filter, x0, y, truth)
+        if not history.ok:
+            return CheckRun(group_index, run, None, float("nan"), f"diverged ({history.reason})")
+        low, high = nees_run_band(problem.filter.n_nees)
+        nees = np.asarray(history.nees)[problem.times_s >= settle_s]
+        nees = nees[np.isfinite(nees)]
+        return CheckRun(group_index, run, _per_spacecraft(history.err**2, problem.n_spacecraft),
+                        fraction((nees >= low) & (nees <= high)))
+    except Exception as exc:  # noqa: BLE001 - a worker reports, never raises; but Ctrl-C is not a failed run
+        if caused_by_interrupt(exc):
+            raise KeyboardInterrupt from exc
+        return CheckRun(group_index, run, None, float("nan"), f"failed ({type(exc).__name__}: {exc})")
+
+
+def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: float, jobs: int, where: Backend,
+                progress: bool):
+    """Yield the CheckRun of every (group, run) in group then run order, through the one fan-out; the first
+    failed run stops the check (BudgetError). Small checks stay in this process (runner.POOL_MIN_STATE_EPOCHS);
+    otherwise the first run is done here first, so the compiled EKF is loaded or compiled once, not per worker."""
     if problem.clocks:
         raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
     f = problem.filter
-    model_y = filter_model_along_truth(_filter_truth(problem), problem.measurements_true, f.known_states,
-                                       f.channel_kind, f.channel_ends, f.channel_flags)
-    for run in range(runs):
-        x0, y, truth = _source_inputs(problem, run, model_y, sources)
-        history = estimate(problem.scenario.estimator, f, x0, y, truth)
-        if not history.ok:
-            raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {run} diverged ({history.reason})")
-        yield history
+    model_args = (kinds_mask(f.channel_kind), _filter_truth(problem), problem.measurements_true, f.known_states,
+                  f.channel_kind, f.channel_ends, f.channel_flags)
+    model_y = literal_entry(filter_model_along_truth, model_args, 0)(*model_args)
+    shared = {index: CheckGroup(problem, model_y, tuple(sources)) for index, sources in enumerate(groups)}
+    tasks = [(index, run, settle_s) for index in range(len(groups)) for run in range(runs)]
+    in_process = where.name == "joblib" and (jobs == 1 or len(tasks) * problem.n_steps * f.layout.n
+                                             < POOL_MIN_STATE_EPOCHS)
+    chunk = max(1, min(8, len(tasks) // (4 * jobs)))
+    bar = tqdm(total=len(tasks), desc=f"{problem.scenario.name} check", unit="run", disable=not progress,
+               leave=False)
+    try:
+        first = 0 if in_process else 1
+        warm_up = [] if in_process else [check_batch(shared[0], tasks[:1])]
+        results = itertools.chain(warm_up, map_batches(check_batch, shared, _by_group(tasks[first:], chunk), where,
+                                                       1 if in_process else jobs, ordered=True))
+        for batch in results:
+            if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the check
+                raise KeyboardInterrupt
+            for result in batch:
+                if result.reason:
+                    raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "
+                                      f"{','.join(groups[result.group])} on {result.reason}")
+                bar.update(1)
+                yield result
+    finally:
+        bar.close()
 
 
-def _monte_carlo(problem: Problem, runs: int, sources, settle_s: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(mean over runs of the squared error, (m, n_sc, 2) in m^2 and (m/s)^2; each run's time-mean of its
-    squared error after t0, (runs, n_sc, 2); mean over runs of the share of epochs from `settle_s` on whose
-    whole-state NEES lies in its 95 % chi-square band)."""
-    low, high = nees_run_band(problem.filter.n_nees)
-    settled = problem.times_s >= settle_s
-    after_start = problem.times_s > 0.0
-    total = np.zeros((problem.n_steps, problem.n_spacecraft, 2))
-    per_run, in_band = [], []
-    for history in _histories(problem, runs, sources):
-        squared = _per_spacecraft(history.err**2, problem.n_spacecraft)
-        total += squared
-        per_run.append(squared[after_start].mean(axis=0))
-        nees = np.asarray(history.nees)[settled]
-        nees = nees[np.isfinite(nees)]
-        in_band.append(fraction((nees >= low) & (nees <= high)))
-    return total / runs, np.array(per_run), float(np.mean(in_band)) if in_band else float("nan")
+def _by_group(tasks: list, chunk: int):
+    """(group index, batch of at most `chunk` tasks) in task order, a batch never spanning two groups."""
+    for group, members in itertools.groupby(tasks, key=lambda task: task[0]):
+        members = tuple(members)
+        for start in range(0, len(members), chunk):
+            yield group, members[start : start + chunk]
 
 
-def monte_carlo_second_moment(problem: Problem, runs: int, sources=SOURCES) -> np.ndarray:
-    """Mean over runs of the squared error, (m, n_sc, 2) in m^2 and (m/s)^2, with only `sources` on."""
-    return _monte_carlo(problem, runs, sources, 0.0)[0]
+class _GroupSums:
+    """One group's check runs, added in run order: the sum of their squared errors (m, n_sc, 2), each run's
+    time-mean of it after t0 (runs, n_sc, 2) and each run's share of settled epochs with the NEES in its band.
+    Memory: one (m, n_sc, 2) sum per group, whatever the number of runs."""
+
+    def __init__(self, problem: Problem):
+        self.after_start = problem.times_s > 0.0
+        self.total = np.zeros((problem.n_steps, problem.n_spacecraft, 2))
+        self.per_run, self.in_band = [], []
+
+    def add(self, result: CheckRun) -> None:
+        self.total += result.squared
+        self.per_run.append(result.squared[self.after_start].mean(axis=0))
+        self.in_band.append(result.nees_in_band)
+
+    def mean_squared(self) -> np.ndarray:
+        return self.total / len(self.per_run)
+
+    def nees_in_band(self) -> float:
+        return float(np.mean(self.in_band)) if self.in_band else float("nan")
 
 
-def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURCES, settle_s: float = 0.0
-                      ) -> list[dict]:
+def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURCES, settle_s: float = 0.0,
+                      jobs: int = 1, where: Backend = LOCAL, progress: bool = False) -> list[dict]:
     """MC over LinCov of the time-mean squared error after t0, per spacecraft and quantity: first with every
     chosen source on, then each alone. A ratio of 1 within Monte Carlo noise validates the budget; that noise
     is in each row (monte_carlo_over_lincov_standard_error: the runs' sample standard deviation of their
     time-mean squared error over sqrt(runs), over LinCov's). Each row also has the runs' mean share of epochs
     after `settle_s` whose NEES lies in its 95 % band (nees_in_band_share_settled: the filter's consistency
-    with those sources on)."""
+    with those sources on). The (1 + len(sources)) x runs EKF runs go through the one fan-out (`jobs`,
+    `where`); the numbers do not depend on either."""
     use = problem.times_s > 0.0
     rows = []
-    for group in (tuple(sources), *[(s,) for s in sources]):
-        mc, per_run, nees_share = _monte_carlo(problem, runs, group, settle_s)
+    groups = [tuple(sources), *[(s,) for s in sources]]
+    sums = [_GroupSums(problem) for _ in groups]
+    for result in _check_runs(problem, runs, groups, settle_s, jobs, where, progress):
+        sums[result.group].add(result)
+    for group, summed in zip(groups, sums):
+        mc, per_run, nees_share = summed.mean_squared(), np.array(summed.per_run), summed.nees_in_band()
         parts = [v for k, v in budget.parts.items() if part_of(k) in group]
         lin = sum(parts) if parts else np.zeros_like(budget.total)
         spread = per_run.std(axis=0, ddof=1) / np.sqrt(runs) if runs > 1 else np.full(per_run.shape[1:], np.nan)

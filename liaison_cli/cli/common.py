@@ -84,10 +84,15 @@ COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first r
                   "upgrading: about 15 seconds; cached afterwards)")
 
 
+_NOTICE_REGISTERED = []  # the listener, once registered: one per process, however many commands run in it
+
+
 def _announce_compilation() -> None:
     """One line on stderr (a `note:` of the `liaison` logger) when numba starts compiling liaison code (a cache
     miss), so a new user knows why the first run is slow. Loading from the cache is not compiling and stays
     silent."""
+    if _NOTICE_REGISTERED:
+        return
     import logging
 
     from numba.core import event
@@ -104,7 +109,8 @@ def _announce_compilation() -> None:
         def on_end(self, ev):
             pass
 
-    event.register("numba:compile", Notice())
+    _NOTICE_REGISTERED.append(Notice())
+    event.register("numba:compile", _NOTICE_REGISTERED[0])
 
 
 def plain_name(name: str) -> bool:

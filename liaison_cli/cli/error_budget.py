@@ -1,5 +1,6 @@
 """`liaison errors`: the EKF's error split by source (LinCov), with an optional Monte Carlo check."""
 
+import sys
 from pathlib import Path
 
 import typer
@@ -19,6 +20,11 @@ def errors(
     sources: str = typer.Option(None, "--sources", help="comma list of sources to check by Monte Carlo "
                                 "(initial, noise, process, bias, measurement_model, dynamics_model)"),
     check_runs: int = typer.Option(0, "--check-runs", min=0, help="Monte Carlo runs for the check (0: none)"),
+    jobs: int = common.jobs_option(),
+    backend: str = common.backend_option(),
+    scheduler: str = common.scheduler_option(),
+    scheduler_timeout: float = common.scheduler_timeout_option(),
+    quiet: common.QuietOption = False,
     as_json: bool = json_option(),
 ):
     """Error budget: the EKF's error split by source (LinCov along the truth) and its consistency after the
@@ -35,6 +41,7 @@ def errors(
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
     common.check_runs(check_runs, "--check-runs")
+    where = common.fan_out(backend, scheduler, scheduler_timeout)
     chosen = select_sources(sources)
     data, text = read_scenario_text(scenario_path)
     if isinstance(data, dict) and "filter" not in data:
@@ -46,7 +53,9 @@ def errors(
     rows_all, rows_late = shares(budget), shares(budget, SECONDS_PER_DAY)
     table = format_shares(rows_all, rows_late)
     settle_s = scenario.settle_days() * SECONDS_PER_DAY
-    checks = monte_carlo_check(problem, budget, check_runs, chosen, settle_s) if check_runs else []
+    progress = not quiet and not as_json and sys.stderr.isatty()
+    checks = (monte_carlo_check(problem, budget, check_runs, chosen, settle_s, jobs, where, progress)
+              if check_runs else [])
     consistency_rows = consistency(budget, settle_s)
     nees_share = checks[0]["nees_in_band_share_settled"] if checks and chosen == SOURCES else None
     for row in consistency_rows:

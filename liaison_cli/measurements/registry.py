@@ -3,7 +3,8 @@
 To add an observable: a new file in `measurements/` with its kind code, a compiled
 `predict_<name>(x_receiver, x_transmitter, flags, g_receiver, g_transmitter) -> value` (three-end kinds
 also take the second receiver) and an `OBSERVABLE` description; then one import and one branch in
-`predict_for`, the single dispatch: filter loops compile it for their scenario's kinds, `predict` for all.
+`predict_for`, the single dispatch: the EKF, the initial batch and LinCov compile it for their scenario's
+kinds; `predict` (the batch, tests) and `predict_along` (the observability analysis) for all.
 """
 
 import numpy as np

@@ -17,14 +17,20 @@ from tests.conftest import REPO
 HEAVY = ["pandas", "numba", "matplotlib", "pyarrow", "scipy", "liaison_cli.campaign", "liaison_cli.scenario.schema"]
 
 
-def test_show_completion_prints_the_bash_script():
+# Typer names the shell from the process tree (shellingham) unless told not to: a suite started detached (a CI
+# runner, `nohup`, a background job) has no shell above it, so these tests name bash themselves.
+NAMED_SHELL = {"_TYPER_COMPLETE_TEST_DISABLE_SHELL_DETECTION": "1"}
+
+
+def test_show_completion_prints_the_bash_script(monkeypatch):
+    monkeypatch.setenv(*next(iter(NAMED_SHELL.items())))
     result = CliRunner().invoke(app, ["--show-completion", "bash"], prog_name="liaison")
     assert result.exit_code == 0, result.output
     assert "_LIAISON_COMPLETE=complete_bash" in result.stdout and "complete " in result.stdout
 
 
 def test_install_completion_writes_into_the_users_shell_setup_only(tmp_path):
-    env = {**os.environ, "HOME": str(tmp_path), "SHELL": "/bin/bash"}
+    env = {**os.environ, "HOME": str(tmp_path), "SHELL": "/bin/bash", **NAMED_SHELL}
     proc = subprocess.run([sys.executable, "-m", "liaison_cli", "--install-completion", "bash"], cwd=REPO, env=env,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr

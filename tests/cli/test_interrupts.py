@@ -12,7 +12,7 @@ import pytest
 
 from liaison_cli import interrupts
 from liaison_cli.cli.common import COMPILE_NOTICE
-from tests.conftest import REPO, SCENARIOS, run_cli_in_process
+from tests.conftest import REPO, SCENARIOS, run_cli_in_process, stderr_lines
 
 
 def test_an_interrupt_chained_into_a_system_error_is_recognised():
@@ -66,7 +66,7 @@ def _assert_stopped(proc):
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130 and "Traceback" not in stderr, (proc.returncode, stderr)
     # A cold cache's one notice may come first (a note: line through the liaison logger); nothing else may.
-    lines = [line for line in stderr.strip().splitlines() if line.strip() and line != f"note: {COMPILE_NOTICE}"]
+    lines = stderr_lines(stderr)
     assert len(lines) == 1 and lines[0].startswith("error: interrupted"), stderr
     assert "runs ok" not in stdout and "results:" not in stdout, stdout
 

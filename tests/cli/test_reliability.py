@@ -11,7 +11,7 @@ from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, run_cli_in_process
+from tests.conftest import SCENARIOS, run_cli_in_process, stderr_lines
 
 
 def test_a_non_finite_innovation_ends_the_run_as_diverged():
@@ -29,7 +29,7 @@ def test_sweep_name_must_be_plain(tmp_path, monkeypatch, name):
     proc = run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100,200", "--runs", "1", "--name",
                               name, "--overwrite")
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1 and "--name" in proc.stderr
+    assert len(stderr_lines(proc.stderr)) == 1 and "--name" in proc.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written anywhere below the working folder
     assert not (tmp_path.parent / "victim").exists()
 
@@ -74,7 +74,7 @@ def test_os_faults_are_one_line_exit_4(tmp_path):
     blocker.write_text("not a folder")
     proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", blocker / "out")
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
-    line = proc.stderr.strip().splitlines()
+    line = stderr_lines(proc.stderr)
     assert len(line) == 1 and str(blocker) in line[0] and "Not a directory" in line[0]
     assert blocker.read_text() == "not a folder"
 
@@ -91,7 +91,7 @@ def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path):
     with sweep_lock(out):  # another sweep holds the folder
         proc = run_cli_in_process(*_sweep_args(out, runs=1))
     assert proc.returncode == 2 and "another liaison sweep" in proc.stderr, proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1 and not out.exists()
+    assert len(stderr_lines(proc.stderr)) == 1 and not out.exists()
     proc = run_cli_in_process(*_sweep_args(out, runs=1))  # free again
     assert proc.returncode == 0, proc.stderr
 
@@ -123,7 +123,7 @@ def test_ctrl_c_saves_what_finished_and_says_how_to_resume(tmp_path, jobs):
     os.killpg(proc.pid, signal.SIGINT)
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130 and "Traceback" not in stderr, stderr
-    lines = [line for line in stderr.strip().splitlines() if line.strip()]
+    lines = stderr_lines(stderr)
     assert len(lines) == 1 and "interrupted:" in lines[0] and "of 90 tasks saved" in lines[0]
     assert "rerun the same command to resume" in lines[0]
     saved = int(lines[0].split("interrupted: ")[1].split(" of")[0])
@@ -166,7 +166,7 @@ def test_a_corrupt_curve_given_to_plot_is_one_line_exit_4(tmp_path):
     (sweep / "curve.parquet").write_bytes(b"PAR1" + b"\x00" * 64)
     proc = run_cli_in_process("plot", "fig15", sweep)
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
-    lines = proc.stderr.strip().splitlines()
+    lines = stderr_lines(proc.stderr)
     assert len(lines) == 1 and str(sweep / "curve.parquet") in lines[0] and "not a readable Parquet" in lines[0]
 
 
@@ -174,7 +174,7 @@ def test_a_corrupt_curve_given_to_plot_is_one_line_exit_4(tmp_path):
                                                                          "--sigma", "100"]])
 def test_runs_on_the_command_line_obey_the_scenario_cap(tmp_path, command):
     proc = run_cli_in_process(*command, "--runs", "10000000", "--output", tmp_path / "o")
-    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert proc.returncode == 2 and len(stderr_lines(proc.stderr)) == 1, proc.stderr
     assert "--runs 10000000" in proc.stderr and "1,000,000" in proc.stderr and not (tmp_path / "o").exists()
 
 
@@ -257,7 +257,7 @@ def test_a_sweep_where_every_run_diverged_exits_5_and_keeps_its_results(tmp_path
     out = tmp_path / "sweep"
     done = run_cli_in_process("sweep", lost, "--sigma", "100,200", "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
     assert done.returncode == 5, done.stderr
-    lines = done.stderr.strip().splitlines()
+    lines = stderr_lines(done.stderr)
     assert len(lines) == 1 and lines[0].startswith("error: no run of sweep") and str(out) in lines[0]
     assert "4 spacecraft-runs" not in done.stdout and "8 spacecraft-runs diverged" in done.stdout
     assert (out / "curve.parquet").exists() and (out / "runs.parquet").exists()
@@ -326,7 +326,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing_that_blocks_a_rerun(small_di
     out = small_disk / "out"
     proc = run_cli_in_process("run", SCENARIOS / "eml2_lunar.yaml", "--runs", "10", "--output", out, "--quiet")
     assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
-    lines = proc.stderr.strip().splitlines()
+    lines = stderr_lines(proc.stderr)
     assert len(lines) == 1 and str(out) in lines[0] and "No space left on device" in lines[0]
     assert list(small_disk.iterdir()) == []  # no partial folder, no temp file
     assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out, "--quiet").returncode == 0
@@ -337,7 +337,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing_that_blocks_a_rerun(small_di
             "--output", sweep, "--quiet"]
     proc = run_cli_in_process(*args)
     assert proc.returncode == 4 and "No space left on device" in proc.stderr and str(sweep) in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1
+    assert len(stderr_lines(proc.stderr)) == 1
     (small_disk / "filler").unlink()
     proc = run_cli_in_process(*args)
     assert proc.returncode == 0, proc.stderr
@@ -358,7 +358,7 @@ def test_a_read_only_file_system_is_one_line_and_the_old_result_stays(small_disk
                          small_disk)):
         proc = run_cli_in_process(*args, "--runs", "1", "--quiet")
         assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
-        lines = proc.stderr.strip().splitlines()
+        lines = stderr_lines(proc.stderr)
         assert len(lines) == 1 and str(named) in lines[0] and "Read-only file system" in lines[0]
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 

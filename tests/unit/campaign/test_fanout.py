@@ -53,7 +53,8 @@ def test_run_writes_the_same_bytes_on_one_process_a_pool_and_dask(tmp_path, monk
 
 @pytest.mark.parametrize("command", [["run", SCENARIOS / "smoke.yaml"], ["compare", SCENARIOS / "smoke.yaml"],
                                      ["table3"], ["study003"], ["study004"], ["sweep", "--sigma", "100"],
-                                     ["tune", SCENARIOS / "smoke.yaml"]])
+                                     ["tune", SCENARIOS / "smoke.yaml"],
+                                     ["errors", SCENARIOS / "smoke.yaml", "--check-runs", "2"]])
 def test_every_long_command_checks_its_backend_before_any_work(tmp_path, command, sigint_kept):
     """The shared options (cli.common): an unknown backend, and a scheduler without dask, are one line, exit 2."""
     where = ["--work", tmp_path / "out"] if command[0] == "tune" else ["--output", tmp_path / "out"]

@@ -147,12 +147,12 @@ monte_carlo: {runs: 1, seed: 2035}
 def test_a_dated_scenario_in_2035_runs_end_to_end_with_one_note_per_rule(tmp_path):
     """The bug of issue 24: a dated scenario past the IERS tables ended in a traceback. Now it runs, and the
     rule it runs by is printed once per table, as a note (the epoch's +01:00 converted: ends 2035-03-03)."""
-    from tests.conftest import run_cli
+    from tests.conftest import run_cli, stderr_lines
 
     path = tmp_path / "late.yaml"
     path.write_text(DATED_2035)
     proc = run_cli("run", path, "--output", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
-    notes = [line for line in proc.stderr.splitlines() if line.startswith("note:")]
+    notes = [line for line in stderr_lines(proc.stderr) if line.startswith("note:")]
     assert len(notes) == 2 and "leap-second" in notes[0] and "Earth orientation predictions" in notes[1], notes
     assert "2035-03-03" in notes[0] and "1/1 runs ok" in proc.stdout
