@@ -4,6 +4,7 @@ import ast
 import hashlib
 import json
 import os
+import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -90,5 +91,8 @@ def _numba_cache_dir() -> str:
     return os.path.join(user_cache_dir(), f"numba-{core_source_hash()}")
 
 
-# Must happen before numba is imported (it reads the variable once, at import).
+# numba reads the variable once, at import; imported before us (a notebook, a profiler, a test plugin), it has
+# read it already, and would cache liaison's kernels beside their source under a key that ignores the callees.
 os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()
+if "numba" in sys.modules:
+    sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]

@@ -10,11 +10,22 @@ import liaison_cli
 
 def test_numba_cache_dir_is_keyed_by_core_source():
     assert os.environ["NUMBA_CACHE_DIR"].endswith(f"numba-{liaison_cli.core_source_hash()}")
-    out = subprocess.run(
-        [sys.executable, "-c", "import liaison_cli, numba; print(numba.config.CACHE_DIR)"],
-        capture_output=True, text=True, check=True,
-    )
-    assert out.stdout.strip().endswith(liaison_cli.core_source_hash())
+    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}  # as a fresh shell
+    for imports in ("import liaison_cli, numba", "import numba, liaison_cli"):  # numba first: it read the variable
+        out = subprocess.run([sys.executable, "-c", f"{imports}; print(numba.config.CACHE_DIR)"], env=env,
+                             capture_output=True, text=True, check=True)
+        assert out.stdout.strip().endswith(liaison_cli.core_source_hash()), imports
+
+
+def test_numba_imported_first_still_caches_in_the_keyed_folder(tmp_path):
+    """A kernel compiled after `import numba` came before liaison lands in the keyed cache, not beside its
+    source (where its key would ignore the callees)."""
+    script = ("import numba, liaison_cli; from liaison_cli.dynamics.crtbp import jacobi_constant; "
+              "import numpy as np; jacobi_constant(np.ones(6), 0.01)")
+    env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    subprocess.run([sys.executable, "-c", script], env=env, check=True, capture_output=True)
+    assert list(tmp_path.rglob("crtbp.jacobi_constant-*.nbi")), sorted(tmp_path.rglob("*"))
 
 
 def _core_copy(tmp_path, monkeypatch):
