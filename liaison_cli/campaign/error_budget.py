@@ -19,7 +19,7 @@ The budget is the ungated EKF's: LinCov ignores filter.residual_gate_sigma (esti
 the Monte Carlo check runs the scenario's EKF, gate included.
 """
 
-import itertools
+from contextlib import closing
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,10 +28,10 @@ from tqdm import tqdm
 from liaison_cli import interrupts
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, fraction, nees_run_band
 from liaison_cli.campaign.backends import LOCAL, Backend, map_batches
-from liaison_cli.campaign.runner import POOL_MIN_STATE_EPOCHS
+from liaison_cli.campaign.runner import stays_in_process
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import clock_process_noise
-from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
+from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.errors import LiaisonError
 from liaison_cli.interrupts import caused_by_interrupt
@@ -224,13 +224,15 @@ def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> 
 
 
 @dataclass(frozen=True, eq=False)
-class CheckGroup:
-    """What a check worker shares: the problem, the filter model's measurements along the truth (model_y) and
-    the sources switched on."""
+class CheckInputs:
+    """What every check worker shares (sent once per batch; on dask, scattered once): the problem, the filter
+    model's measurements along the truth (model_y), the source groups (tuples of source names) and the settle
+    time from which the NEES is judged."""
 
     problem: Problem
     model_y: np.ndarray
-    sources: tuple
+    groups: tuple
+    settle_s: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -246,78 +248,77 @@ class CheckRun:
     reason: str = ""
 
 
-def check_batch(group: CheckGroup, tasks) -> list[CheckRun]:
-    """Worker side: tasks are (group index, run index, settle_s); the EKF run with only the group's sources on."""
+def check_batch(inputs: CheckInputs, tasks) -> list[CheckRun]:
+    """Worker side: tasks are (group index, run index); each, the EKF run with only that group's sources on."""
     interrupts.ignore_in_worker_process()
-    return [_check_run(group, *task) for task in tasks]
+    return [_check_run(inputs, group, run) for group, run in tasks]
 
 
-def _check_run(group: CheckGroup, group_index: int, run: int, settle_s: float) -> CheckRun:
-    problem = group.problem
+def _check_run(inputs: CheckInputs, group: int, run: int) -> CheckRun:
+    problem = inputs.problem
     try:
-        x0, y, truth = _source_inputs(problem, run, group.model_y, group.sources)
+        x0, y, truth = _source_inputs(problem, run, inputs.model_y, inputs.groups[group])
         history = estimate(problem.scenario.estimator, problem.filter, x0, y, truth)
         if not history.ok:
-            return CheckRun(group_index, run, None, float("nan"), f"diverged ({history.reason})")
+            return CheckRun(group, run, None, float("nan"), f"diverged ({history.reason})")
         low, high = nees_run_band(problem.filter.n_nees)
-        nees = np.asarray(history.nees)[problem.times_s >= settle_s]
+        nees = np.asarray(history.nees)[problem.times_s >= inputs.settle_s]
         nees = nees[np.isfinite(nees)]
-        return CheckRun(group_index, run, _per_spacecraft(history.err**2, problem.n_spacecraft),
+        return CheckRun(group, run, _per_spacecraft(history.err**2, problem.n_spacecraft),
                         fraction((nees >= low) & (nees <= high)))
     except Exception as exc:  # noqa: BLE001 - a worker reports, never raises; but Ctrl-C is not a failed run
         if caused_by_interrupt(exc):
             raise KeyboardInterrupt from exc
-        return CheckRun(group_index, run, None, float("nan"), f"failed ({type(exc).__name__}: {exc})")
+        return CheckRun(group, run, None, float("nan"), f"failed ({type(exc).__name__}: {exc})")
 
 
 def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: float, jobs: int, where: Backend,
                 progress: bool):
-    """Yield the CheckRun of every (group, run) in group then run order, through the one fan-out; the first
-    failed run stops the check (BudgetError). Small checks stay in this process (runner.POOL_MIN_STATE_EPOCHS);
-    otherwise the first run is done here first, so the compiled EKF is loaded or compiled once, not per worker."""
+    """Yield the CheckRun of every (group, run) in group then run order; the first failed run stops the check
+    (BudgetError). As runner.iter_outcomes: a small check stays in this process (runner.stays_in_process);
+    otherwise the first run is done here, and checked, before the fan-out starts (the compiled EKF is then
+    loaded or compiled once, not once per worker), and the rest go through backends.map_batches."""
     if problem.clocks:
         raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
     f = problem.filter
     model_args = (kinds_mask(f.channel_kind), _filter_truth(problem), problem.measurements_true, f.known_states,
                   f.channel_kind, f.channel_ends, f.channel_flags)
     model_y = literal_entry(filter_model_along_truth, model_args, 0)(*model_args)
-    shared = {index: CheckGroup(problem, model_y, tuple(sources)) for index, sources in enumerate(groups)}
-    tasks = [(index, run, settle_s) for index in range(len(groups)) for run in range(runs)]
-    in_process = where.name == "joblib" and (jobs == 1 or len(tasks) * problem.n_steps * f.layout.n
-                                             < POOL_MIN_STATE_EPOCHS)
-    chunk = max(1, min(8, len(tasks) // (4 * jobs)))
+    inputs = CheckInputs(problem, model_y, tuple(groups), settle_s)
+    tasks = [(group, run) for group in range(len(groups)) for run in range(runs)]
     bar = tqdm(total=len(tasks), desc=f"{problem.scenario.name} check", unit="run", disable=not progress,
                leave=False)
+
+    def checked(batch):
+        if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the check
+            raise KeyboardInterrupt
+        for result in batch:
+            if result.reason:
+                raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "
+                                  f"{','.join(groups[result.group])} on {result.reason}")
+            bar.update(1)
+            yield result
+
     try:
-        first = 0 if in_process else 1
-        warm_up = [] if in_process else [check_batch(shared[0], tasks[:1])]
-        results = itertools.chain(warm_up, map_batches(check_batch, shared, _by_group(tasks[first:], chunk), where,
-                                                       1 if in_process else jobs, ordered=True))
-        for batch in results:
-            if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the check
-                raise KeyboardInterrupt
-            for result in batch:
-                if result.reason:
-                    raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "
-                                      f"{','.join(groups[result.group])} on {result.reason}")
-                bar.update(1)
-                yield result
+        if stays_in_process(problem, len(tasks), jobs, where):
+            for group, run in tasks:
+                yield from checked([_check_run(inputs, group, run)])
+            return
+        yield from checked(check_batch(inputs, tasks[:1]))
+        chunk = max(1, min(8, len(tasks) // (4 * jobs)))
+        batches = ((0, tasks[start : start + chunk]) for start in range(1, len(tasks), chunk))
+        # closing: an error or Ctrl-C here stops the workers now, not when the traceback is freed
+        with closing(map_batches(check_batch, {0: inputs}, batches, where, jobs, ordered=True)) as fanned_out:
+            for batch in fanned_out:
+                yield from checked(batch)
     finally:
         bar.close()
-
-
-def _by_group(tasks: list, chunk: int):
-    """(group index, batch of at most `chunk` tasks) in task order, a batch never spanning two groups."""
-    for group, members in itertools.groupby(tasks, key=lambda task: task[0]):
-        members = tuple(members)
-        for start in range(0, len(members), chunk):
-            yield group, members[start : start + chunk]
 
 
 class _GroupSums:
     """One group's check runs, added in run order: the sum of their squared errors (m, n_sc, 2), each run's
     time-mean of it after t0 (runs, n_sc, 2) and each run's share of settled epochs with the NEES in its band.
-    Memory: one (m, n_sc, 2) sum per group, whatever the number of runs."""
+    Memory: one (m, n_sc, 2) sum per group and 2 n_sc + 1 numbers per run, not a run's history."""
 
     def __init__(self, problem: Problem):
         self.after_start = problem.times_s > 0.0
@@ -343,11 +344,11 @@ def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURC
     is in each row (monte_carlo_over_lincov_standard_error: the runs' sample standard deviation of their
     time-mean squared error over sqrt(runs), over LinCov's). Each row also has the runs' mean share of epochs
     after `settle_s` whose NEES lies in its 95 % band (nees_in_band_share_settled: the filter's consistency
-    with those sources on). The (1 + len(sources)) x runs EKF runs go through the one fan-out (`jobs`,
-    `where`); the numbers do not depend on either."""
+    with those sources on). The (1 + len(sources)) x runs EKF runs (runs with a single source) go through the
+    one fan-out (`jobs`, `where`); the numbers do not depend on either."""
     use = problem.times_s > 0.0
     rows = []
-    groups = [tuple(sources), *[(s,) for s in sources]]
+    groups = [tuple(sources), *([(s,) for s in sources] if len(sources) > 1 else [])]
     sums = [_GroupSums(problem) for _ in groups]
     for result in _check_runs(problem, runs, groups, settle_s, jobs, where, progress):
         sums[result.group].add(result)
@@ -367,6 +368,35 @@ def monte_carlo_check(problem: Problem, budget: Budget, runs: int, sources=SOURC
                              "monte_carlo_over_lincov_standard_error": standard_error, "runs": runs,
                              "nees_in_band_share_settled": nees_share})
     return rows
+
+
+@dataclass(frozen=True, eq=False)
+class BudgetStudy:
+    """What `liaison errors` reports: the budget; its shares by part over the whole arc (rows_all) and from
+    day 1 (rows_late); the Monte Carlo check's rows (empty without one); the consistency rows after the
+    settle time, each with the check's NEES-in-band share (NaN unless every source was checked)."""
+
+    budget: Budget
+    rows_all: list
+    rows_late: list
+    checks: list
+    consistency_rows: list
+    nees_share: float | None
+
+
+def budget_study(problem: Problem, sources=SOURCES, check_runs: int = 0, jobs: int = 1, where: Backend = LOCAL,
+                 progress: bool = False) -> BudgetStudy:
+    """The error budget of `problem`, its shares and consistency, and with check_runs > 0 its Monte Carlo
+    check of `sources` (see monte_carlo_check)."""
+    budget = error_budget(problem)
+    settle_s = problem.scenario.settle_days() * SECONDS_PER_DAY
+    checks = (monte_carlo_check(problem, budget, check_runs, sources, settle_s, jobs, where, progress)
+              if check_runs else [])
+    nees_share = checks[0]["nees_in_band_share_settled"] if checks and tuple(sources) == SOURCES else None
+    rows = consistency(budget, settle_s)
+    for row in rows:
+        row["nees_in_band_share_settled"] = float("nan") if nees_share is None else nees_share
+    return BudgetStudy(budget, shares(budget), shares(budget, SECONDS_PER_DAY), checks, rows, nees_share)
 
 
 def consistency(budget: Budget, settle_s: float) -> list[dict]:

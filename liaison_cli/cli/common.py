@@ -160,6 +160,15 @@ def scheduler_timeout_option():
     return typer.Option(20.0, "--scheduler-timeout", min=0.1, help="seconds to wait for the dask scheduler")
 
 
+def check_backend_only(backend: str, scheduler: str | None):
+    """fan_out without asking the scheduler: for a command that will not use it this time (`errors` without
+    --check-runs). An unknown backend or a scheduler without dask is still one line, exit 2."""
+    from liaison_cli.campaign.backends import Backend, check_backend
+
+    check_backend(backend, scheduler)
+    return Backend(backend, scheduler)
+
+
 def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float):
     """The backend the options name (campaign.backends.Backend), checked before any work: an unknown backend or
     a malformed address is one line, exit 2; a scheduler that does not answer within the timeout, exit 3."""

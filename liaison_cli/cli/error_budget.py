@@ -29,56 +29,35 @@ def errors(
 ):
     """Error budget: the EKF's error split by source (LinCov along the truth) and its consistency after the
     settle time (budget error RMS / filter sigma RMS), with an optional MC check (adds the NEES-in-band share)."""
-    import pandas as pd
-
-    from liaison_cli.campaign.error_budget import (SOURCES, consistency, error_budget, monte_carlo_check, part_of,
-                                                   select_sources, shares)
-    from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-    from liaison_cli.report.error_budget import (budget_table, draw_budget, format_consistency, format_shares,
-                                                 shares_frame)
+    from liaison_cli.campaign.error_budget import budget_study, select_sources
+    from liaison_cli.report.error_budget import format_consistency, format_shares, write_budget_folder
     from liaison_cli.scenario.schema import read_scenario_text, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
-    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
     common.check_runs(check_runs, "--check-runs")
-    where = common.fan_out(backend, scheduler, scheduler_timeout)
+    # The scheduler is asked only when the check will use it; a wrong backend is refused either way.
+    where = (common.fan_out(backend, scheduler, scheduler_timeout) if check_runs
+             else common.check_backend_only(backend, scheduler))
     chosen = select_sources(sources)
     data, text = read_scenario_text(scenario_path)
     if isinstance(data, dict) and "filter" not in data:
         raise LiaisonError(f"{scenario_path}: key 'filter' is missing: the error budget splits the filter's own "
                            "error, so give its settings (a 'filter' section)")
     scenario = validate_scenario(data, str(scenario_path))
-    problem = prepare_problem(scenario)
-    budget = error_budget(problem)
-    rows_all, rows_late = shares(budget), shares(budget, SECONDS_PER_DAY)
-    table = format_shares(rows_all, rows_late)
-    settle_s = scenario.settle_days() * SECONDS_PER_DAY
     progress = not quiet and not as_json and sys.stderr.isatty()
-    checks = (monte_carlo_check(problem, budget, check_runs, chosen, settle_s, jobs, where, progress)
-              if check_runs else [])
-    consistency_rows = consistency(budget, settle_s)
-    nees_share = checks[0]["nees_in_band_share_settled"] if checks and chosen == SOURCES else None
-    for row in consistency_rows:
-        row["nees_in_band_share_settled"] = float("nan") if nees_share is None else nees_share
-    consistency_text = format_consistency(consistency_rows, scenario.settle_days(), nees_share, check_runs)
+    study = budget_study(prepare_problem(scenario), chosen, check_runs, jobs, where, progress)
+    table = format_shares(study.rows_all, study.rows_late)
+    consistency_text = format_consistency(study.consistency_rows, scenario.settle_days(), study.nees_share,
+                                          check_runs)
     if not as_json:
-        _print_budget(scenario, table, checks, check_runs)
+        _print_budget(scenario, table, study.checks, check_runs)
         typer.echo(consistency_text, nl=False)
-    meta = {"package": "liaison", "scenario": scenario.name, "scenario_yaml": text,
-            "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
     out_dir = output or Path("results") / f"{scenario.name}-errors"
-    with staged_output(out_dir, overwrite) as stage:
-        write_parquet_atomic(budget_table(budget, part_of), stage / "budget.parquet", meta)
-        write_parquet_atomic(shares_frame(rows_all, rows_late), stage / "shares.parquet", meta)
-        if checks:
-            write_parquet_atomic(shares_frame(checks), stage / "monte_carlo_check.parquet", meta)
-        write_parquet_atomic(pd.DataFrame(consistency_rows), stage / "consistency.parquet", meta)
-        write_text_atomic(table + "\n" + consistency_text, stage / "shares.md")
-        draw_budget(budget, part_of, stage / "error_budget.png", f"Error budget: {scenario.name}")
+    write_budget_folder(study, out_dir, overwrite, table + "\n" + consistency_text, scenario.name, text)
     if as_json:
         from liaison_cli.report.json_summary import errors_document
 
-        echo_json(errors_document(scenario, out_dir, rows_all, rows_late, checks))
+        echo_json(errors_document(scenario, out_dir, study.rows_all, study.rows_late, study.checks))
     else:
         typer.echo(f"results: {out_dir}")
 

@@ -122,3 +122,22 @@ def format_consistency(rows: list[dict], settle_days: float, nees_share: float |
         lines.append(f"! inconsistent ({', '.join(bad)}): error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's "
                      "sigma RMS (consistency.parquet: consistent)")
     return "\n".join(lines) + "\n"
+
+
+def write_budget_folder(study, out_dir: Path, overwrite: bool, text_table: str, scenario_name: str,
+                        scenario_yaml: str) -> None:
+    """`liaison errors`' result folder, built beside and swapped in (storage.staged_output): budget, shares,
+    Monte Carlo check (when run) and consistency as Parquet, the text tables as shares.md, the figure."""
+    from liaison_cli.campaign.error_budget import part_of
+    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
+
+    meta = {"package": "liaison", "scenario": scenario_name, "scenario_yaml": scenario_yaml,
+            "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
+    with staged_output(out_dir, overwrite) as stage:
+        write_parquet_atomic(budget_table(study.budget, part_of), stage / "budget.parquet", meta)
+        write_parquet_atomic(shares_frame(study.rows_all, study.rows_late), stage / "shares.parquet", meta)
+        if study.checks:
+            write_parquet_atomic(shares_frame(study.checks), stage / "monte_carlo_check.parquet", meta)
+        write_parquet_atomic(pd.DataFrame(study.consistency_rows), stage / "consistency.parquet", meta)
+        write_text_atomic(text_table, stage / "shares.md")
+        draw_budget(study.budget, part_of, stage / "error_budget.png", f"Error budget: {scenario_name}")

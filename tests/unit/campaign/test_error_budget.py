@@ -142,15 +142,40 @@ def test_budget_consistency_is_one_for_a_matched_filter_and_flags_a_filter_start
 
 def test_the_check_gives_the_same_rows_in_this_process_and_in_the_pool(monkeypatch):
     """The check's 3 x 5 EKF runs through the one fan-out: in this process (jobs 1) and in joblib's pool
-    (forced: POOL_MIN_STATE_EPOCHS set to 0, so the comparison can fail): the same rows, to the bit (each
-    group's runs are summed in run order whatever finishes first). dask takes the same path
-    (backends.map_batches; tests/unit/campaign/test_fanout.py compares it for `run`)."""
+    (forced: runner.POOL_MIN_STATE_EPOCHS set to 0, and checked to have been used, so the comparison can fail):
+    the same rows, to the bit (each group's runs are summed in run order whatever finishes first). dask takes
+    the same path (backends.map_batches; tests/unit/campaign/test_fanout.py compares it for `run`)."""
     from liaison_cli.campaign import error_budget as budget_module
+    from liaison_cli.campaign import runner
 
     problem = _matched_smoke(duration_days=0.3)
     budget = error_budget(problem)
     one = monte_carlo_check(problem, budget, 5, ("initial", "noise"), jobs=1)
-    monkeypatch.setattr(budget_module, "POOL_MIN_STATE_EPOCHS", 0)
+    fanned_out = []
+
+    def spy(fn, shared, batches, where, jobs, **kwargs):
+        fanned_out.append(jobs)
+        return budget_module_map_batches(fn, shared, batches, where, jobs, **kwargs)
+
+    budget_module_map_batches = budget_module.map_batches
+    monkeypatch.setattr(runner, "POOL_MIN_STATE_EPOCHS", 0)
+    monkeypatch.setattr(budget_module, "map_batches", spy)
     pool = monte_carlo_check(problem, budget, 5, ("initial", "noise"), jobs=2)
+    assert fanned_out == [2], "the check did not go through the pool"
     assert len(one) == 3 * 2 * len(problem.spacecraft)
     assert one == pool
+
+
+def test_a_single_source_is_checked_once_and_a_diverged_run_is_one_error():
+    """--sources with one source: its rows once (not the group and the source alone, the same runs twice). A
+    run that fails stops the check with the run and its sources named."""
+    from liaison_cli.campaign.error_budget import BudgetError
+
+    problem = _matched_smoke(duration_days=0.3)
+    budget = error_budget(problem)
+    rows = monte_carlo_check(problem, budget, 3, ("noise",))
+    assert [row["sources"] for row in rows] == ["noise"] * 2 * len(problem.spacecraft)
+    far = _matched_smoke(**{"duration_days": 0.3, "initial_error.draw": "fixed_sigma",
+                            "initial_error.sigma_position_m": 5e8, "initial_error.sigma_velocity_m_s": 5e3})
+    with pytest.raises(BudgetError, match=r"Monte Carlo run 0 of the check with initial on (diverged|failed)"):
+        monte_carlo_check(far, error_budget(far), 2, ("initial",))
