@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -95,8 +96,8 @@ def test_ctrl_c_in_run_exits_130_and_keeps_the_earlier_result(earlier_result, jo
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
-# compare stages its folder first, then computes; errors computes (LinCov, then the check runs: ~50 s for
-# 400) and stages its folder only to write: it is interrupted a few seconds after it starts.
+# compare stages its folder first, then computes; errors computes (LinCov, then the check runs) and stages its
+# folder only to write: it is interrupted a few seconds after it starts (the check's pool: the test below).
 @pytest.mark.parametrize("command, staged_first", [
     (["compare", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--runs", "300", "--jobs", "1"], True),
     (["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400"], False),
@@ -113,6 +114,37 @@ def test_ctrl_c_in_compare_and_errors_exits_130(tmp_path, command, staged_first)
     os.killpg(proc.pid, signal.SIGINT)
     _assert_stopped(proc)
     assert not out.exists()
+
+
+def _running(pid: str) -> bool:
+    """The process exists and is not a zombie (exited, not yet reaped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (FileNotFoundError, ProcessLookupError, IndexError):
+        return False
+
+
+def _children(pid: int) -> list[str]:
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return path.read_text().split() if path.exists() else []
+
+
+def test_ctrl_c_while_the_errors_check_runs_in_the_pool_exits_130_and_stops_its_workers(tmp_path):
+    """errors' check on 2 workers (7 x 400 runs of 10 days: far above the in-process threshold), interrupted
+    once the pool's workers run: exit 130 with one line, no result folder, and no worker left behind."""
+    out = tmp_path / "out"
+    proc = _start(["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400", "--jobs", "2", "--output", out])
+    _wait_for(lambda: len(_children(proc.pid)) >= 2, proc)  # loky's workers (and its resource tracker)
+    workers = _children(proc.pid)
+    time.sleep(1.0)
+    assert proc.poll() is None and len(workers) >= 2, "the check finished before its pool could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)
+    _assert_stopped(proc)
+    assert not out.exists()
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and any(map(_running, workers)):
+        time.sleep(0.05)
+    assert not any(map(_running, workers)), "a worker outlived the command"
 
 
 def test_a_ctrl_c_swallowed_by_a_c_callback_is_not_printed_and_what_it_broke_exits_130(monkeypatch, capsys):
