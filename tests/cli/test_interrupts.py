@@ -96,20 +96,15 @@ def test_ctrl_c_in_run_exits_130_and_keeps_the_earlier_result(earlier_result, jo
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
-# compare stages its folder first, then computes; errors computes (LinCov, then the check runs) and stages its
-# folder only to write: it is interrupted a few seconds after it starts (the check's pool: the test below).
-@pytest.mark.parametrize("command, staged_first", [
-    (["compare", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--runs", "300", "--jobs", "1"], True),
-    (["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400"], False),
-])
-def test_ctrl_c_in_compare_and_errors_exits_130(tmp_path, command, staged_first):
+# compare stages its folder first, then computes. errors computes first and stages its folder only to write:
+# interrupted while it compiles (test_ctrl_c_while_the_core_compiles_exits_130_with_one_line) and while its
+# check runs in the pool (test_ctrl_c_while_the_errors_check_runs_in_the_pool_exits_130_and_stops_its_workers).
+def test_ctrl_c_in_compare_exits_130(tmp_path):
     out = tmp_path / "out"
-    proc = _start([*command, "--output", out])
-    if staged_first:
-        _wait_for(lambda: list(tmp_path.glob(".out.partial-*")), proc)
-        time.sleep(1.5)
-    else:
-        time.sleep(5.0)
+    proc = _start(["compare", SCENARIOS / "eml2_lunar.yaml", SCENARIOS / "eml1_lunar.yaml", "--runs", "300",
+                   "--jobs", "1", "--output", out])
+    _wait_for(lambda: list(tmp_path.glob(".out.partial-*")), proc)
+    time.sleep(1.5)
     assert proc.poll() is None, "the command finished before it could be interrupted"
     os.killpg(proc.pid, signal.SIGINT)
     _assert_stopped(proc)
