@@ -63,7 +63,7 @@ def check_backend(backend: str, scheduler: str | None) -> None:
             raise BackendError("--backend dask needs dask.distributed: pip install 'liaison[dask]'")
 
 
-def _check_address(scheduler: str) -> None:
+def check_scheduler_address(scheduler: str) -> None:
     """A malformed address is a usage error (exit 2), found before any connection is tried."""
     from distributed.comm import registry
     from distributed.comm.addressing import get_address_host_port, parse_address
@@ -98,7 +98,7 @@ def probe_scheduler(scheduler: str, timeout_s: float) -> None:
     """Connect, handshake and ask the scheduler who it is, all within timeout_s; else one line, exit 3."""
     import asyncio
 
-    _check_address(scheduler)
+    check_scheduler_address(scheduler)
     where, stage = f"--scheduler {scheduler!r}", []
     try:
         reply = asyncio.run(asyncio.wait_for(_identity(scheduler, timeout_s, stage), timeout_s))

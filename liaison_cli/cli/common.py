@@ -162,10 +162,13 @@ def scheduler_timeout_option():
 
 def check_backend_only(backend: str, scheduler: str | None):
     """fan_out without asking the scheduler: for a command that will not use it this time (`errors` without
-    --check-runs). An unknown backend or a scheduler without dask is still one line, exit 2."""
-    from liaison_cli.campaign.backends import Backend, check_backend
+    --check-runs). An unknown backend, a scheduler without dask or a malformed address is still one line,
+    exit 2."""
+    from liaison_cli.campaign.backends import Backend, check_backend, check_scheduler_address
 
     check_backend(backend, scheduler)
+    if scheduler:
+        check_scheduler_address(scheduler)
     return Backend(backend, scheduler)
 
 

@@ -115,3 +115,17 @@ def test_an_interrupt_that_compiled_code_turned_into_a_system_error_still_says_w
     with pytest.raises(SystemError, match="unrelated"):
         with store.saving_on_interrupt(4):
             raise SystemError("unrelated")
+
+
+def test_errors_without_a_check_refuses_a_malformed_scheduler_and_does_not_ask_a_silent_one(tmp_path, sigint_kept):
+    """`errors` uses the scheduler only for --check-runs: without it, a malformed address is still one line,
+    exit 2, while a well-formed one is not connected to (nothing answers at port 1; the budget is written)."""
+    scenario = SCENARIOS / "bias_eml2_lunar.yaml"
+    proc = run_cli_in_process("errors", scenario, "--backend", "dask", "--scheduler", "nonsense", "--output",
+                              tmp_path / "bad")
+    assert_one_line_error(proc, "--scheduler", ["'nonsense'", "[tcp|tls]://HOST:PORT"])
+    assert not (tmp_path / "bad").exists()
+    proc = run_cli_in_process("errors", scenario, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:1",
+                              "--scheduler-timeout", "0.5", "--output", tmp_path / "ok")
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "ok" / "budget.parquet").exists()
