@@ -160,26 +160,18 @@ def scheduler_timeout_option():
     return typer.Option(20.0, "--scheduler-timeout", min=0.1, help="seconds to wait for the dask scheduler")
 
 
-def check_backend_only(backend: str, scheduler: str | None):
-    """fan_out without asking the scheduler: for a command that will not use it this time (`errors` without
-    --check-runs). An unknown backend, a scheduler without dask or a malformed address is still one line,
-    exit 2."""
-    from liaison_cli.campaign.backends import Backend, check_backend, check_scheduler_address
-
-    check_backend(backend, scheduler)
-    if scheduler:
-        check_scheduler_address(scheduler)
-    return Backend(backend, scheduler)
-
-
-def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float):
+def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float, connect: bool = True):
     """The backend the options name (campaign.backends.Backend), checked before any work: an unknown backend or
-    a malformed address is one line, exit 2; a scheduler that does not answer within the timeout, exit 3."""
-    from liaison_cli.campaign.backends import Backend, check_backend, probe_scheduler
+    a malformed address is one line, exit 2; a scheduler that does not answer within the timeout, exit 3.
+    connect=False skips asking the scheduler, for a command that will not use it this time (`errors`
+    without --check-runs)."""
+    from liaison_cli.campaign.backends import Backend, check_backend, check_scheduler_address, probe_scheduler
 
     check_backend(backend, scheduler)
-    if scheduler:
-        probe_scheduler(scheduler, scheduler_timeout_s)
+    if scheduler and connect:
+        probe_scheduler(scheduler, scheduler_timeout_s)  # checks the address first
+    elif scheduler:
+        check_scheduler_address(scheduler)
     return Backend(backend, scheduler, scheduler_timeout_s)
 
 

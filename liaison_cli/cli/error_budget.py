@@ -36,8 +36,7 @@ def errors(
 
     common.check_runs(check_runs, "--check-runs")
     # The scheduler is asked only when the check will use it; a wrong backend is refused either way.
-    where = (common.fan_out(backend, scheduler, scheduler_timeout) if check_runs
-             else common.check_backend_only(backend, scheduler))
+    where = common.fan_out(backend, scheduler, scheduler_timeout, connect=check_runs > 0)
     chosen = select_sources(sources)
     data, text = read_scenario_text(scenario_path)
     if isinstance(data, dict) and "filter" not in data:
