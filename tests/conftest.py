@@ -9,6 +9,15 @@ REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
 
 
+def _lunar_orbiter():
+    from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
+
+    return lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
+
+
+LUNAR = _lunar_orbiter()  # Turan et al.'s lunar orbiter (a 9,000 km, e 0.4, i 60 deg), rotating frame, LU / VU
+
+
 @pytest.fixture
 def scenarios_dir():
     return SCENARIOS
@@ -29,9 +38,10 @@ def run_cli(*args, cwd=None):
 
 def run_cli_in_process(*args):
     """The CLI in this process (typer's CliRunner): the same parsing and `user_errors` mapping as run_cli,
-    without a new interpreter and its imports (about 1.2 s of CPU a launch). For input that is refused
-    before any work; what needs a real process (its exit code by signal, workers, a fresh import state)
-    keeps run_cli. An exception other than the exit is raised: a traceback the user would see."""
+    without a new interpreter and its imports (about 1.2 s of CPU a launch): refusals and whole campaigns
+    alike, the process pool and dask included. What needs a real process (a signal, an exit code by signal,
+    a fresh import state) keeps run_cli or starts its own. An exception other than the exit is raised: a
+    traceback the user would see."""
     from types import SimpleNamespace
 
     from typer.testing import CliRunner

@@ -87,7 +87,6 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
     15 s): the notice fires on the first compilation of any liaison code, whichever it is."""
     import shutil
 
-    import liaison_cli
     from liaison_cli.cli.common import COMPILE_NOTICE
     from tests.conftest import SCENARIOS, run_cli_in_process
 

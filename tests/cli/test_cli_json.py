@@ -10,8 +10,7 @@ from typer.testing import CliRunner
 
 from liaison_cli.cli import app
 
-from tests.conftest import REPO
-SCENARIOS = REPO / "scenarios"
+from tests.conftest import REPO, SCENARIOS
 DOC = REPO / "docs" / "json-output.md"
 
 

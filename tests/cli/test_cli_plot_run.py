@@ -11,8 +11,7 @@ from typer.testing import CliRunner
 
 from liaison_cli.cli import app
 
-from tests.conftest import REPO
-SCENARIOS = REPO / "scenarios"
+from tests.conftest import REPO, SCENARIOS
 TEMPLATES = REPO / "liaison_cli" / "scenario" / "templates"
 ALWAYS = {"errors", "nees", "innovations"}
 CASES = {  # result: (scenario, runs, figures beyond ALWAYS)

@@ -56,4 +56,4 @@ def test_version_option_and_command_agree():
 
     for args in (["--version"], ["version"]):
         result = CliRunner().invoke(app, args)
-        assert result.exit_code == 0 and result.stdout.strip() == __version__
+        assert result.exit_code == 0 and result.stdout == f"{__version__}\n", result.stderr

@@ -104,7 +104,7 @@ def test_ctrl_c_saves_what_finished_and_says_how_to_resume(tmp_path, jobs):
     import sys
     import time
 
-    from tests.conftest import REPO, run_cli_in_process
+    from tests.conftest import REPO
 
     out = tmp_path / "interrupted"
     # A shell that starts the tests in the background hands its children SIGINT ignored; a user's terminal
@@ -138,7 +138,7 @@ def test_a_killed_overwrite_keeps_the_old_result(tmp_path):
     import sys
     import time
 
-    from tests.conftest import REPO, run_cli_in_process
+    from tests.conftest import REPO
 
     out = tmp_path / "result"
     assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out).returncode == 0
@@ -250,7 +250,7 @@ def test_a_run_that_loses_track_is_diverged_by_the_nees_rule(tmp_path):
 
 
 def test_a_sweep_where_every_run_diverged_exits_5_and_keeps_its_results(tmp_path):
-    from tests.conftest import edited_scenario, run_cli_in_process
+    from tests.conftest import edited_scenario
 
     lost = edited_scenario(tmp_path, "smoke.yaml", "  sigma_m: 150\n", "  sigma_m: 150\n  bias_m: 20000\n")
     lost.write_text(lost.read_text().replace("duration_days: 1.25", "duration_days: 2.5"))
@@ -271,7 +271,7 @@ def test_sweep_overwrite_builds_beside_the_old_result_and_resumes_there(tmp_path
     import sys
     import time
 
-    from tests.conftest import REPO, run_cli_in_process
+    from tests.conftest import REPO
 
     out = tmp_path / "sweep"
     assert run_cli_in_process("sweep", SCENARIOS / "smoke.yaml", "--sigma", "100", "--runs", "1", "--jobs", "1",

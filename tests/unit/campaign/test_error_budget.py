@@ -151,13 +151,12 @@ def test_the_check_gives_the_same_rows_in_this_process_and_in_the_pool(monkeypat
     problem = _matched_smoke(duration_days=0.3)
     budget = error_budget(problem)
     one = monte_carlo_check(problem, budget, 5, ("initial", "noise"), jobs=1)
-    fanned_out = []
+    fanned_out, original = [], budget_module.map_batches
 
     def spy(fn, shared, batches, where, jobs, **kwargs):
         fanned_out.append(jobs)
-        return budget_module_map_batches(fn, shared, batches, where, jobs, **kwargs)
+        return original(fn, shared, batches, where, jobs, **kwargs)
 
-    budget_module_map_batches = budget_module.map_batches
     monkeypatch.setattr(runner, "POOL_MIN_STATE_EPOCHS", 0)
     monkeypatch.setattr(budget_module, "map_batches", spy)
     pool = monte_carlo_check(problem, budget, 5, ("initial", "noise"), jobs=2)

@@ -1,13 +1,9 @@
 """Issue 26 item 2: process noise chosen by a stated consistency rule (`liaison tune`, campaign/tuning.py)."""
 
-from types import SimpleNamespace
-
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
-from liaison_cli.cli import app
 from liaison_cli.campaign.tuning import (
     NEES_IN_BAND_MIN,
     VERDICT_MET,
@@ -19,21 +15,13 @@ from liaison_cli.campaign.tuning import (
 )
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, assert_one_line_error
+from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process as cli
 
 # smoke.yaml made consistent by construction: initial errors drawn from the filter's P0, the filter's
 # measurement model the truth's (no light time), judged after 0.25 d. The truth has no process noise, so a
 # small SNC leaves the filter matched and a large one makes it pessimistic (NEES below its band).
 MATCHED_SMOKE = ("measurement:\n  interval_s: 187.5\n", "measurement:\n  interval_s: 187.5\n  light_time: false\n"
                  "initial_error: {draw: from_covariance}\nfilter: {settle_days: 0.25}\n")
-
-
-def cli(*args):
-    """The CLI in this process (exit code, stderr), as tests/cli/test_faults.py calls it."""
-    result = CliRunner().invoke(app, [str(a) for a in args])
-    if result.exception is not None and not isinstance(result.exception, SystemExit):
-        raise result.exception
-    return SimpleNamespace(returncode=result.exit_code, stderr=result.stderr, stdout=result.stdout)
 
 
 def _stats(ratio: float, nees: float, runs_ok: int = 20) -> pd.DataFrame:

@@ -8,9 +8,8 @@ from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, jacobian, rk4_state_stm
 from liaison_cli.dynamics.propagation import propagate_states
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
+from tests.conftest import LUNAR
 
-LUNAR = lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
 STATES = {"eml2_halo": CATALOG["eml2_halo"].state(), "eml1_halo": CATALOG["eml1_halo"].state(), "lunar": LUNAR}
 TEN_DAYS_TU = 10 * 86400.0 / TU_S
 DT_TU = 187.5 / TU_S

@@ -12,12 +12,10 @@ from liaison_cli.measurements.pseudorange import KIND_PSEUDORANGE
 from liaison_cli.measurements.range import FLAG_LIGHT_TIME
 from liaison_cli.measurements.registry import predict
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
-from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
+from tests.conftest import LUNAR, SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
-LUNAR = lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
 # The truth spacecraft feel no unmodelled acceleration, so matched models mean no SNC in the filter (with
 # SNC the filter is conservative and its NEES sinks below the band over days); the clocks' Q is matched.
 MATCHED_DYNAMICS = {"filter.process_noise_accel_m_s2": 0.0, "spacecraft.1.process_noise_accel_m_s2": 0.0}

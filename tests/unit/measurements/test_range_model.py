@@ -8,10 +8,7 @@ from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 from liaison_cli.measurements.range import KIND_RANGE, OBSERVABLE as RANGE
 from liaison_cli.measurements.registry import predict
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
-
-LUNAR = lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
-
+from tests.conftest import LUNAR
 
 
 def _truth(hours=24.0, n=200):

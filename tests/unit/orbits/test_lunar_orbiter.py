@@ -8,9 +8,8 @@ import pytest
 from liaison_cli.dynamics.constants import GM_MOON_KM3_S2, LU_KM, MU, TU_S, VU_KM_S
 from liaison_cli.dynamics.propagation import propagate_states
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.orbits.keplerian import elements_to_moon_inertial, keplerian_period_s, lunar_orbiter_state_lu
-
-LUNAR = lunar_orbiter_state_lu(9000.0, 0.4, 60.0, 0.0, 0.0, 0.0)
+from liaison_cli.orbits.keplerian import elements_to_moon_inertial, keplerian_period_s
+from tests.conftest import LUNAR
 
 
 def test_default_lunar_orbiter_geometry_matches_the_issue():

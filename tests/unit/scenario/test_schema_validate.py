@@ -14,7 +14,6 @@ import time
 import pytest
 
 from tests.conftest import REPO, SCENARIOS, assert_one_line_error, run_cli_in_process
-from liaison_cli import __version__
 from liaison_cli.errors import ScenarioError
 from liaison_cli.scenario.json_schema import (
     LOADER_ONLY_RULES, MODELINE_PREFIX, SCHEMA_FILE_NAME, scenario_json_schema, scenario_json_schema_text)
@@ -243,8 +242,3 @@ def test_validate_gives_one_line_per_bad_file_and_exit_2(tmp_path):
 
 def test_a_directory_alone_is_one_line():
     assert_one_line_error(run_cli_in_process("validate", SCENARIOS), SCENARIOS, ["a directory; allowed: a regular YAML file"])
-
-
-def test_version_option_prints_the_package_version():
-    proc = run_cli_in_process("--version")
-    assert proc.returncode == 0 and proc.stdout == f"{__version__}\n" == run_cli_in_process("version").stdout, proc.stderr
