@@ -1,6 +1,7 @@
 """The one fan-out of liaison: run `fn(shared[key], tasks)` for every batch and yield results as they finish
 (map_batches). Every long command goes through it: `run`, `compare`, `table3` and the 003 / 004 studies through
-runner.iter_outcomes (its ordered layer); `sweep`, `tune` and the check runs of `errors` (error_budget) directly.
+runner.iter_outcomes and the check runs of `errors` (error_budget) through runner.in_task_order (its ordered
+layer); `sweep` and `tune` directly.
 
 - `joblib` (default): local processes (joblib's loky pool); `jobs=1` runs in this process.
 - `dask`: a dask.distributed cluster (`scheduler="tcp://host:8786"`), or a LocalCluster of `jobs`

@@ -19,7 +19,6 @@ The budget is the ungated EKF's: LinCov ignores filter.residual_gate_sigma (esti
 the Monte Carlo check runs the scenario's EKF, gate included.
 """
 
-from contextlib import closing
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,8 +26,8 @@ from tqdm import tqdm
 
 from liaison_cli import interrupts
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, fraction, nees_run_band
-from liaison_cli.campaign.backends import LOCAL, Backend, map_batches
-from liaison_cli.campaign.runner import stays_in_process
+from liaison_cli.campaign.backends import LOCAL, Backend
+from liaison_cli.campaign.runner import in_task_order, stays_in_process
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
@@ -226,12 +225,13 @@ def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> 
 @dataclass(frozen=True, eq=False)
 class CheckInputs:
     """What every check worker shares (sent once per batch; on dask, scattered once): the problem, the filter
-    model's measurements along the truth (model_y), the source groups (tuples of source names) and the settle
-    time from which the NEES is judged."""
+    model's measurements along the truth (model_y), the source groups (tuples of source names), the runs per
+    group and the settle time from which the NEES is judged. Task t is run t % runs of group t // runs."""
 
     problem: Problem
     model_y: np.ndarray
     groups: tuple
+    runs: int
     settle_s: float
 
 
@@ -249,9 +249,9 @@ class CheckRun:
 
 
 def check_batch(inputs: CheckInputs, tasks) -> list[CheckRun]:
-    """Worker side: tasks are (group index, run index); each, the EKF run with only that group's sources on."""
+    """Worker side: task indexes (CheckInputs); each, the EKF run with only its group's sources on."""
     interrupts.ignore_in_worker_process()
-    return [_check_run(inputs, group, run) for group, run in tasks]
+    return [_check_run(inputs, *divmod(task, inputs.runs)) for task in tasks]
 
 
 def _check_run(inputs: CheckInputs, group: int, run: int) -> CheckRun:
@@ -277,22 +277,23 @@ def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: floa
     """Yield the CheckRun of every (group, run) in group then run order; the first failed run stops the check
     (BudgetError). As runner.iter_outcomes: a small check stays in this process (runner.stays_in_process);
     otherwise the first run is done here, and checked, before the fan-out starts (the compiled EKF is then
-    loaded or compiled once, not once per worker), and the rest go through backends.map_batches."""
+    loaded or compiled once, not once per worker), and the rest go through the fan-out in task order
+    (runner.in_task_order, as a campaign's runs)."""
     if problem.clocks:
         raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
     f = problem.filter
     model_args = (kinds_mask(f.channel_kind), _filter_truth(problem), problem.measurements_true, f.known_states,
                   f.channel_kind, f.channel_ends, f.channel_flags)
     model_y = literal_entry(filter_model_along_truth, model_args, 0)(*model_args)
-    inputs = CheckInputs(problem, model_y, tuple(groups), settle_s)
-    tasks = [(group, run) for group in range(len(groups)) for run in range(runs)]
+    inputs = CheckInputs(problem, model_y, tuple(groups), runs, settle_s)
+    tasks = range(len(groups) * runs)
     bar = tqdm(total=len(tasks), desc=f"{problem.scenario.name} check", unit="run", disable=not progress,
                leave=False)
 
-    def checked(batch):
-        if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the check
-            raise KeyboardInterrupt
-        for result in batch:
+    def checked(results):
+        for result in results:
+            if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the check
+                raise KeyboardInterrupt
             if result.reason:
                 raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "
                                   f"{','.join(groups[result.group])} on {result.reason}")
@@ -301,16 +302,11 @@ def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: floa
 
     try:
         if stays_in_process(problem, len(tasks), jobs, where):
-            for group, run in tasks:
-                yield from checked([_check_run(inputs, group, run)])
+            for task in tasks:
+                yield from checked(check_batch(inputs, [task]))
             return
         yield from checked(check_batch(inputs, tasks[:1]))
-        chunk = max(1, min(8, len(tasks) // (4 * jobs)))
-        batches = ((0, tasks[start : start + chunk]) for start in range(1, len(tasks), chunk))
-        # closing: an error or Ctrl-C here stops the workers now, not when the traceback is freed
-        with closing(map_batches(check_batch, {0: inputs}, batches, where, jobs, ordered=True)) as fanned_out:
-            for batch in fanned_out:
-                yield from checked(batch)
+        yield from checked(in_task_order(check_batch, inputs, tasks[1:], jobs, where))
     finally:
         bar.close()
 

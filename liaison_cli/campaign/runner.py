@@ -1,6 +1,8 @@
 """A scenario's Monte Carlo runs in run order: the ordered layer over the one fan-out (backends.map_batches),
-with a tqdm progress bar and Ctrl-C checks."""
+in_task_order, which the error budget's check shares, with a tqdm progress bar and Ctrl-C checks."""
 
+from collections.abc import Sequence
+from contextlib import closing
 from dataclasses import dataclass
 
 from tqdm import tqdm
@@ -22,10 +24,10 @@ class CampaignResult:
         return self.problem.scenario
 
 
-def execute_batch(problem, tasks):
-    """Worker side: the outcomes of a batch of runs (each carries its run index)."""
+def execute_batch(problem, runs):
+    """Worker side: the outcomes of a batch of runs, given by their indexes (each outcome carries its own)."""
     interrupts.ignore_in_worker_process()
-    return [execute_run(problem, task) for task in tasks]
+    return [execute_run(problem, RunTask(run)) for run in runs]
 
 
 # A process pool costs about 1.5 s to start (spawn, imports, loading the compiled core). A run costs about
@@ -68,21 +70,25 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
             return
         yield warm_up_here(problem, 0)
         bar.update(1)
-        for outcome in _fanned_out_in_run_order(problem, range(1, n_runs), jobs, where):
+        for outcome in in_task_order(execute_batch, problem, range(1, n_runs), jobs, where):
             yield outcome
             bar.update(1)
     finally:
         bar.close()
 
 
-def _fanned_out_in_run_order(problem: Problem, runs: range, jobs: int, where: Backend):
-    # A few runs per batch keeps the pipes busy without starving the bar.
-    chunk = max(1, min(8, len(runs) // (4 * jobs)))
-    batches = ((0, tuple(RunTask(run) for run in runs[start : start + chunk])) for start in range(0, len(runs), chunk))
-    for batch in map_batches(execute_batch, {0: problem}, batches, where, jobs, ordered=True):
-        if interrupts.requested():
-            raise KeyboardInterrupt
-        yield from batch
+def in_task_order(fn, shared, tasks: Sequence, jobs: int, where: Backend):
+    """Yield the results of fn(shared, batch) for every task of `tasks` (a sequence: a range keeps memory
+    bounded) in task order, through the one fan-out. A few tasks a batch keep the pipes busy without starving a
+    progress bar. A Ctrl-C that compiled code swallowed still stops it; an error or Ctrl-C in the caller closes
+    the fan-out at once (its workers stop), not when the traceback is freed."""
+    chunk = max(1, min(8, len(tasks) // (4 * jobs)))
+    batches = ((0, tuple(tasks[start : start + chunk])) for start in range(0, len(tasks), chunk))
+    with closing(map_batches(fn, {0: shared}, batches, where, jobs, ordered=True)) as results:
+        for batch in results:
+            if interrupts.requested():
+                raise KeyboardInterrupt
+            yield from batch
 
 
 def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,

@@ -104,7 +104,7 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
     except (KeyboardInterrupt, Exception) as exc:  # also before the batches started (setting up, first
         # compilation, starting workers); an Exception only when a Ctrl-C caused it (numba's, when one lands
         # while it compiles)
-        if not isinstance(exc, KeyboardInterrupt) and not interrupts.caused_by_interrupt(exc):
+        if not interrupts.caused_by_interrupt(exc):  # a KeyboardInterrupt is one
             raise
         saved = len(manifest.done() & {t.task_id for t in plan.tasks})
         raise SweepInterrupted(f"interrupted: {saved} of {len(plan.tasks)} tasks saved in {manifest.path}; rerun "

@@ -84,17 +84,11 @@ COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first r
                   "upgrading: about 15 seconds; cached afterwards)")
 
 
-_NOTICE_REGISTERED = []  # the listener, once registered: one per process, however many commands run in it
-
-
+@functools.cache  # one listener per process, however many commands run in it
 def _announce_compilation() -> None:
     """One line on stderr (a `note:` of the `liaison` logger) when numba starts compiling liaison code (a cache
     miss), so a new user knows why the first run is slow. Loading from the cache is not compiling and stays
     silent."""
-    if _NOTICE_REGISTERED:
-        return
-    import logging
-
     from numba.core import event
 
     class Notice(event.Listener):
@@ -109,8 +103,7 @@ def _announce_compilation() -> None:
         def on_end(self, ev):
             pass
 
-    _NOTICE_REGISTERED.append(Notice())
-    event.register("numba:compile", _NOTICE_REGISTERED[0])
+    event.register("numba:compile", Notice())
 
 
 def plain_name(name: str) -> bool:
@@ -175,7 +168,7 @@ def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float, con
     return Backend(backend, scheduler, scheduler_timeout_s)
 
 
-# --- Options the study and orbit commands share (cli/studies.py, cli/orbits.py) -------------------------
+# --- Options several commands share (run, sweep, tune, errors, the studies, orbits) ----------------------
 # Annotated aliases: each command keeps its own default in its signature (`quiet: QuietOption = False`).
 QuietOption = Annotated[bool, typer.Option("--quiet", help="no progress bar")]
 StudyOverwriteOption = Annotated[bool, typer.Option("--overwrite", help="replace an earlier study there")]

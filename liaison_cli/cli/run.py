@@ -10,6 +10,7 @@ import typer
 
 from liaison_cli.cli.common import (
     EXIT_ALL_DIVERGED,
+    QuietOption,
     backend_option,
     check_runs,
     echo_json,
@@ -47,7 +48,7 @@ def run(
     output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
     """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results."""
@@ -106,7 +107,7 @@ def table3(
     output: Path = typer.Option(Path("results/table3"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     scenarios: Path = typer.Option(Path("scenarios"), "--scenarios", help="folder holding the paper's scenario files"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    quiet: QuietOption = False,
 ):
     """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
     from liaison_cli.report.table3 import run_table3
@@ -131,7 +132,7 @@ def compare(
     scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/compare"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
     """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""

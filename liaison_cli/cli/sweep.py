@@ -6,9 +6,9 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from liaison_cli.cli.common import (EXIT_ALL_DIVERGED, backend_option, check_runs, echo_json, fail, fan_out,
-                                    jobs_option, json_option, plain_name, scheduler_option, scheduler_timeout_option,
-                                    user_errors)
+from liaison_cli.cli.common import (EXIT_ALL_DIVERGED, QuietOption, backend_option, check_runs, echo_json, fail,
+                                    fan_out, jobs_option, json_option, plain_name, scheduler_option,
+                                    scheduler_timeout_option, user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 from liaison_cli.report.run_text import left as _left, right as _right
@@ -67,7 +67,7 @@ def sweep(
     overwrite: bool = typer.Option(False, "--overwrite", help="discard an existing sweep in the folder"),
     scenarios_dir: Path = typer.Option(Path("scenarios"), "--scenarios",
                                        help="folder of the paper's scenario files (when none is named)"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bar"),
+    quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
     """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""

@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import (backend_option, check_runs, fan_out, jobs_option, scheduler_option,
+from liaison_cli.cli.common import (QuietOption, backend_option, check_runs, fan_out, jobs_option, scheduler_option,
                                     scheduler_timeout_option, user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
@@ -28,7 +28,7 @@ def tune(
     work: Path = typer.Option(Path("results/tune"), "--work", help="folder of the rungs' sweeps (resumed, reused)"),
     table: Path = typer.Option(Path("results/tune/consistency.md"), "--table",
                                help="the Markdown table to write; the Parquet goes beside it (.parquet)"),
-    quiet: bool = typer.Option(False, "--quiet", help="no progress bars"),
+    quiet: QuietOption = False,
 ):
     """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder."""
     from liaison_cli.campaign.tuning import TuningCase, parse_ladder, rule_text, tune as run_tuning

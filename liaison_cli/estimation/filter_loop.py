@@ -3,8 +3,8 @@
 Everything here is plain arrays: no Python objects in the inner loop, so one 10-day run costs tens of
 milliseconds. The loop knows the state only as a layout of blocks (estimation.blocks), the dynamics only
 through `dynamics.model.propagate_state_stm` (a model code + parameters), and the measurements only
-through `measurements.registry.predict` / `residual` plus each channel's table of ends and modifiers. The
-EKF algebra lives in `estimation.ekf`.
+through `measurements.registry.predict_for` (its scenario's kinds) / `residual` plus each channel's table of
+ends and modifiers. The EKF algebra lives in `estimation.ekf`.
 """
 
 import numba

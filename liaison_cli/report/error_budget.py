@@ -5,13 +5,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from liaison_cli.campaign.error_budget import part_of
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 
 COLOURS = {"initial": "tab:blue", "noise": "tab:orange", "process": "tab:green", "bias": "tab:red",
            "measurement_model": "tab:purple", "dynamics_model": "tab:brown", "cr": "tab:olive"}
 
 
-def budget_table(budget, part_of) -> pd.DataFrame:
+def budget_table(budget) -> pd.DataFrame:
     """One row per (epoch, spacecraft, part): position m^2, velocity (m/s)^2 contributions, and the total."""
     frames = []
     m, n_sc, _ = budget.total.shape
@@ -42,7 +43,7 @@ def format_shares(share_rows_all: list[dict], share_rows_late: list[dict]) -> st
     return "\n".join(lines) + "\n"
 
 
-def draw_budget(budget, part_of, path: Path, title: str) -> Path:
+def draw_budget(budget, path: Path, title: str) -> Path:
     """Stacked areas of each source's RMS-squared contribution, per spacecraft, position and velocity; the
     filter's own trace(P) as a line."""
     import matplotlib
@@ -128,16 +129,15 @@ def write_budget_folder(study, out_dir: Path, overwrite: bool, text_table: str, 
                         scenario_yaml: str) -> None:
     """`liaison errors`' result folder, built beside and swapped in (storage.staged_output): budget, shares,
     Monte Carlo check (when run) and consistency as Parquet, the text tables as shares.md, the figure."""
-    from liaison_cli.campaign.error_budget import part_of
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
     meta = {"package": "liaison", "scenario": scenario_name, "scenario_yaml": scenario_yaml,
             "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
     with staged_output(out_dir, overwrite) as stage:
-        write_parquet_atomic(budget_table(study.budget, part_of), stage / "budget.parquet", meta)
+        write_parquet_atomic(budget_table(study.budget), stage / "budget.parquet", meta)
         write_parquet_atomic(shares_frame(study.rows_all, study.rows_late), stage / "shares.parquet", meta)
         if study.checks:
             write_parquet_atomic(shares_frame(study.checks), stage / "monte_carlo_check.parquet", meta)
         write_parquet_atomic(pd.DataFrame(study.consistency_rows), stage / "consistency.parquet", meta)
         write_text_atomic(text_table, stage / "shares.md")
-        draw_budget(study.budget, part_of, stage / "error_budget.png", f"Error budget: {scenario_name}")
+        draw_budget(study.budget, stage / "error_budget.png", f"Error budget: {scenario_name}")

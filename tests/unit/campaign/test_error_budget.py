@@ -145,20 +145,19 @@ def test_the_check_gives_the_same_rows_in_this_process_and_in_the_pool(monkeypat
     (forced: runner.POOL_MIN_STATE_EPOCHS set to 0, and checked to have been used, so the comparison can fail):
     the same rows, to the bit (each group's runs are summed in run order whatever finishes first). dask takes
     the same path (backends.map_batches; tests/unit/campaign/test_fanout.py compares it for `run`)."""
-    from liaison_cli.campaign import error_budget as budget_module
     from liaison_cli.campaign import runner
 
     problem = _matched_smoke(duration_days=0.3)
     budget = error_budget(problem)
     one = monte_carlo_check(problem, budget, 5, ("initial", "noise"), jobs=1)
-    fanned_out, original = [], budget_module.map_batches
+    fanned_out, original = [], runner.map_batches
 
     def spy(fn, shared, batches, where, jobs, **kwargs):
         fanned_out.append(jobs)
         return original(fn, shared, batches, where, jobs, **kwargs)
 
     monkeypatch.setattr(runner, "POOL_MIN_STATE_EPOCHS", 0)
-    monkeypatch.setattr(budget_module, "map_batches", spy)
+    monkeypatch.setattr(runner, "map_batches", spy)
     pool = monte_carlo_check(problem, budget, 5, ("initial", "noise"), jobs=2)
     assert fanned_out == [2], "the check did not go through the pool"
     assert len(one) == 3 * 2 * len(problem.spacecraft)
