@@ -18,6 +18,7 @@ from liaison_cli.analysis.metrics import nees_band
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.runner import CampaignResult, iter_outcomes
 from liaison_cli.campaign.worker import RunOutcome
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.storage import ParquetStream, write_columns_atomic, write_text_atomic
@@ -33,6 +34,7 @@ def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | 
     meta = {
         "package": "liaison",
         "package_version": __version__,
+        "arithmetic": arithmetic_provenance(),
         "scenario_name": scenario.name,
         "scenario_yaml": scenario_text,
         "scenario_effective": scenario.model_dump(mode="json"),

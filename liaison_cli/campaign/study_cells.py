@@ -24,6 +24,7 @@ import pandas as pd
 from liaison_cli import __version__, core_source_hash, interrupts
 from liaison_cli.campaign.sweep_plan import scenario_hash
 from liaison_cli.errors import LiaisonError
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
@@ -76,7 +77,9 @@ class CellStore:
             return {part: pd.read_parquet(f"{stem}.{part}.parquet") for part in json.loads(done.read_text())["parts"]}
         parts = compute()
         self.folder.mkdir(parents=True, exist_ok=True)
-        meta = {"package": "liaison", "version": __version__, "study": self.study, "cell": label, "runs": runs}
+        # The arithmetic is recorded, not keyed (_key): a cell computed on another machine is still reused.
+        meta = {"package": "liaison", "version": __version__, "arithmetic": arithmetic_provenance(),
+                "study": self.study, "cell": label, "runs": runs}
         for part, frame in parts.items():
             write_parquet_atomic(frame, f"{stem}.{part}.parquet", meta)
         write_text_atomic(json.dumps({**meta, "parts": list(parts)}, sort_keys=True) + "\n", done)

@@ -11,6 +11,7 @@ import pandas as pd
 from liaison_cli import __version__, core_source_hash
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
 from liaison_cli.campaign.sweep_plan import SweepPlan, SweepPoint
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
@@ -106,10 +107,12 @@ def build_curve_table(plan: SweepPlan, runs_table: pd.DataFrame) -> pd.DataFrame
 
 
 def sweep_metadata(plan: SweepPlan) -> dict:
-    """Provenance of a sweep; deliberately free of backend, worker count and timestamps."""
+    """Provenance of a sweep; deliberately free of backend, worker count and timestamps. Its arithmetic is this
+    process's (liaison_cli.provenance): the local pool's workers share it, a dask cluster's may not."""
     return {
         "package": "liaison",
         "package_version": __version__,
+        "arithmetic": arithmetic_provenance(),
         "core_hash": core_source_hash(),
         "sweep": plan.name,
         "runs_per_point": plan.runs,

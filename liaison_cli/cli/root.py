@@ -15,17 +15,36 @@ app = typer.Typer(
 )
 
 
-def _print_version(value: bool) -> None:
-    if value:
+VERSION_ASKED = "liaison.version_asked"  # ctx.meta key: --version was given
+
+
+def _ask_for_version(ctx: typer.Context, value: bool) -> None:
+    """--version is eager, so it is handled before -v whichever comes first on the line; it only takes note,
+    and -v's callback (always run, after every eager option) answers, knowing both."""
+    if value and not ctx.resilient_parsing:
+        ctx.meta[VERSION_ASKED] = True
+
+
+def _print_version_if_asked(ctx: typer.Context, verbose: bool) -> bool:
+    """After --version: the version, and with -v what the arithmetic ran on (liaison_cli.provenance), one
+    `key: value` a line; then exit. Otherwise -v's value, unchanged."""
+    if ctx.meta.get(VERSION_ASKED):
         typer.echo(__version__)
+        if verbose:
+            from liaison_cli.provenance import arithmetic_provenance
+
+            for key, value in arithmetic_provenance().items():
+                typer.echo(f"{key}: {value}")
         raise typer.Exit()
+    return verbose
 
 
 @app.callback()
 def _configure_process(
-    _version: bool = typer.Option(False, "--version", is_eager=True, callback=_print_version,
-                                  help="Print the package version and exit."),
-    verbose: bool = typer.Option(False, "-v", "--verbose",
+    _version: bool = typer.Option(False, "--version", is_eager=True, callback=_ask_for_version,
+                                  help="Print the package version and exit; with -v also the library versions, "
+                                       "BLAS kernels, CPU and commit behind the arithmetic."),
+    verbose: bool = typer.Option(False, "-v", "--verbose", callback=_print_version_if_asked,
                                  help="Also print progress details on stderr (e.g. each stage's time)."),
 ) -> None:
     """Before every command: Ctrl-C is remembered as well as raised (liaison_cli.interrupts), and messages from

@@ -11,6 +11,7 @@ from liaison_cli.cli.common import (QuietOption, backend_option, check_runs, fan
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
 from liaison_cli.errors import LiaisonError
+from liaison_cli.provenance import arithmetic_provenance
 
 
 @app.command("tune")
@@ -51,7 +52,8 @@ def tune(
     command = " ".join(["liaison tune", *map(str, scenarios), f"--runs {runs}"]
                        + ([f"--ladder {ladder}"] if ladder else []) + [f"--table {table}"])
     markdown = format_table(frame, rule_text(rungs, runs), command, settle_note, paper_tuned_notes())
-    meta = {"package": "liaison", "version": __version__, "command": command, "rule": rule_text(rungs, runs),
+    meta = {"package": "liaison", "version": __version__, "arithmetic": arithmetic_provenance(), "command": command,
+            "rule": rule_text(rungs, runs),
             "scenarios_yaml": {case.label: case.text for case in cases},
             "seeds": {case.label: case.scenario.monte_carlo.seed for case in cases}}
     table.parent.mkdir(parents=True, exist_ok=True)

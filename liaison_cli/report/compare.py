@@ -6,6 +6,7 @@ import pandas as pd
 
 from liaison_cli import __version__
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")
@@ -66,7 +67,8 @@ def to_markdown(table: pd.DataFrame) -> str:
 def write_compare(rows, summaries, texts, out_dir) -> tuple[pd.DataFrame, str]:
     out_dir = Path(out_dir)
     table = pd.DataFrame(rows)
-    meta = {"package": "liaison", "package_version": __version__, "scenarios_yaml": texts}
+    meta = {"package": "liaison", "package_version": __version__, "arithmetic": arithmetic_provenance(),
+            "scenarios_yaml": texts}
     write_parquet_atomic(table, out_dir / "compare.parquet", meta)
     write_parquet_atomic(pd.concat(summaries, ignore_index=True), out_dir / "summary.parquet", meta)
     markdown = to_markdown(table)

@@ -7,6 +7,7 @@ import pandas as pd
 
 from liaison_cli.campaign.error_budget import part_of
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.provenance import arithmetic_provenance
 
 COLOURS = {"initial": "tab:blue", "noise": "tab:orange", "process": "tab:green", "bias": "tab:red",
            "measurement_model": "tab:purple", "dynamics_model": "tab:brown", "cr": "tab:olive"}
@@ -131,7 +132,8 @@ def write_budget_folder(study, out_dir: Path, overwrite: bool, text_table: str, 
     Monte Carlo check (when run) and consistency as Parquet, the text tables as shares.md, the figure."""
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
-    meta = {"package": "liaison", "scenario": scenario_name, "scenario_yaml": scenario_yaml,
+    meta = {"package": "liaison", "arithmetic": arithmetic_provenance(), "scenario": scenario_name,
+            "scenario_yaml": scenario_yaml,
             "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
     with staged_output(out_dir, overwrite) as stage:
         write_parquet_atomic(budget_table(study.budget), stage / "budget.parquet", meta)

@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.campaign.geometry import GRIDS, geometry_study
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic
 
 
@@ -44,8 +45,9 @@ def run_study(out_dir, count: int = 7, interval_s: float = 600.0) -> dict:
     outputs = {}
     for key, (first, second, title) in GRIDS.items():
         table = geometry_study(first, second, count, interval_s)
-        write_parquet_atomic(table, out_dir / f"{key}.parquet", {"package": "liaison", "study": key,
-                                                                 "interval_s": interval_s, "count": count})
+        meta = {"package": "liaison", "arithmetic": arithmetic_provenance(), "study": key, "interval_s": interval_s,
+                "count": count}
+        write_parquet_atomic(table, out_dir / f"{key}.parquet", meta)
         draw_heatmaps(table, f"{title}: observability over the longer period ({interval_s:g} s sampling)",
                       out_dir / f"{key}.png")
         outputs[key] = table

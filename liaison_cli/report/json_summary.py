@@ -8,6 +8,7 @@ import json
 import math
 
 from liaison_cli import __version__
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.report.run_text import mean, ok_values, quantile
 
 # Per-spacecraft means over the runs that finished 'ok' (the columns `liaison run` prints).
@@ -39,6 +40,12 @@ def _header(command: str) -> dict:
     return {"command": command, "liaison_version": __version__}
 
 
+def _computed_header(command: str) -> dict:
+    """The header of a document whose numbers come from runs: also what the arithmetic ran on (its last
+    digits depend on it; liaison_cli.provenance). `budget` and `validate` compute nothing of that kind."""
+    return {**_header(command), "arithmetic": arithmetic_provenance()}
+
+
 def run_document(config, scenario_file, problem, summary: list[dict], out_dir) -> dict:
     """`liaison run --json`: the campaign's settings, run counts and per-spacecraft figures."""
     from liaison_cli.report.run_text import campaign_ratio
@@ -61,8 +68,9 @@ def run_document(config, scenario_file, problem, summary: list[dict], out_dir) -
                 figures[f"{column}_mean"] = mean(values)
                 figures[f"{column}_p90"] = quantile(values, 0.9) if values else math.nan
         spacecraft[name] = figures
-    return {**_header("run"), "scenario": config.name, "scenario_file": str(scenario_file), "output": str(out_dir),
-            "estimator": "batch" if config.batch is not None else "ekf", "seed": config.monte_carlo.seed,
+    return {**_computed_header("run"), "scenario": config.name, "scenario_file": str(scenario_file),
+            "output": str(out_dir), "estimator": "batch" if config.batch is not None else "ekf",
+            "seed": config.monte_carlo.seed,
             "sigma_m": problem.sigma_m, "links": len(config.links), "settle_days": config.settle_days(),
             "runs": len(runs), "runs_ok": sum(row["status"] == "ok" for row in runs.values()),
             "failed_runs": [{"run": int(r["run"]), "status": r["status"], "reason": r.get("reason", "")}
@@ -72,7 +80,7 @@ def run_document(config, scenario_file, problem, summary: list[dict], out_dir) -
 
 def sweep_document(name: str, out_dir, grid_keys, curve, tasks: int, computed: int, reused: int) -> dict:
     """`liaison sweep --json`: the sweep's counts and one object per row of curve.parquet."""
-    return {**_header("sweep"), "name": name, "output": str(out_dir), "grid_keys": list(grid_keys),
+    return {**_computed_header("sweep"), "name": name, "output": str(out_dir), "grid_keys": list(grid_keys),
             "points": int(curve.point.nunique()), "tasks": tasks, "computed": computed, "reused": reused,
             "spacecraft_runs_excluded": int(curve.runs_excluded.sum()),
             "curve": curve.to_dict("records")}
@@ -80,7 +88,7 @@ def sweep_document(name: str, out_dir, grid_keys, curve, tasks: int, computed: i
 
 def compare_document(table, out_dir) -> dict:
     """`liaison compare --json`: one object per scenario (the rows of compare.parquet)."""
-    return {**_header("compare"), "output": str(out_dir), "scenarios": table.to_dict("records")}
+    return {**_computed_header("compare"), "output": str(out_dir), "scenarios": table.to_dict("records")}
 
 
 def budget_document(link_file, link, expected=None, sweep_dir=None) -> dict:
@@ -118,7 +126,7 @@ def budget_document(link_file, link, expected=None, sweep_dir=None) -> dict:
 def errors_document(scenario, out_dir, rows_all, rows_late, checks) -> dict:
     """`liaison errors --json`: each part's share of the mean-square error (all epochs after t0 and after
     day 1) and the Monte Carlo check's ratios."""
-    return {**_header("errors"), "scenario": scenario.name, "duration_days": scenario.duration_days,
+    return {**_computed_header("errors"), "scenario": scenario.name, "duration_days": scenario.duration_days,
             "output": str(out_dir), "shares": rows_all, "shares_after_day1": rows_late,
             "monte_carlo_check": checks}
 

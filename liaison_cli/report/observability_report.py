@@ -9,6 +9,7 @@ import numpy as np
 from liaison_cli.campaign.observability_study import (
     check_supported, known_inputs, observability_study, scenario_inputs)
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 __all__ = ["check_supported", "known_inputs", "observability_report", "scenario_inputs"]
@@ -19,7 +20,8 @@ def observability_report(scenario, scenario_text: str, out_dir, range_rate_sigma
     """Run the analysis for range and range-rate links; write tables and plots; return the summary dict."""
     out_dir = Path(out_dir)
     study = observability_study(scenario, range_rate_sigma_m_s, taylor)
-    meta = {"package": "liaison", "scenario_yaml": scenario_text, "summary": study.summary}
+    meta = {"package": "liaison", "arithmetic": arithmetic_provenance(), "scenario_yaml": scenario_text,
+            "summary": study.summary}
     write_parquet_atomic(study.effectiveness, out_dir / "effectiveness.parquet", meta)
     write_parquet_atomic(study.singular, out_dir / "singular.parquet", meta)
     if study.taylor is not None:

@@ -10,6 +10,7 @@ from liaison_cli import __version__
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.table3 import FORMATIONS, compute_table3, paper_table3, tolerances
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 __all__ = ["FORMATIONS", "Table3Result", "paper_table3", "run_table3", "to_markdown", "tolerances"]
@@ -63,6 +64,7 @@ def run_table3(scenarios_dir, out_dir, runs: int, jobs: int, progress: bool,
     meta = {
         "package": "liaison",
         "package_version": __version__,
+        "arithmetic": arithmetic_provenance(),
         "scenarios_yaml": computed.texts,
         "runs_per_case": runs,
         "seeds": computed.seeds,

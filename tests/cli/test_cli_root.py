@@ -57,3 +57,27 @@ def test_version_option_and_command_agree():
     for args in (["--version"], ["version"]):
         result = CliRunner().invoke(app, args)
         assert result.exit_code == 0 and result.stdout == f"{__version__}\n", result.stderr
+
+
+def test_version_with_verbose_prints_the_arithmetic_in_either_order():
+    """`--version -v` and `-v --version` (and --verbose) print the version, then one `key: value` line per key of
+    the record result metadata carries (liaison_cli.provenance); plain --version stays one line."""
+    import numpy as np
+
+    from liaison_cli import __version__
+    from liaison_cli.provenance import arithmetic_provenance
+
+    expected = [__version__] + [f"{key}: {value}" for key, value in arithmetic_provenance().items()]
+    for args in (["--version", "--verbose"], ["--version", "-v"], ["-v", "--version"], ["--verbose", "--version"]):
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 0, result.stderr
+        assert result.stdout.splitlines() == expected, args
+    assert f"numpy: {np.__version__}" in expected and any(line.startswith("numpy_blas_core: ") for line in expected)
+
+
+def test_version_with_verbose_runs_no_command():
+    from liaison_cli import __version__
+
+    result = CliRunner().invoke(app, ["-v", "--version", "run", "no-such-file.yaml"])
+    assert result.exit_code == 0 and result.stdout.splitlines()[0] == __version__, result.output
+    assert "no-such-file" not in result.output
