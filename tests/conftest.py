@@ -48,7 +48,7 @@ def run_cli_in_process(*args):
 
     from liaison_cli.cli import app
 
-    with contextlib.chdir(REPO):  # as run_cli: relative defaults (scenarios/, results/) from the repository
+    with contextlib.chdir(REPO):  # as run_cli: relative paths and defaults (results/) from the repository
         result = CliRunner().invoke(app, [str(a) for a in args])
     if result.exception is not None and not isinstance(result.exception, SystemExit):
         raise result.exception

@@ -55,6 +55,25 @@ def orbits_generate(
                f"{family_path(family, count)}")
 
 
+@orbits_app.command("catalogue")
+@user_errors
+def orbits_catalogue(
+    output: Path = typer.Option(None, "--output", help="where to write the catalogue (default: the package's own "
+                                "orbits/data/family_catalogue.json, which a checkout commits)"),
+):
+    """Regenerate the shipped orbit catalogue (every family's 30-member table) and say how far it moved."""
+    import time
+
+    from liaison_cli.orbits.family_catalogue import CATALOGUE_PATH, build_catalogue, largest_change, write_catalogue
+
+    start = time.perf_counter()
+    catalogue = build_catalogue()
+    for name, change in largest_change(catalogue).items():
+        typer.echo(f"{name:<16}largest change of an initial state against the shipped catalogue: {change:.3g} LU")
+    path = write_catalogue(catalogue, output or CATALOGUE_PATH)
+    typer.echo(f"wrote {path} in {time.perf_counter() - start:.1f} s")
+
+
 @orbits_app.command("list")
 def orbits_list():
     """The known families and the tables already in the cache."""

@@ -32,6 +32,7 @@ from liaison_cli.report.run_text import (
     rejection_line as _rejection_line,
     status_line as _status_line,
 )
+from liaison_cli.scenario.shipped import scenario_folder
 
 log = logging.getLogger("liaison")
 
@@ -106,7 +107,9 @@ def table3(
     scheduler_timeout: float = scheduler_timeout_option(),
     output: Path = typer.Option(Path("results/table3"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
-    scenarios: Path = typer.Option(Path("scenarios"), "--scenarios", help="folder holding the paper's scenario files"),
+    scenarios: Path = typer.Option(None, "--scenarios", help="folder holding the paper's scenario files "
+                                   "(default: the shipped scenarios/, read from the installed package whatever "
+                                   "the working folder)"),
     quiet: QuietOption = False,
 ):
     """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
@@ -116,7 +119,8 @@ def table3(
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
     with staged_output(output, overwrite) as stage:
-        result = run_table3(scenarios, stage, runs, jobs, progress=not quiet and sys.stderr.isatty(), where=where)
+        result = run_table3(scenario_folder(scenarios), stage, runs, jobs, progress=not quiet and sys.stderr.isatty(),
+                            where=where)
     typer.echo(result.markdown)
     typer.echo(f"results: {output}")
 

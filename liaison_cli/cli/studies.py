@@ -20,6 +20,7 @@ from liaison_cli.cli.common import (
 )
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
+from liaison_cli.scenario.shipped import scenario_paths
 
 
 def _load_study(paths: list[Path]) -> list:
@@ -57,14 +58,16 @@ def _work_folder(work: Path | None, output: Path) -> Path:
     return work if work is not None else output.parent / f"{output.name}.work"
 
 
-STUDY003_MISSIONS = ("scenarios/003/cassini.yaml", "scenarios/003/mer_a.yaml", "scenarios/003/msl.yaml")
+# Defaults: shipped scenarios (scenario.shipped), the installed package's copies, from any working folder.
+STUDY003_MISSIONS = ("003/cassini.yaml", "003/mer_a.yaml", "003/msl.yaml")
 
 
 @app.command("study003")
 @user_errors
 def study003(
     scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="missions' full-set scenarios "
-                                           "(default: scenarios/003/cassini, mer_a, msl)"),
+                                           "(default: the shipped scenarios/003/cassini, mer_a, msl, read from "
+                                           "the installed package whatever the working folder)"),
     runs: int = typer.Option(50, "--runs", min=1, help="Monte Carlo runs per mission and case"),
     jobs: int = jobs_option(),
     backend: str = backend_option(),
@@ -89,7 +92,7 @@ def study003(
         raise LiaisonError(f"--dsn-noise {dsn_noise!r}: allowed: {', '.join(DSN_NOISE_READINGS)}")
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
-    loaded = _load_study(scenarios or [Path(p) for p in STUDY003_MISSIONS])
+    loaded = _load_study(scenario_paths(scenarios, STUDY003_MISSIONS))
     summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
                                     grid=axes, dsn_noise=dsn_noise, where=where, work=_work_folder(work, output))
     first = loaded[0][1]
@@ -112,16 +115,16 @@ def study003(
     _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
 
 
-STUDY004_TRANSMITTERS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml",
-                         "scenarios/004/low_energy_transfer.yaml")
+STUDY004_TRANSMITTERS = ("004/eml2_halo.yaml", "004/dro.yaml", "004/low_energy_transfer.yaml")
 
 
 @app.command("study004")
 @user_errors
 def study004(
     scenarios: list[Path] = typer.Argument(None, metavar="[SCENARIO]...", help="transmitter scenarios, one link "
-                                           "per receiver pair (default: scenarios/004/eml2_halo, dro, "
-                                           "low_energy_transfer)"),
+                                           "per receiver pair (default: the shipped scenarios/004/eml2_halo, "
+                                           "dro, low_energy_transfer, read from the installed package "
+                                           "whatever the working folder)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
     jobs: int = jobs_option(),
     backend: str = backend_option(),
@@ -145,7 +148,7 @@ def study004(
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
     keys = [k for k, _ in axes]
-    loaded = _load_study(scenarios or [Path(p) for p in STUDY004_TRANSMITTERS])
+    loaded = _load_study(scenario_paths(scenarios, STUDY004_TRANSMITTERS))
     summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
                                  grid=axes, where=where, work=_work_folder(work, output))
     header = [f"004 study, {runs} runs per case. LinCov: steady state = median 3σ over the last quarter; converged "

@@ -12,6 +12,7 @@ from liaison_cli.cli.common import (EXIT_ALL_DIVERGED, QuietOption, backend_opti
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 from liaison_cli.report.run_text import left as _left, right as _right
+from liaison_cli.scenario.shipped import scenario_folder
 
 if TYPE_CHECKING:  # pandas costs ~0.6 s to import; `version` and `--help` need not pay for it
     import pandas as pd
@@ -52,7 +53,8 @@ def _format_curve(curve: "pd.DataFrame", grid_keys) -> str:
 @user_errors
 def sweep(
     scenario_args: list[Path] = typer.Argument(None, metavar="[SCENARIO]...",
-                                               help="scenario YAML files (default: the paper's three formations)"),
+                                               help="scenario YAML files (default: the paper's three "
+                                                    "formations, shipped: see --scenarios)"),
     scenario_opts: list[Path] = typer.Option(None, "--scenario", help="scenario YAML file (may repeat)"),
     sigma: str = typer.Option(None, "--sigma", help="ranging sigma grid in m: start:stop[:step] (step 50) or a,b,c"),
     grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2,... over any scenario field by dotted path "
@@ -65,8 +67,10 @@ def sweep(
     name: str = typer.Option(None, "--name", help="sweep name (default: fig15 for the paper's formations)"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/sweep-<name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="discard an existing sweep in the folder"),
-    scenarios_dir: Path = typer.Option(Path("scenarios"), "--scenarios",
-                                       help="folder of the paper's scenario files (when none is named)"),
+    scenarios_dir: Path = typer.Option(None, "--scenarios",
+                                       help="folder of the paper's scenario files (when none is named; "
+                                            "default: the shipped scenarios/, read from the installed package "
+                                            "whatever the working folder)"),
     quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
@@ -81,7 +85,7 @@ def sweep(
     paths = list(scenario_args or []) + list(scenario_opts or [])
     default_formations = not paths
     if default_formations:
-        paths = [scenarios_dir / f"{formation}.yaml" for formation in PAPER_FORMATIONS]
+        paths = [scenario_folder(scenarios_dir) / f"{formation}.yaml" for formation in PAPER_FORMATIONS]
     axes = [parse_grid(text) for text in grid or []]
     if sigma is not None:
         axes.insert(0, (SIGMA_KEY, parse_range(sigma, "--sigma")))

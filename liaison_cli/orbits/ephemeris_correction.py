@@ -3,14 +3,23 @@
 Patch points: the CRTBP trajectory sampled every `node_spacing_s` from the epoch (CRTBP time scaled by the
 nominal TU) and mapped to geocentric ICRF through the instantaneous Earth-Moon frame at each node's date.
 Unknowns: every node's state; constraints: each segment's propagated end state equals the next node
-(position and velocity). Newton with the minimum-norm update dX = -DF^T (DF DF^T)^-1 F, DF = [Phi_i, -I]
-per segment, until every defect is below 1e-6 km and 1e-9 km/s (003's continuity criterion).
-Propagation: the fixed-step RK8 of the ephemeris dynamics with its STM (`steps_per_node` per segment).
+(position and velocity). Newton with the minimum-norm update dX = -DF^+ F, DF = [Phi_i, -I] per segment,
+until every defect is below 1e-6 km and 1e-9 km/s (003's continuity criterion).
+
+Globalised, so that the answer does not hang on the last bit of the linear algebra: Levenberg-Marquardt.
+A step is taken only when it lowers the scaled defect norm; the Newton step (from a QR factorisation of the
+scaled DF, not the normal equations DF DF^T, which square its condition number) is tried first, and damped
+steps dX = -D^T (D D^T + lambda I)^-1 F, shorter and turned toward steepest descent, when it does not. A
+CRTBP orbit mapped into the dated model starts thousands of km from continuity; full Newton steps from there
+wandered (defects of 1e5 km) and landed, or not, by the rounding of the BLAS kernel; a line search along
+the Newton direction stalled at 100 km; damped steps reach 1e-6 km in four to five Jacobians. Propagation: the fixed-step RK8 of the ephemeris
+dynamics with its STM (`steps_per_node` per segment).
 """
 
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import rk4_states
@@ -19,8 +28,19 @@ from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
 from liaison_cli.dynamics.frames import crtbp_to_inertial
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
-POSITION_TOLERANCE_KM = 1e-6
-VELOCITY_TOLERANCE_KM_S = 1e-9
+POSITION_TOLERANCE_KM = 1e-6  # 003's continuity criterion: 1 mm
+VELOCITY_TOLERANCE_KM_S = 1e-9  # and 1 um/s
+# Over long unstable arcs (004's 60-day EML1 halos) the defects stop falling at a few 1e-7 km: the rounding of
+# a 1.5-day RK8 segment, whose last bits differ by BLAS kernel. A correction whose damped steps can no longer
+# lower the defects counts as converged when they are below these (10 cm, 0.1 mm/s): the truth starts from
+# the first node, so the defects only say how closely the corrected orbit follows its reference.
+FLOOR_POSITION_TOLERANCE_KM = 1e-4
+FLOOR_VELOCITY_TOLERANCE_KM_S = 1e-7
+# Velocity defects and steps count in km per VELOCITY_WEIGHT_S: a 1 mm/s defect weighs as a 1 m one.
+VELOCITY_WEIGHT_S = 1e3
+SUFFICIENT_DECREASE = 1e-4  # a step is taken when it lowers the merit by at least this share
+DAMPING_FLOOR = 1e-9  # the smallest non-zero damping, relative to the mean diagonal of D D^T
+MAX_DAMPING_TRIES = 16  # damping raised tenfold at most this many times per step
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,30 +91,93 @@ def patch_points_from_crtbp(state_lu, epoch_s: float, span_s: float, node_spacin
     return times_s, nodes
 
 
-def multiple_shooting(node_times_s, nodes, forces: ForceModel, steps_per_node: int = 200,
-                      max_iterations: int = 20) -> CorrectedOrbit:
-    nodes = np.array(nodes, dtype=float)
+def segment_defects(node_times_s, nodes, forces: ForceModel, steps_per_node: int) -> np.ndarray:
+    """(N, 6) km, km/s: each segment's propagated end state minus the next node."""
+    ends = [forces.propagate(nodes[i], node_times_s[i], node_times_s[i + 1] - node_times_s[i], steps_per_node)
+            for i in range(len(node_times_s) - 1)]
+    return np.array(ends) - nodes[1:]
+
+
+def defects_and_jacobian(node_times_s, nodes, forces: ForceModel, steps_per_node: int):
+    """F (6N,) and DF (6N, 6N + 6): the defects and their partials [Phi_i, -I] in each segment's rows."""
     n_seg = len(node_times_s) - 1
+    F = np.zeros(6 * n_seg)
+    DF = np.zeros((6 * n_seg, 6 * (n_seg + 1)))
+    for i in range(n_seg):
+        end, phi = forces.propagate(nodes[i], node_times_s[i], node_times_s[i + 1] - node_times_s[i],
+                                    steps_per_node, with_stm=True)
+        F[6 * i : 6 * i + 6] = end - nodes[i + 1]
+        DF[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = phi
+        DF[6 * i : 6 * i + 6, 6 * i + 6 : 6 * i + 12] = -np.eye(6)
+    return F, DF
+
+
+def _scale(n_nodes: int) -> np.ndarray:
+    """Per unknown: 1 for positions (km), VELOCITY_WEIGHT_S for velocities (km/s), so both halves weigh alike."""
+    return np.tile([1.0, 1.0, 1.0, VELOCITY_WEIGHT_S, VELOCITY_WEIGHT_S, VELOCITY_WEIGHT_S], n_nodes)
+
+
+def minimum_norm_step(F, DF, damping: float = 0.0) -> np.ndarray:
+    """dX (6N + 6,) with the least scaled norm among the solutions of DF dX = -F (damping 0: Newton, from the
+    QR factorisation of the scaled DF^T, DF^T = Q R, dX = -Q R^-T F), or Levenberg-Marquardt's damped step
+    dX = -D^T (D D^T + damping I)^-1 F, D the scaled DF: shorter, and turned toward steepest descent."""
+    scale = _scale(DF.shape[1] // 6)
+    D = DF / scale
+    if damping == 0.0:
+        q, r = np.linalg.qr(D.T)
+        return -(q @ solve_triangular(r, F, trans="T")) / scale
+    normal = D @ D.T
+    normal[np.diag_indices_from(normal)] += damping
+    return -(D.T @ np.linalg.solve(normal, F)) / scale
+
+
+def weighted_norm(defects) -> float:
+    """The merit function: the 2-norm of the defects with velocities in km per VELOCITY_WEIGHT_S."""
+    weighted = np.array(defects, dtype=float).reshape(-1, 6)
+    weighted[:, 3:] *= VELOCITY_WEIGHT_S
+    return float(np.linalg.norm(weighted))
+
+
+def multiple_shooting(node_times_s, nodes, forces: ForceModel, steps_per_node: int = 200,
+                      max_iterations: int = 40) -> CorrectedOrbit:
+    """Levenberg-Marquardt on every node until each segment's defect is below the tolerances (or
+    max_iterations Jacobians): a Newton step where it lowers the scaled defect norm, else damped steps."""
+    node_times_s = np.asarray(node_times_s, dtype=float)
+    nodes = np.array(nodes, dtype=float)
     pos_defects, vel_defects = [], []
     converged = False
+    damping = 0.0
     for iteration in range(1, max_iterations + 1):
-        F = np.zeros(6 * n_seg)
-        DF = np.zeros((6 * n_seg, 6 * (n_seg + 1)))
-        for i in range(n_seg):
-            dt = node_times_s[i + 1] - node_times_s[i]
-            end, phi = forces.propagate(nodes[i], node_times_s[i], dt, steps_per_node, with_stm=True)
-            F[6 * i : 6 * i + 6] = end - nodes[i + 1]
-            DF[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = phi
-            DF[6 * i : 6 * i + 6, 6 * i + 6 : 6 * i + 12] = -np.eye(6)
-        defects = F.reshape(n_seg, 6)
+        F, DF = defects_and_jacobian(node_times_s, nodes, forces, steps_per_node)
+        defects = F.reshape(-1, 6)
         pos_defects.append(float(np.max(np.linalg.norm(defects[:, :3], axis=1))))
         vel_defects.append(float(np.max(np.linalg.norm(defects[:, 3:], axis=1))))
         if pos_defects[-1] < POSITION_TOLERANCE_KM and vel_defects[-1] < VELOCITY_TOLERANCE_KM_S:
             converged = True
             break
-        # Minimum-norm Newton step; scale velocities to km per (1000 s) so both halves weigh alike.
-        scale = np.tile([1.0, 1.0, 1.0, 1e3, 1e3, 1e3], n_seg + 1)
-        D = DF / scale
-        dX = -(D.T @ np.linalg.solve(D @ D.T, F)) / scale
-        nodes = nodes + dX.reshape(n_seg + 1, 6)
-    return CorrectedOrbit(np.asarray(node_times_s), nodes, tuple(pos_defects), tuple(vel_defects), iteration, converged)
+        if not np.all(np.isfinite(F)):
+            break
+        nodes, damping, lowered = _damped_step(node_times_s, nodes, F, DF, damping, forces, steps_per_node)
+        if not lowered:  # at the rounding floor, or stuck: no damping lowers the defects any more
+            converged = pos_defects[-1] < FLOOR_POSITION_TOLERANCE_KM and vel_defects[-1] < FLOOR_VELOCITY_TOLERANCE_KM_S
+            break
+    return CorrectedOrbit(node_times_s, nodes, tuple(pos_defects), tuple(vel_defects), iteration, converged)
+
+
+def _damped_step(node_times_s, nodes, F, DF, damping, forces: ForceModel, steps_per_node: int):
+    """(new nodes, damping for the next step, lowered). Tries the step at the current damping; while it does
+    not lower the merit by SUFFICIENT_DECREASE, raises the damping tenfold (from a floor of DAMPING_FLOOR of
+    D D^T's mean diagonal) up to MAX_DAMPING_TRIES times; on success the next step starts with a tenth of it
+    (0 below the floor). When no damping lowers the merit, the nodes are returned unchanged."""
+    merit = weighted_norm(F)
+    scaled = DF / _scale(DF.shape[1] // 6)
+    floor = DAMPING_FLOOR * float(np.mean(np.sum(scaled * scaled, axis=1)))
+    for _ in range(MAX_DAMPING_TRIES):
+        step = minimum_norm_step(F, DF, damping).reshape(-1, 6)
+        trial = nodes + step
+        trial_merit = weighted_norm(segment_defects(node_times_s, trial, forces, steps_per_node))
+        if trial_merit <= (1.0 - SUFFICIENT_DECREASE) * merit:
+            lowered = damping / 10.0
+            return trial, (0.0 if lowered < floor else lowered), True
+        damping = max(10.0 * damping, floor)
+    return nodes, damping, False

@@ -1,60 +1,26 @@
-"""Orbit-family tables on disk: generated once, then read from a user cache (NumPy .npz, no pickles).
+"""Orbit-family tables: the shipped catalogue's (orbits.family_catalogue) for the default 30 members, any
+other count generated once, then read from a user cache (NumPy .npz, no pickles); members by period or
+amplitude.
 
 Cache folder: `$LIAISON_ORBIT_CACHE_DIR`, else `$LIAISON_CACHE_DIR/families` (default
 `~/.cache/liaison/families`). A file name carries the family, the member count and a hash of the orbit
 and dynamics sources, so a changed corrector never serves stale members.
 """
 
-import dataclasses
 import os
-from collections import namedtuple
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from liaison_cli import core_source_hash
-from liaison_cli.orbits.families import (
-    TU_DAYS,
-    amplitude_km,
-    generate_family,
-    get_spec,
-    member_by_amplitude,
-    member_by_period,
-)
+from liaison_cli.orbits.families import generate_family, get_spec, member_by_amplitude, member_by_period
+from liaison_cli.orbits.family_catalogue import CATALOGUE_COUNT, shipped_table
+from liaison_cli.orbits.family_table import FamilyTable, from_table, mirrored, required_columns, to_table
 from liaison_cli.orbits.npz_cache import cache_folder, read_intact, write_npz
 from liaison_cli.orbits.periodic import PeriodicOrbit
 
-DEFAULT_COUNT = 30
-AXES = ("x", "y", "z", "vx", "vy", "vz")
-
-
-class FamilyTable:
-    """Column table of a family: `table.period_days`, `table["period_days"]`, `len(table)`,
-    `table.itertuples()` (one namedtuple per member, in member order)."""
-
-    def __init__(self, columns: dict):
-        self.columns = {name: np.asarray(values) for name, values in columns.items()}
-
-    def __getitem__(self, name):
-        return self.columns[name]
-
-    def __getattr__(self, name):
-        try:
-            return self.__dict__["columns"][name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    def __len__(self):
-        return len(self.columns["member"])
-
-    def itertuples(self):
-        row = namedtuple("Member", list(self.columns))
-        for i in range(len(self)):
-            yield row(*(values[i] for values in self.columns.values()))
-
-    def with_columns(self, **changes) -> "FamilyTable":
-        return FamilyTable({**self.columns, **changes})
+DEFAULT_COUNT = CATALOGUE_COUNT
 
 
 def cache_dir() -> Path:
@@ -67,27 +33,6 @@ def family_path(name: str, count: int) -> Path:
     return cache_dir() / f"{name}-n{count}-{core_source_hash(('orbits', 'dynamics'))[:12]}.npz"
 
 
-def to_table(name: str, members: list[PeriodicOrbit]) -> FamilyTable:
-    planar = get_spec(name).planar
-    columns = {"family": np.array([name] * len(members)), "member": np.arange(len(members))}
-    for i, axis in enumerate(AXES):
-        columns[f"{axis}0"] = np.array([orbit.state[i] for orbit in members])
-    for field in dataclasses.fields(PeriodicOrbit):
-        if field.name != "state":
-            columns[field.name] = np.array([getattr(orbit, field.name) for orbit in members], dtype=float)
-    columns["period_days"] = np.array([orbit.period_tu * TU_DAYS for orbit in members])
-    columns["amplitude_km"] = np.array([amplitude_km(orbit, planar) for orbit in members])
-    return FamilyTable(columns)
-
-
-def from_table(table: FamilyTable) -> list[PeriodicOrbit]:
-    fields = [f.name for f in dataclasses.fields(PeriodicOrbit) if f.name != "state"]
-    return [
-        PeriodicOrbit(state=tuple(float(table[f"{a}0"][i]) for a in AXES), **{k: float(table[k][i]) for k in fields})
-        for i in range(len(table))
-    ]
-
-
 def _save(table: FamilyTable, path: Path) -> None:
     write_npz(table.columns, path)
 
@@ -95,11 +40,6 @@ def _save(table: FamilyTable, path: Path) -> None:
 def _load(path: Path) -> FamilyTable:
     with np.load(path, allow_pickle=False) as data:
         return FamilyTable({name: data[name] for name in data.files})
-
-
-def _required_columns() -> list[str]:
-    fields = [f.name for f in dataclasses.fields(PeriodicOrbit) if f.name != "state"]
-    return ["family", "member", *(f"{a}0" for a in AXES), *fields, "period_days", "amplitude_km"]
 
 
 def _load_intact(path: Path, name: str, count: int) -> FamilyTable | None:
@@ -112,7 +52,7 @@ def _load_intact(path: Path, name: str, count: int) -> FamilyTable | None:
 
 def _read_checked(path: Path) -> tuple[FamilyTable, str | None]:
     table = _load(path)
-    columns = _required_columns()
+    columns = required_columns()
     present = all(c in table.columns for c in columns)
     lengths = {len(table.columns[c]) for c in columns} if present else set()
     intact = len(lengths) == 1 and lengths != {0} and all(table.columns[c].dtype.kind == "f" for c in columns[2:])
@@ -120,8 +60,12 @@ def _read_checked(path: Path) -> tuple[FamilyTable, str | None]:
 
 
 def load_or_generate(name: str, count: int = DEFAULT_COUNT, regenerate: bool = False) -> tuple[FamilyTable, bool]:
-    """(family table, read_from_cache). A damaged cache file is rebuilt (one note on stderr)."""
+    """(family table, read_from_disk). The default count is the shipped catalogue's table (the same on every
+    machine); another count, or `regenerate`, is generated into the user cache (a damaged cache file is
+    rebuilt, with one note on stderr)."""
     spec = get_spec(name)
+    if count == CATALOGUE_COUNT and not regenerate:
+        return shipped_table(name), True
     path = family_path(name, count)
     if path.exists() and not regenerate:
         table = _load_intact(path, name, count)
@@ -129,7 +73,7 @@ def load_or_generate(name: str, count: int = DEFAULT_COUNT, regenerate: bool = F
             return table, True
     if spec.mirror_of:  # z -> -z of the other class: no need to continue the family again
         base, _ = load_or_generate(spec.mirror_of, count, regenerate)
-        table = base.with_columns(family=np.array([name] * len(base)), z0=-base.z0, vz0=-base.vz0)
+        table = mirrored(base, name)
     else:
         table = to_table(name, generate_family(name, count))
     _save(table, path)

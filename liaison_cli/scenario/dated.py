@@ -5,7 +5,8 @@
   filter's model keeps only `ephemeris.filter_bodies` (003: the Moon and the Sun).
 - Initial states: a catalog orbit (a CRTBP state) is mapped to patch points every node_spacing_days over
   the scenario and corrected by multiple shooting into the dated model (003's continuity criterion); its
-  first node is the initial state. `orbit: icrf_state` takes `state_km` as given; `orbit: departure` puts
+  first node is the initial state. A correction that does not converge is tried again with other node
+  spacings (RETRY_NODE_SPACINGS_DAYS) before the error lists what was tried. `orbit: icrf_state` takes `state_km` as given; `orbit: departure` puts
   the spacecraft on its hyperbola (orbits.departure, orbits.departure_missions).
 - Stations: WGS84 geodetic coordinates (true longitude) on the IAU 2006/2000A Earth with UT1 and polar
   motion from the IERS file (dynamics.earth_rotation), sampled at the scenario's epochs.
@@ -33,9 +34,11 @@ from liaison_cli.orbits.departure_missions import (
     periapsis_radius_km,
 )
 from liaison_cli.orbits.corrected_store import corrected_orbit
-from liaison_cli.orbits.ephemeris_correction import ForceModel
+from liaison_cli.orbits.ephemeris_correction import POSITION_TOLERANCE_KM, VELOCITY_TOLERANCE_KM_S, ForceModel
 from liaison_cli.scenario.reference_states import phased_state_lu
 
+# Patch-point spacings tried, nearest the scenario's own first, when a correction does not converge.
+RETRY_NODE_SPACINGS_DAYS = (0.75, 1.0, 1.5, 2.0, 3.0)
 THIRD_BODIES = (301, 10, 1, 2, 4, 5, 6, 7, 8, 9)  # Moon, Sun, the planets' systems
 BODY_CODES = {"moon": 301, "sun": 10, "mercury": 1, "venus": 2, "mars": 4, "jupiter": 5, "saturn": 6, "uranus": 7,
               "neptune": 8, "pluto": 9}
@@ -99,15 +102,25 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
         return departure_state_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
     forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
     span_s = scenario.duration_days * SECONDS_PER_DAY
-    spacing_s = min(scenario.ephemeris.node_spacing_days * SECONDS_PER_DAY, span_s)
-    corrected, _ = corrected_orbit(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s, forces)
-    if not corrected.converged:
-        raise OrbitCorrectionError(
-            f"{scenario.name}: spacecraft {spacecraft.name!r}: multiple shooting of {spacecraft.orbit!r} over "
-            f"{scenario.duration_days:g} d did not converge (largest defect {corrected.position_defects_km[-1]:.3g} "
-            f"km); try another ephemeris.node_spacing_days (now {scenario.ephemeris.node_spacing_days:g}) or a "
-            "shorter scenario")
-    return corrected.nodes[0] / SCALE
+    tried = []
+    for spacing_days in node_spacings_to_try(scenario.ephemeris.node_spacing_days):
+        spacing_s = min(spacing_days * SECONDS_PER_DAY, span_s)
+        corrected, _ = corrected_orbit(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s, forces)
+        if corrected.converged:
+            return corrected.nodes[0] / SCALE
+        tried.append(f"{spacing_days:g} d: {corrected.position_defects_km[-1]:.3g} km, "
+                     f"{corrected.velocity_defects_km_s[-1] * 1e3:.3g} m/s after {corrected.iterations} iterations")
+    raise OrbitCorrectionError(
+        f"{scenario.name}: spacecraft {spacecraft.name!r}: multiple shooting of {spacecraft.orbit!r} over "
+        f"{scenario.duration_days:g} d did not converge to {POSITION_TOLERANCE_KM * 1e3:g} m and "
+        f"{VELOCITY_TOLERANCE_KM_S * 1e3:g} m/s; node spacings tried (largest defects left): {'; '.join(tried)}. "
+        "A shorter scenario, or another epoch, may have a nearby orbit in the dated model")
+
+
+def node_spacings_to_try(requested_days: float) -> list[float]:
+    """The scenario's node spacing, then the others of RETRY_NODE_SPACINGS_DAYS nearest to it first."""
+    others = sorted((d for d in RETRY_NODE_SPACINGS_DAYS if d != requested_days), key=lambda d: abs(d - requested_days))
+    return [requested_days, *others]
 
 
 class DatedStationTrajectory:

@@ -9,7 +9,7 @@ import yaml
 from pydantic import ValidationError
 
 from liaison_cli.errors import ScenarioError
-from liaison_cli.orbits.family_ranges import member_range
+from liaison_cli.orbits.family_catalogue import member_range
 from liaison_cli.orbits.families import FAMILIES
 from liaison_cli.scenario.exchange_specs import resolve_exchange_files
 from liaison_cli.scenario.radio_settings import RangingLinkFile

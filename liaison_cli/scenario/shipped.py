@@ -1,0 +1,44 @@
+"""The shipped scenarios: the papers' scenario files, link files and JSON Schema, package data in
+liaison_cli/shipped_scenarios/ (the repository's scenarios/ is a link to that folder, so there is one copy).
+
+The rule, for every command with default scenarios (`sweep` without a scenario, `table3`, `study003`,
+`study004`): a default, named relative to the shipped folder ("004/eml2_halo.yaml"), is the installed
+package's file, wherever the command runs; a path the user gives is used as given (relative to the working
+folder), and wins. A scenarios/ folder in the working folder is not looked at for a default: the package's
+copy is the one that matches the code that runs it.
+"""
+
+from importlib.resources import files
+from pathlib import Path
+
+from liaison_cli.errors import LiaisonError
+
+SHIPPED_FOLDER = "shipped_scenarios"
+
+
+def shipped_dir() -> Path:
+    """The folder of the shipped scenarios, in the installed package (a regular or an editable install)."""
+    root = files("liaison_cli") / SHIPPED_FOLDER
+    if not isinstance(root, Path):  # a zipped package: not how pip installs a wheel
+        raise LiaisonError(f"{root}: the shipped scenarios are not on the file system; install liaison with pip "
+                           "(an unpacked wheel)")
+    return root
+
+
+def shipped_scenario(name: str) -> Path:
+    """The shipped file `name` ("eml2_lunar.yaml", "004/dro.yaml"); an error naming it if the install lacks it."""
+    path = shipped_dir() / name
+    if not path.is_file():
+        raise LiaisonError(f"{path}: a shipped scenario is missing from this installation (package data "
+                           "liaison_cli/shipped_scenarios); reinstall liaison, or name the scenario files")
+    return path
+
+
+def scenario_paths(given, defaults) -> list[Path]:
+    """The paths the user gave (as given, relative to the working folder), or else the shipped `defaults`."""
+    return [Path(p) for p in given] if given else [shipped_scenario(name) for name in defaults]
+
+
+def scenario_folder(given) -> Path:
+    """A folder of scenario files the user gave (as given), or else the shipped folder."""
+    return Path(given) if given is not None else shipped_dir()
