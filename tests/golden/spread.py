@@ -1,0 +1,74 @@
+"""Measure how far each golden quantity moves across BLAS kernels, and write the tolerances test_golden uses.
+
+`python tests/golden/spread.py HOST.json.gz OTHER.json.gz ...`: records made by tests/golden/record.py (with
+LIAISON_GOLDEN_OUT set) of the same code, each under another OpenBLAS kernel (the host's, and
+OPENBLAS_CORETYPE=Haswell, Sandybridge, Nehalem). For every scenario, table and numeric column, the spread is
+the largest difference from the first record, relative to the column's scale (the sum of absolute values for
+the column sum; the largest |value| for the sampled values). The tolerance is SAFETY times the spread, and at
+least FLOOR: an ill-conditioned statistic (a NEES dominated by a few epochs, a per-epoch error late in a
+divergent arc) gets a loose bound, a well-conditioned one (a summary RMS) a tight one. Writes
+tests/golden/tolerances.json with the spreads, the tolerances, the kernels and the rule.
+"""
+
+import gzip
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+TOLERANCES = Path(__file__).with_name("tolerances.json")
+SAFETY = 10.0  # four kernels sample the rounding; a fifth CPU may round further out
+FLOOR = 1e-9  # two runs on one machine agree bit for bit; 1e-9 leaves room for a library's summation order
+
+
+def _values(entry: dict) -> tuple[np.ndarray, float, np.ndarray, float]:
+    sample = np.array([np.nan if v is None else v for v in entry["sample"]], dtype=float)
+    scale = float(np.nanmax(np.abs(sample))) if np.isfinite(sample).any() else 0.0
+    return np.array([entry["sum"]]), float(entry["abs"]), sample, scale
+
+
+def column_spread(entries: list[dict]) -> float:
+    """The largest relative difference of a column's sum or samples between the first record and the others."""
+    base_sum, base_abs, base_sample, base_scale = _values(entries[0])
+    worst = 0.0
+    for entry in entries[1:]:
+        other_sum, _, other_sample, _ = _values(entry)
+        if base_abs:
+            worst = max(worst, float(np.abs(other_sum - base_sum)[0]) / base_abs)
+        if base_scale and other_sample.shape == base_sample.shape:
+            worst = max(worst, float(np.nanmax(np.abs(other_sample - base_sample), initial=0.0)) / base_scale)
+        elif other_sample.shape != base_sample.shape:
+            worst = float("inf")
+    return worst
+
+
+def spreads(records: list[dict]) -> dict:
+    out = {}
+    for scenario, first in records[0].items():
+        columns = {}
+        for table, recorded in first["tables"].items():
+            for column, values in recorded["columns"].items():
+                if "sum" in values:
+                    entries = [r[scenario]["tables"][table]["columns"][column] for r in records]
+                    columns[f"{table}.{column}"] = column_spread(entries)
+        out[scenario] = columns
+    return out
+
+
+def main(paths: list[str]) -> None:
+    records = []
+    for path in paths:
+        with gzip.open(path, "rt", encoding="utf-8") as handle:
+            records.append(json.load(handle))
+    measured = spreads(records)
+    tolerances = {scenario: {name: max(FLOOR, SAFETY * spread) for name, spread in columns.items()}
+                  for scenario, columns in measured.items()}
+    kernels = [Path(p).name.split(".")[0] for p in paths]
+    TOLERANCES.write_text(json.dumps({"kernels": kernels, "safety": SAFETY, "floor": FLOOR, "spread": measured,
+                                      "rtol": tolerances}, indent=1, sort_keys=True) + "\n")
+    print(f"wrote {TOLERANCES}: {len(measured)} scenarios; kernels {', '.join(kernels)}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
