@@ -4,7 +4,8 @@ Patch points: the CRTBP trajectory sampled every `node_spacing_s` from the epoch
 nominal TU) and mapped to geocentric ICRF through the instantaneous Earth-Moon frame at each node's date.
 Unknowns: every node's state; constraints: each segment's propagated end state equals the next node
 (position and velocity). Newton with the minimum-norm update dX = -DF^+ F, DF = [Phi_i, -I] per segment,
-until every defect is below 1e-6 km and 1e-9 km/s (003's continuity criterion).
+until every defect is below 1e-6 km and 1e-9 km/s (003's continuity criterion), or, where no step lowers
+the defects any more (the rounding floor), below 1e-4 km and 1e-7 km/s.
 
 Globalised, so that the answer does not hang on the last bit of the linear algebra: Levenberg-Marquardt.
 A step is taken only when it lowers the scaled defect norm; the Newton step (from a QR factorisation of the
