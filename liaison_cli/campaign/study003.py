@@ -23,12 +23,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
+from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_UNITS
 from liaison_cli.scenario.schema import DEPARTURE_ORBIT, Scenario, apply_overrides
 
 CASES = ("full", "dsn_only", "liaison_only")
@@ -97,18 +98,35 @@ def with_dsn_noise(scenario: Scenario, reading: str) -> Scenario:
     return apply_overrides(scenario, {"links": links}, f"{scenario.name} (DSN noise: 003 {reading})")
 
 
+def process_noise_text(scenario: Scenario) -> str:
+    """The process noise in force, with its convention: 'SNC sigma_a 2e-08 m/s^2 (per-step convention, <model>)'
+    or 'SNC PSD 1e-12 m^2/s^3 (...)'; where estimated spacecraft differ, each value names its spacecraft."""
+    flt = scenario.filter
+    by_convention: dict[str, dict[float, list[str]]] = {}
+    for sc in scenario.spacecraft:
+        if sc.role == "estimated":
+            convention, value = flt.process_noise_of(sc)
+            by_convention.setdefault(convention, {}).setdefault(value, []).append(sc.name)
+    parts = []
+    for convention, values in by_convention.items():
+        unit = PROCESS_NOISE_UNITS[convention]
+        text = ", ".join(f"{value:g} {unit}" + (f" for {', '.join(names)}" if len(values) > 1 or len(
+            by_convention) > 1 else "") for value, names in values.items())
+        parts.append(f"PSD {text} (isotropic white acceleration, independent of the interval)"
+                     if convention == PROCESS_NOISE_PSD else
+                     f"sigma_a {text} (per-step convention, {flt.process_noise_model})")
+    return "SNC " + "; ".join(parts)
+
+
 def tuning(scenario: Scenario) -> str:
     """The filter settings a study's numbers depend on, in one line for its table header."""
     flt = scenario.filter
-    own = sorted({sc.process_noise_accel_m_s2 for sc in scenario.spacecraft if sc.process_noise_accel_m_s2})
-    snc = f"{flt.process_noise_accel_m_s2:g}" + (f" (per spacecraft: {', '.join(f'{v:g}' for v in own)})" if own
-                                                  else "")
     gate = f"{flt.residual_gate_sigma:g} sigma" if flt.residual_gate_sigma else "off"
     apriori = ", ".join(
         f"{sc.name} {sc.apriori_sigma_position_m or flt.initial_sigma_position_m:g} m / "
         f"{sc.apriori_sigma_velocity_m_s or flt.initial_sigma_velocity_m_s:g} m/s"
         for sc in scenario.spacecraft if sc.role == "estimated")
-    return (f"SNC sigma_a {snc} m/s^2 ({flt.process_noise_model}), underweighting beta {flt.underweighting:g}, "
+    return (f"{process_noise_text(scenario)}, underweighting beta {flt.underweighting:g}, "
             f"a priori (1 sigma per axis) {apriori}, residual gate {gate}, settle {scenario.settle_days():g} d")
 
 
@@ -144,8 +162,9 @@ def _statistics(result, mission: str, case: str) -> CaseResult:
                                          "bound_3sigma": np.mean(bound, axis=0)}))
         stats["frac_nees_in_band_settled"] = float(np.mean([row["frac_nees_in_band_settled"] for o in ok
                                                             for row in o.summary if row["spacecraft"] == name]))
-        stats["consistent_settled"] = bool(max(stats["error_to_sigma_position_settled"],
-                                               stats["error_to_sigma_velocity_settled"]) <= CONSISTENCY_RATIO_LIMIT)
+        verdict = campaign_verdict(pd.DataFrame([row for o in ok for row in o.summary if row["spacecraft"] == name]))
+        stats["consistent_settled"], stats["consistency_failed"] = (verdict["consistent_settled"],
+                                                                    verdict["consistency_failed"])
         paper = PAPER_FULL_SET.get((mission, who[name])) if case == "full" else None
         stats["paper_sigma3d_rms_position_m"] = paper[0] if paper else np.nan
         stats["paper_sigma3d_rms_velocity_m_s"] = paper[1] if paper else np.nan

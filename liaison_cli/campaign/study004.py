@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.analysis.dop import tdoa_dop
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.campaign.error_budget import error_budget
 from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
@@ -139,8 +139,9 @@ def _monte_carlo(campaign, t_days, arc, quarter, steady_position_3sigma_m: float
             out[f"ekf_error_to_sigma_{kind}_{label}"] = error_rms / sigma_rms if sigma_rms > 0 else float("nan")
     shares = [row["frac_nees_in_band_settled"] for o in converged for row in o.summary[:1]]
     out["ekf_frac_nees_in_band_settled"] = float(np.mean(shares)) if shares else float("nan")
-    ratios = [out["ekf_error_to_sigma_position_settled"], out["ekf_error_to_sigma_velocity_settled"]]
-    out["ekf_consistent_settled"] = bool(converged) and max(ratios) <= CONSISTENCY_RATIO_LIMIT
+    verdict = campaign_verdict(pd.DataFrame([o.summary[0] for o in converged]))
+    out["ekf_consistent_settled"] = bool(converged) and verdict["consistent_settled"]
+    out["ekf_consistency_failed"] = verdict["consistency_failed"] if converged else "no run converged"
     return out
 
 

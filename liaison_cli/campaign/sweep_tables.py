@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli import __version__, core_source_hash
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.analysis.consistency import campaign_verdict
+from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.campaign.sweep_plan import SweepPlan, SweepPoint
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
@@ -69,8 +70,8 @@ def _curve_consistency(ok: pd.DataFrame) -> dict:
                                                  if present else float("nan"))
     share = ok["frac_nees_in_band_settled"] if "frac_nees_in_band_settled" in ok else pd.Series(dtype=float)
     out["frac_nees_in_band_settled_mean"] = float(share.mean()) if len(share) else float("nan")
-    out["consistent_settled"] = bool(out["position_error_to_sigma_settled"] <= CONSISTENCY_RATIO_LIMIT
-                                     and out["velocity_error_to_sigma_settled"] <= CONSISTENCY_RATIO_LIMIT)
+    verdict = campaign_verdict(ok)  # the NEES test and the ratio's interval (analysis.consistency)
+    out["consistent_settled"], out["consistency_failed"] = verdict["consistent_settled"], verdict["consistency_failed"]
     return out
 
 

@@ -10,7 +10,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.analysis.consistency import campaign_verdict
+from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.results import summarise_campaign
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
@@ -57,8 +58,8 @@ def case_rows(formation: str, sigma_m: float, spacecraft, summary: pd.DataFrame)
             row[f"{kind}_error_to_sigma_settled"] = campaign_error_to_sigma(mine[f"rms_{kind}_settled_{unit}"],
                                                                             mine[f"sigma_{kind}_settled_{unit}"])
         row["frac_nees_in_band_settled"] = float(mine.frac_nees_in_band_settled.mean()) if len(mine) else np.nan
-        row["consistent_settled"] = bool(max(row["position_error_to_sigma_settled"],
-                                             row["velocity_error_to_sigma_settled"]) <= CONSISTENCY_RATIO_LIMIT)
+        verdict = campaign_verdict(mine)  # the NEES test and the ratio's interval (analysis.consistency)
+        row["consistent_settled"], row["consistency_failed"] = verdict["consistent_settled"], verdict["consistency_failed"]
         rows.append(row)
     return rows
 

@@ -1,9 +1,13 @@
 """Process noise chosen by a stated consistency rule (issue 26 item 2): `liaison tune`.
 
 The rule, for one EKF scenario:
-- Ladder: the SNC white acceleration sigma_a (m/s^2) takes each value of a ladder (default DEFAULT_LADDER_M_S2,
-  one value per decade from 1e-10 to 1e-5), the same for every estimated spacecraft: the filter key
-  `filter.process_noise_accel_m_s2` is set and every spacecraft's own `process_noise_accel_m_s2` removed.
+- Ladder: the SNC white acceleration sigma_a (m/s^2, the per-step convention: q = sigma_a^2 dt) takes each value
+  of a ladder (default DEFAULT_LADDER_M_S2, one value per decade from 1e-10 to 1e-5), the same for every
+  estimated spacecraft: the filter key `filter.process_noise_accel_m_s2` is set and every spacecraft's own
+  process-noise key (either convention) removed, as is a filter PSD no estimated spacecraft used.
+- A scenario whose process noise is a PSD (`process_noise_psd_m2_s3`, given or by default, for any estimated
+  EKF spacecraft) is refused before anything runs (psd_refusal): the table's values are sigma_a in m/s^2,
+  and a ladder of PSD values is not offered.
 - Runs: each rung is a Monte Carlo campaign of `runs` runs (default DEFAULT_RUNS = 20) over the scenario's
   whole arc, seeded from the scenario seed and the run index, so every rung sees the same initial errors and
   measurement noise (common random numbers: a difference between rungs is the process noise's, not luck's).
@@ -39,6 +43,7 @@ from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
 from liaison_cli.errors import LiaisonError
+from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_SIGMA_A
 from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.storage import resumable_output
 
@@ -93,12 +98,31 @@ def parse_ladder(text: str | None) -> tuple[float, ...]:
 
 
 def ladder_grid(scenario: Scenario, ladder) -> list[tuple[str, list]]:
-    """The sweep grid of the ladder: the filter's sigma_a over the rungs, every spacecraft's own value removed."""
+    """The sweep grid of the ladder: the filter's sigma_a over the rungs, every spacecraft's own value and the
+    filter's PSD (when given) removed."""
     grid = [(SNC_KEY, list(ladder))]
+    if scenario.filter.process_noise_psd_m2_s3 is not None:
+        grid.append((f"filter.{PROCESS_NOISE_PSD}", [None]))
     for index, spacecraft in enumerate(scenario.spacecraft):
-        if spacecraft.process_noise_accel_m_s2 is not None:
-            grid.append((f"spacecraft.{index}.process_noise_accel_m_s2", [None]))
+        for key in (PROCESS_NOISE_SIGMA_A, PROCESS_NOISE_PSD):
+            if getattr(spacecraft, key) is not None:
+                grid.append((f"spacecraft.{index}.{key}", [None]))
     return grid
+
+
+def psd_refusal(label: str, scenario: Scenario) -> str | None:
+    """The one-line reason `tune` refuses an EKF scenario whose process noise is a PSD for some estimated
+    spacecraft (module docstring), or None when every estimated spacecraft uses the per-step sigma_a."""
+    if not scenario.estimator_descriptor().process_noise:
+        return None
+    flt = scenario.filter
+    psd = [sc for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[0] == PROCESS_NOISE_PSD]
+    if not psd:
+        return None
+    given = flt.process_noise_psd_m2_s3 is not None or any(sc.process_noise_psd_m2_s3 is not None for sc in psd)
+    return (f"{label}: the process noise of {', '.join(sc.name for sc in psd)} is a PSD ({PROCESS_NOISE_PSD}"
+            f"{'' if given else ', the default when no process-noise key is given'}), and `liaison tune` ladders "
+            f"the per-step sigma_a only: give filter.{PROCESS_NOISE_SIGMA_A} instead of any PSD to tune this scenario")
 
 
 def ladder_base(scenario: Scenario, ladder) -> Scenario:
@@ -109,10 +133,11 @@ def ladder_base(scenario: Scenario, ladder) -> Scenario:
 
 
 def shipped_snc(scenario: Scenario) -> dict:
-    """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's)."""
-    default = scenario.filter.process_noise_accel_m_s2
-    return {sc.name: (default if sc.process_noise_accel_m_s2 is None else sc.process_noise_accel_m_s2)
-            for sc in scenario.spacecraft if sc.role == "estimated"}
+    """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's); None where there is no
+    sigma_a (a PSD, or a batch scenario without the key)."""
+    settings = {sc.name: scenario.filter.process_noise_of(sc) for sc in scenario.spacecraft if sc.role == "estimated"}
+    return {name: (value if convention == PROCESS_NOISE_SIGMA_A else None)
+            for name, (convention, value) in settings.items()}
 
 
 def rung_statistics(runs_table: pd.DataFrame) -> pd.DataFrame:
@@ -216,7 +241,11 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
 
 def tune(cases: list[TuningCase], ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False,
          on_case=None, where: Backend = LOCAL) -> pd.DataFrame:
-    """Every case's rows (tune_case), in the order given; `on_case(label)` is called as each one starts."""
+    """Every case's rows (tune_case), in the order given; `on_case(label)` is called as each one starts. A case
+    whose process noise is a PSD is refused before any runs (psd_refusal)."""
+    refused = [reason for case in cases if (reason := psd_refusal(case.label, case.scenario)) is not None]
+    if refused:
+        raise TuningError(refused[0])
     frames = []
     for case in cases:
         if on_case is not None:

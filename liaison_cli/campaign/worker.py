@@ -4,6 +4,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from liaison_cli.analysis.consistency import direction_columns, run_verdict
 from liaison_cli.analysis.metrics import (
     error_and_sigma,
     error_norms,
@@ -145,6 +146,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
                                       M_PER_LU, M_S_PER_VU, data_end_step=history.data_end_step,
                                       settle_s=problem.scenario.settle_days() * SECONDS_PER_DAY,
                                       nees=history.nees, n_nees=problem.filter.n_nees)
+        _add_directions(problem, arrays, history, summary)
         _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
         _add_clock_sync(problem, inputs, history.data_end_step, summary)
@@ -183,6 +185,21 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         if caused_by_interrupt(exc):
             raise KeyboardInterrupt from exc
         return RunOutcome(run=run, status="error", reason=f"{type(exc).__name__}: {exc}", fail_time_s=float("nan"))
+
+
+def _add_directions(problem: Problem, arrays, history, summary) -> None:
+    """Consistency by direction (analysis.consistency.direction_columns) into every spacecraft row, then each
+    row's verdict: consistent_settled and consistency_failed."""
+    starts, pairs = arrays.direction_starts()
+    block_of = {int(a): i for i, a in enumerate(starts)}
+    names = [f"{problem.spacecraft[block_of[int(a)]]}-{problem.spacecraft[block_of[int(b)]]}" for a, b in pairs]
+    per_spacecraft, run = direction_columns(problem.times_s, history.directions,
+                                            problem.scenario.settle_days() * SECONDS_PER_DAY, len(summary), names,
+                                            problem.scenario.measurement.interval_s)
+    for row, own in zip(summary, per_spacecraft):
+        row.update(own)
+        row.update(run)
+        row["consistent_settled"], row["consistency_failed"] = run_verdict(row)
 
 
 def _check_consistency(problem: Problem, history):
@@ -290,7 +307,8 @@ def _clock_histories(problem: Problem, err, sigma):
 
 def _nan_summary(rows):
     """A diverged run keeps its rows (with status) but no metrics, so it cannot be averaged in."""
-    return [{k: (v if k == "spacecraft" else float("nan")) for k, v in row.items()} for row in rows]
+    return [{k: (v if k == "spacecraft" else "" if isinstance(v, str) else float("nan")) for k, v in row.items()}
+            for row in rows]
 
 
 __all__ = ["RunTask", "RunOutcome", "RunInputs", "execute_run", "draw_run_inputs"]

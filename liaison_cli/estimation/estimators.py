@@ -15,9 +15,10 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.estimator import Estimator
-from liaison_cli.estimation.filter_loop import STATUS_NAMES, STATUS_OK, run_ekf
-from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, Dynamics, EkfSettings, SmootherRecord,
-                                                channels_of, dynamics_of)
+from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_TRANSMITTER_STATE, STATUS_NAMES, STATUS_OK,
+                                                run_ekf)
+from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
+                                                SmootherRecord, channels_of, direction_record, dynamics_of)
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
 from liaison_cli.measurements.registry import kinds_mask
@@ -83,6 +84,16 @@ class FilterArrays:
     def dynamics(self, t0_tu: float = 0.0) -> Dynamics:
         return dynamics_of(self.model_params, self.dt_tu, self.substeps, t0_tu)
 
+    def direction_starts(self) -> tuple[np.ndarray, np.ndarray]:
+        """(spacecraft block offsets (S,), offsets of each pair of estimated spacecraft a channel links (L, 2),
+        sorted): where filter_loop.record_directions looks."""
+        kind, start, _ = self.layout.arrays()
+        spacecraft = start[kind == BLOCK_SPACECRAFT]
+        ends = self.channel_ends
+        linked = {tuple(sorted((int(a), int(b)))) for a, b in zip(ends[:, END_RECEIVER_STATE], ends[:, END_TRANSMITTER_STATE])
+                  if a >= 0 and b >= 0 and a != b}
+        return spacecraft, np.array(sorted(linked), dtype=np.int64).reshape(-1, 2)
+
     def ekf_settings(self) -> EkfSettings:
         return EkfSettings(int(self.n_gain), int(self.n_nees), float(self.divergence_position_lu),
                            float(self.underweight), float(self.residual_gate_sigma), int(self.residual_gate_after))
@@ -117,6 +128,7 @@ class EstimateHistory:
     rejected: np.ndarray | None = None
     smoothed_err: np.ndarray | None = None  # (m, n) with filter.smoother: rts (NaN for a run that failed)
     smoothed_sigma: np.ndarray | None = None
+    directions: DirectionRecord | None = None  # the EKF's consistency by direction (filter_loop.record_directions)
 
 
 def _ekf(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
@@ -138,9 +150,10 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, reco
     m, n = truth.shape
     stored = m if record else 0  # the forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
+    directions = direction_record(*arrays.direction_starts(), m)
     args = (arrays.model, kinds_mask(arrays.channel_kind), x0_hat, P0, arrays.Q, truth, y_obs,
             arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
-            arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices))
+            arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices), directions)
     entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))
     err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = entry(*args)
     ok = status == STATUS_OK
@@ -150,7 +163,7 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, reco
         smoothed_err = x_s - truth
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, ok, "" if ok else STATUS_NAMES[int(status)],
                            int(fail_step), rejected=rejected, smoothed_err=smoothed_err,
-                           smoothed_sigma=smoothed_sigma), states, matrices
+                           smoothed_sigma=smoothed_sigma, directions=directions), states, matrices
 
 
 def _ekf_from_initial_batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
@@ -183,7 +196,16 @@ def _ekf_from_initial_batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> Estim
     innovation_std = np.vstack([np.full((e, y_obs.shape[1]), np.nan), after.innovation_std])
     rejected = np.vstack([np.zeros((e, y_obs.shape[1]), dtype=bool), after.rejected])
     return EstimateHistory(err, sigma, nees, innovation, innovation_std, after.ok, after.reason,
-                           after.fail_step + e if not after.ok else -1, extras=extras, rejected=rejected)
+                           after.fail_step + e if not after.ok else -1, extras=extras, rejected=rejected,
+                           directions=_after_window(after.directions, e))
+
+
+def _after_window(directions: DirectionRecord, e: int) -> DirectionRecord:
+    """The EKF's direction record behind e NaN epochs (the initial batch's window, not resolved by direction)."""
+    def padded(a):
+        return np.concatenate([np.full((e, *a.shape[1:]), np.nan), a])
+    return directions._replace(nees_spacecraft=padded(directions.nees_spacecraft),
+                               time_shift=padded(directions.time_shift), along_pair=padded(directions.along_pair))
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:

@@ -207,6 +207,64 @@ def record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nee
 
 
 @njit(cache=True, inline="always")
+def record_directions(k, e, P, truth, nees_k, chol, z, directions, work6, z6, u, v):
+    """Epoch k's consistency resolved by direction (directions: kernel_args.DirectionRecord; arrays of length 0
+    record nothing), after record_epoch: chol holds L with P = L L' and z = L^-1 e over the NEES's states (when
+    nees_k is finite). Each spacecraft block's own 6-state NEES into nees_spacecraft[k, s] (nees_into; work6
+    (6, 6), z6 (6,) its scratch). For a direction u, with v = L^-1 u: the NEES's component along u,
+    (v'z)^2 / v'v, and the error along u in its own sigma, v'z / |v| (its mean is the bias in sigma), from
+    [v'z, v'v]: into time_shift[k] for the common time shift, u = the true spacecraft states' central
+    difference over one step (zero on other blocks; an estimate that lags the truth by d steps has e = -d u,
+    and -v'z / v'v estimates d); into along_pair[k, p] for each pair's line of sight, u = +rho_hat on the
+    second block's position and -rho_hat on the first's. u, v (n,) are scratch."""
+    starts, pair_starts, nees_spacecraft, time_shift, along_pair = directions
+    if nees_spacecraft.shape[0] == 0:
+        return
+    m, n = truth.shape
+    for s in range(starts.shape[0]):
+        a = starts[s]
+        nees_spacecraft[k, s] = nees_into(e[a : a + 6], P[a : a + 6, a : a + 6], work6, z6)
+    if not np.isfinite(nees_k):
+        return
+    lo, hi = max(k - 1, 0), min(k + 1, m - 1)
+    for i in range(n):
+        u[i] = 0.0
+    if hi > lo:
+        for s in range(starts.shape[0]):
+            for i in range(starts[s], starts[s] + 6):
+                u[i] = (truth[hi, i] - truth[lo, i]) / (hi - lo)
+    time_shift[k, 0], time_shift[k, 1] = _whitened_along(u, chol, z, v)
+    for p in range(pair_starts.shape[0]):
+        a, b = pair_starts[p, 0], pair_starts[p, 1]
+        for i in range(n):
+            u[i] = 0.0
+        distance = 0.0
+        for i in range(3):
+            u[b + i] = truth[k, b + i] - truth[k, a + i]
+            distance += u[b + i] * u[b + i]
+        distance = np.sqrt(distance)
+        for i in range(3):
+            u[b + i] /= distance
+            u[a + i] = -u[b + i]
+        along_pair[k, p, 0], along_pair[k, p, 1] = _whitened_along(u, chol, z, v)
+
+
+@njit(cache=True, inline="always")
+def _whitened_along(u, chol, z, v):
+    """(v'z, v'v) with v = L^-1 u solved by forward substitution over L's rows (chol (r, r), z (r,), u, v (>= r,))."""
+    r = z.shape[0]
+    projected, length = 0.0, 0.0
+    for i in range(r):
+        s = u[i]
+        for j in range(i):
+            s -= chol[i, j] * v[j]
+        v[i] = s / chol[i, i]
+        projected += v[i] * z[i]
+        length += v[i] * v[i]
+    return projected, length
+
+
+@njit(cache=True, inline="always")
 def position_beyond_bound(e, layout, divergence_position_lu):
     """True if a spacecraft block's position error |e[a : a + 3]| (e (n,)) exceeds divergence_position_lu."""
     block_kind, block_start, _ = layout
@@ -227,7 +285,7 @@ def run_outputs(m, n, n_channels):
 
 @njit(cache=True)
 def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
-            record):
+            record, directions):
     """Run one EKF pass.
 
     model, kinds: compile-time constants, the dynamics model code and the bit set of channel_kind's codes
@@ -244,6 +302,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
 
     record (SmootherRecord): for the RTS smoother (estimation.smoother), each epoch's [x_hat, x_bar] and
     [P_bar, P, Phi] (Phi from the epoch before; constant blocks as identity); arrays of length 0 store nothing.
+    directions (DirectionRecord): filled at every recorded epoch by record_directions (length 0: not kept).
 
     Returns (err (m, n), sigma (m, n), nees (m,), innovation (m, C), innovation_std (m, C), rejected (m, C),
     status, fail_step): err = x_hat - x_true, sigma = sqrt(diag P), both after the update at each epoch;
@@ -271,7 +330,9 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     g_receiver, g_transmitter, g_second = np.empty(6), np.empty(6), np.empty(6)
     y_stm, work_stm, work_block = np.empty(42), np.empty((5, 42)), np.empty((6, 6))
     work_nees, z_nees = np.empty((n_nees, n_nees)), np.empty(n_nees)
+    work6, z6, u, v = np.empty((6, 6)), np.empty(6), np.empty(n), np.empty(n)
     record_epoch(0, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
+    record_directions(0, e, P, truth, nees[0], work_nees, z_nees, directions, work6, z6, u, v)
     storing = store_states.shape[0] > 0
     if storing:
         _store_update(store_states, store_matrices, 0, x_hat, P)
@@ -327,6 +388,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
         if status != STATUS_OK:
             return err, sig, nees, innovations, innov_std, rejected, status, k
         record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
+        record_directions(k, e, P, truth, nees[k], work_nees, z_nees, directions, work6, z6, u, v)
         if position_beyond_bound(e, layout, divergence_position_lu):
             return err, sig, nees, innovations, innov_std, rejected, STATUS_ERROR_BEYOND_BOUND, k
     return err, sig, nees, innovations, innov_std, rejected, STATUS_OK, -1

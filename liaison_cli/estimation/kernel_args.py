@@ -11,7 +11,9 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
 - EkfSettings: n_gain (states from it on are consider parameters, -1: none), n_nees (states the NEES
   covers), divergence_position_lu, underweight (Lear's beta), gate_sigma / gate_after (the residual gate);
 - SmootherRecord: the EKF's forward record for the RTS smoother, states (m, 2, n) and matrices (m, 3, n, n)
-  (length 0: not recorded).
+  (length 0: not recorded);
+- DirectionRecord: the EKF's consistency by direction (filter_loop.record_directions): per-spacecraft NEES,
+  the common time shift, the line of sight of each linked pair.
 Field types are fixed by the builders (int64 / float64), so every scenario reuses one compiled signature.
 """
 
@@ -25,6 +27,18 @@ Dynamics = namedtuple("Dynamics", ["params", "dt_tu", "substeps", "t0_tu"])
 EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_position_lu", "underweight", "gate_sigma",
                                          "gate_after"])
 SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
+DirectionRecord = namedtuple("DirectionRecord", ["spacecraft_starts", "pair_starts", "nees_spacecraft", "time_shift",
+                                                 "along_pair"])
+
+
+def direction_record(spacecraft_starts, pair_starts, m: int) -> DirectionRecord:
+    """Room for filter_loop.record_directions over m epochs: spacecraft_starts (S,) the 6-state blocks' offsets,
+    pair_starts (L, 2) two such offsets per linked pair; nees_spacecraft (m, S), time_shift (m, 2) and
+    along_pair (m, L, 2), NaN until recorded."""
+    starts = np.ascontiguousarray(spacecraft_starts, dtype=np.int64)
+    pairs = np.ascontiguousarray(np.reshape(pair_starts, (-1, 2)), dtype=np.int64)
+    return DirectionRecord(starts, pairs, np.full((m, starts.shape[0]), np.nan), np.full((m, 2), np.nan),
+                           np.full((m, pairs.shape[0], 2), np.nan))
 
 
 def channels_of(kind, ends, flags, mod_index, mod_coeff, sigma) -> Channels:

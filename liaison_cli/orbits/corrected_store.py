@@ -21,12 +21,11 @@ from liaison_cli.orbits.ephemeris_correction import (
     VELOCITY_TOLERANCE_KM_S,
     CorrectedOrbit,
     ForceModel,
-    multiple_shooting,
-    patch_points_from_crtbp,
+    corrected_in_stages,
 )
 from liaison_cli.orbits.npz_cache import cache_folder, read_intact, write_npz
 
-STORE_FORMAT = 1
+STORE_FORMAT = 2  # 2: corrected in stages
 FIELDS = ("node_times_s", "nodes", "position_defects_km", "velocity_defects_km_s", "iterations", "converged")
 
 
@@ -54,15 +53,14 @@ def correction_key(state_lu, epoch_s: float, span_s: float, node_spacing_s: floa
 def corrected_orbit(state_lu, epoch_s: float, span_s: float, node_spacing_s: float, forces: ForceModel,
                     steps_per_node: int = 200, max_iterations: int = 20) -> tuple[CorrectedOrbit, bool]:
     """(the CRTBP orbit `state_lu` corrected into `forces` over [epoch_s, epoch_s + span_s], read_from_cache).
-    Same result as patch_points_from_crtbp + multiple_shooting with these arguments."""
+    Same result as corrected_in_stages with these arguments."""
     key = correction_key(state_lu, epoch_s, span_s, node_spacing_s, forces, steps_per_node, max_iterations)
     path = cache_dir() / f"{key}.npz"
     if path.exists():
         orbit = _load_intact(path)
         if orbit is not None:
             return orbit, True
-    times, nodes = patch_points_from_crtbp(state_lu, epoch_s, span_s, node_spacing_s, forces)
-    orbit = multiple_shooting(times, nodes, forces, steps_per_node, max_iterations)
+    orbit = corrected_in_stages(state_lu, epoch_s, span_s, node_spacing_s, forces, steps_per_node, max_iterations)
     _save(orbit, path)
     return orbit, False
 

@@ -15,6 +15,13 @@ CRTBP orbit mapped into the dated model starts thousands of km from continuity; 
 wandered (defects of 1e5 km) and landed, or not, by the rounding of the BLAS kernel; a line search along
 the Newton direction stalled at 100 km; damped steps reach 1e-6 km in four to five Jacobians. Propagation: the fixed-step RK8 of the ephemeris
 dynamics with its STM (`steps_per_node` per segment).
+
+Long arcs in stages (`corrected_in_stages`): the dated orbit's phase drifts from the CRTBP orbit's (004's
+EML1 halo over 60 d: by 1.5 d after 48 d, as the Earth-Moon distance and rate vary), so patch points taken
+at the CRTBP's own phase are thousands of km from the dated orbit late in the arc; corrected in one piece,
+such an arc stalled with 12-24 m/s velocity defects at every node spacing. So the arc is corrected
+STAGE_DAYS at a time: each stage appends patch points from the CRTBP orbit re-phased at the corrected end
+(the CRTBP state nearest it in the rotating frame) and the whole arc so far is corrected again.
 """
 
 from dataclasses import dataclass
@@ -26,7 +33,7 @@ from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import rk4_states
 from liaison_cli.dynamics.ephemeris import geocentric_state
 from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
-from liaison_cli.dynamics.frames import crtbp_to_inertial
+from liaison_cli.dynamics.frames import crtbp_to_inertial, inertial_to_crtbp
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
 POSITION_TOLERANCE_KM = 1e-6  # 003's continuity criterion: 1 mm
@@ -42,6 +49,10 @@ VELOCITY_WEIGHT_S = 1e3
 SUFFICIENT_DECREASE = 1e-4  # a step is taken when it lowers the merit by at least this share
 DAMPING_FLOOR = 1e-9  # the smallest non-zero damping, relative to the mean diagonal of D D^T
 MAX_DAMPING_TRIES = 16  # damping raised tenfold at most this many times per step
+# Arc corrected at a time (corrected_in_stages): two EML1 halo periods, over which the dated orbit's phase
+# drifts by a few hours from the CRTBP's. 12 to 24 d all converge on 004's 60-d EML1 halos.
+STAGE_DAYS = 24.0
+PHASE_SEARCH_STEP_S = 600.0  # sampling of the CRTBP orbit when re-phasing it on a corrected end
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,9 +98,45 @@ def patch_points_from_crtbp(state_lu, epoch_s: float, span_s: float, node_spacin
     """Node times (N + 1,) and the CRTBP orbit's states mapped to ICRF at them (N + 1, 6)."""
     n_nodes = int(round(span_s / node_spacing_s)) + 1
     times_s = epoch_s + np.arange(n_nodes) * node_spacing_s
-    rotating = rk4_states(np.asarray(state_lu, dtype=float), (times_s - epoch_s) / TU_S, 10.0 / TU_S, MU)
-    nodes = np.array([crtbp_to_inertial(rotating[k], forces.moon_state(t), MU) for k, t in enumerate(times_s)])
-    return times_s, nodes
+    return times_s, _mapped(state_lu, times_s, forces)
+
+
+def _mapped(state_lu, times_s, forces: ForceModel) -> np.ndarray:
+    """(len(times_s), 6) km, km/s: the CRTBP orbit from state_lu at times_s[0], mapped to ICRF at each time."""
+    rotating = rk4_states(np.asarray(state_lu, dtype=float), (times_s - times_s[0]) / TU_S, 10.0 / TU_S, MU)
+    return np.array([crtbp_to_inertial(rotating[k], forces.moon_state(t), MU) for k, t in enumerate(times_s)])
+
+
+def corrected_in_stages(state_lu, epoch_s: float, span_s: float, node_spacing_s: float, forces: ForceModel,
+                        steps_per_node: int = 200, max_iterations: int = 20) -> CorrectedOrbit:
+    """The CRTBP orbit state_lu corrected over [epoch_s, epoch_s + span_s], STAGE_DAYS of arc at a time (module
+    docstring); an arc no longer than one stage is plain multiple shooting from patch_points_from_crtbp. The
+    result's defects are the last stage's; its iterations count every stage's Jacobians. Stops at the first
+    stage that does not converge (returned, converged False)."""
+    times_s, seed = patch_points_from_crtbp(state_lu, epoch_s, span_s, node_spacing_s, forces)
+    per_stage = max(1, int(round(STAGE_DAYS * 86400.0 / node_spacing_s)))
+    end = min(per_stage, len(times_s) - 1)
+    nodes, iterations = seed[: end + 1], 0
+    while True:
+        stage = multiple_shooting(times_s[: end + 1], nodes, forces, steps_per_node, max_iterations)
+        iterations += stage.iterations
+        if not stage.converged or end == len(times_s) - 1:
+            return CorrectedOrbit(stage.node_times_s, stage.nodes, stage.position_defects_km,
+                                  stage.velocity_defects_km_s, iterations, stage.converged)
+        following = min(end + per_stage, len(times_s) - 1)
+        rephased = _rephased(state_lu, stage.nodes[-1], times_s[end], forces)
+        nodes = np.vstack([stage.nodes, _mapped(rephased, times_s[end:following + 1], forces)[1:]])
+        end = following
+
+
+def _rephased(state_lu, node_km, t_s: float, forces: ForceModel) -> np.ndarray:
+    """The state of the CRTBP orbit through state_lu nearest (position in LU, velocity in LU/TU) to node_km
+    seen in the rotating frame of t_s, searched over one sweep of PHASE_SEARCH_STEP_S samples as long as
+    STAGE_DAYS (which covers a period of every orbit that is corrected in stages)."""
+    target = inertial_to_crtbp(node_km, forces.moon_state(t_s), MU)
+    samples_tu = np.arange(0.0, STAGE_DAYS * 86400.0, PHASE_SEARCH_STEP_S) / TU_S
+    orbit = rk4_states(np.asarray(state_lu, dtype=float), samples_tu, 10.0 / TU_S, MU)
+    return orbit[int(np.argmin(np.linalg.norm(orbit - target, axis=1)))]
 
 
 def segment_defects(node_times_s, nodes, forces: ForceModel, steps_per_node: int) -> np.ndarray:

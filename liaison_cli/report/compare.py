@@ -5,7 +5,8 @@ from pathlib import Path
 import pandas as pd
 
 from liaison_cli import __version__
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.analysis.consistency import campaign_verdict
+from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
@@ -42,8 +43,17 @@ def consistency_of(ok: pd.DataFrame) -> dict:
     return {"position_error_to_sigma_settled": worst["position"],
             "velocity_error_to_sigma_settled": worst["velocity"],
             "frac_nees_in_band_settled": float(ok.frac_nees_in_band_settled.mean()) if len(ok) else float("nan"),
-            "consistent_settled": bool(worst["position"] <= CONSISTENCY_RATIO_LIMIT
-                                       and worst["velocity"] <= CONSISTENCY_RATIO_LIMIT)}
+            **_verdict_of_every_spacecraft(ok)}
+
+
+def _verdict_of_every_spacecraft(ok: pd.DataFrame) -> dict:
+    """consistent_settled when every spacecraft passes analysis.consistency.campaign_verdict; what failed, by name."""
+    failed = []
+    for name, group in ok.groupby("spacecraft"):
+        verdict = campaign_verdict(group)
+        if not verdict["consistent_settled"]:
+            failed.append(f"{name}: {verdict['consistency_failed']}")
+    return {"consistent_settled": not failed and len(ok) > 0, "consistency_failed": " | ".join(failed)}
 
 
 def to_markdown(table: pd.DataFrame) -> str:
@@ -60,8 +70,9 @@ def to_markdown(table: pd.DataFrame) -> str:
     return "\n".join(lines) + (
         "\n\nRMS per spacecraft averaged over runs, then averaged over the scenario's spacecraft. err/σ: after each "
         "scenario's filter.settle_days, the worst spacecraft's error RMS over its filter sigma RMS; NEES in band: "
-        "share of those epochs whose NEES lies in its 95 % chi-square band. ! marks a scenario with a ratio above "
-        f"{CONSISTENCY_RATIO_LIMIT:g} (inconsistent).\n")
+        "share of those epochs whose NEES lies in its 95 % chi-square band. ! marks a scenario that fails the "
+        "consistency verdict (analysis.consistency: the NEES test, whole state and each spacecraft's own, and the "
+        "error/sigma ratio's 95 % interval against [0.67, 1.5]; compare.parquet: consistency_failed says which).\n")
 
 
 def write_compare(rows, summaries, texts, out_dir) -> tuple[pd.DataFrame, str]:

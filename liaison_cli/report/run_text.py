@@ -69,30 +69,76 @@ def campaign_ratio(summary: list[dict], spacecraft: str, kind: str, unit: str) -
                                    ok_values(summary, spacecraft, f"sigma_{kind}_settled_{unit}"))
 
 
-def format_consistency(summary: list[dict], spacecraft, settle_days: float) -> str:
-    """Per spacecraft after the settle time: error RMS / sigma RMS of position and velocity over the runs that
-    finished, the mean share of epochs with the NEES in its 95 % band; '!' marks a ratio above the limit."""
-    from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
+CONSISTENCY_COLUMNS = ("rms_position_settled_m", "sigma_position_settled_m", "rms_velocity_settled_m_s",
+                       "sigma_velocity_settled_m_s", "frac_nees_in_band_settled", "frac_nees_above_band_settled",
+                       "frac_nees_spacecraft_in_band_settled", "frac_nees_spacecraft_above_band_settled")
+DIRECTION_FLAG = 2.0  # a direction whose mean NEES component is above this (1 expected) is named
 
-    lines = [f"consistency after {settle_days:g} d (error RMS / filter sigma RMS over the runs; NEES in its 95 % "
-             "band, above it):", f"{'spacecraft':<12}{'pos err/σ':>11}{'vel err/σ':>12}{'NEES in band':>15}"
-             f"{'above':>9}"]
-    flagged = False
+
+def format_consistency(summary: list[dict], spacecraft, settle_days: float) -> str:
+    """Per spacecraft after the settle time, over the runs that finished: the campaign error / sigma ratios with
+    their 95 % intervals, the NEES test's shares (whole state and the spacecraft's own 6 states) and the
+    verdict (analysis.consistency.campaign_verdict); then the NEES by direction (format_directions)."""
+    from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE, campaign_verdict
+
+    lines = [f"consistency after {settle_days:g} d (error RMS / sigma RMS over the runs, 95 % interval; NEES test: "
+             f"share of epochs in the single-run 95 % chi-square band, {NEES_REQUIRED_SHARE:.0%} needed, whole state "
+             "and own 6 states):",
+             f"{'spacecraft':<12}{'pos err/σ':>13}{'vel err/σ':>13}{'NEES state':>12}{'above':>7}{'own':>7}"
+             f"{'consistent':>12}"]
+    failures = []
     for name in spacecraft:
-        cells = []
-        for kind, unit in (("position", "m"), ("velocity", "m_s")):
-            ratio = campaign_ratio(summary, name, kind, unit)
-            mark = " !" if ratio > CONSISTENCY_RATIO_LIMIT else "  "
-            flagged |= ratio > CONSISTENCY_RATIO_LIMIT
-            cells.append(f"{ratio:.2f}{mark}")
-        band = mean(ok_values(summary, name, "frac_nees_in_band_settled", 100.0))
-        above = mean(ok_values(summary, name, "frac_nees_above_band_settled", 100.0))
-        lines.append(left(name, 12) + right(cells[0], 11) + right(cells[1], 12) + right(f"{band:.1f}", 14) + "%"
-                     + right(f"{above:.1f}", 8) + "%")
-    if flagged:
-        lines.append(f"! inconsistent: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's sigma RMS "
-                     "(summary.parquet: consistent_settled)")
+        out = campaign_verdict({column: ok_values(summary, name, column) for column in CONSISTENCY_COLUMNS})
+        cells = [_ratio_cell(out[f"{kind}_error_to_sigma_settled"], out[f"{kind}_error_to_sigma_halfwidth"])
+                 for kind in ("position", "velocity")]
+        lines.append(left(name, 12) + right(cells[0], 13) + right(cells[1], 13)
+                     + right(_percent(out["frac_nees_in_band_settled"]), 12)
+                     + right(_percent(out["frac_nees_above_band_settled"]), 7)
+                     + right(_percent(out["frac_nees_spacecraft_in_band_settled"]), 7)
+                     + right("yes" if out["consistent_settled"] else "no", 12))
+        if not out["consistent_settled"]:
+            failures.append(f"{name}: {out['consistency_failed']}")
+    lines += format_directions(summary, spacecraft)
+    lines += [f"not consistent: {failure}" for failure in failures]
     return "\n".join(lines)
+
+
+def _ratio_cell(ratio: float, half_width: float) -> str:
+    return f"{ratio:.2f}±{half_width:.2f}" if math.isfinite(half_width) else f"{ratio:.2f}"
+
+
+def _percent(share: float) -> str:
+    return f"{100.0 * share:.0f} %" if math.isfinite(share) else "-"
+
+
+def format_directions(summary: list[dict], spacecraft) -> list[str]:
+    """The whole-state NEES's mean components along the common time shift and along the linked pair's line of
+    sight whose component is largest (1 each when consistent), with the mean error there in sigma; the
+    largest is named when above DIRECTION_FLAG. Empty when the estimator does not resolve directions."""
+    name = spacecraft[0]  # run-level columns: the same in every spacecraft row
+    total = mean(ok_values(summary, name, "mean_nees_settled"))
+    shift = mean(ok_values(summary, name, "time_shift_nees_settled"))
+    if not math.isfinite(shift):
+        return []
+    lines = [f"NEES by direction (mean over the runs of its component; 1 expected; whole state {total:.1f}):"]
+    shift_bias = mean(ok_values(summary, name, "time_shift_bias_sigma_settled"))
+    lag = mean(ok_values(summary, name, "time_shift_lag_s_settled"))
+    found = [(shift, "common time shift", f"{shift:.1f}, error {shift_bias:+.1f} σ: the estimate "
+              f"{'lags' if lag >= 0 else 'leads'} the truth by {abs(lag):.4g} s")]
+    pairs = {row.get("along_link_pair") for row in summary if row.get("status") == "ok" and row.get("along_link_pair")}
+    for pair in sorted(pairs):
+        chosen = [row for row in summary if row.get("status") == "ok" and row.get("spacecraft") == name
+                  and row.get("along_link_pair") == pair]
+        value = mean([row["along_link_nees_settled"] for row in chosen])
+        bias = mean([row["along_link_bias_sigma_settled"] for row in chosen])
+        found.append((value, f"along {pair}", f"{value:.1f}, error {bias:+.1f} σ (the pair's line of sight; "
+                      f"largest of the pairs in {len(chosen)} run(s))"))
+    for _, label, text in found:
+        lines.append(f"  {label}: {text}")
+    worst = max(found)
+    if worst[0] > DIRECTION_FLAG:
+        lines.append(f"  most overconfident named direction: {worst[1]} ({worst[0]:.1f} of the NEES of {total:.1f})")
+    return lines
 
 
 def format_smoothed(summary: list[dict], spacecraft) -> str:

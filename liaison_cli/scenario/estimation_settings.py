@@ -5,9 +5,16 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
-from liaison_cli.scenario.schema_rules import at_least, equals, given, schema_rules, when
+from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
+from liaison_cli.scenario.schema_rules import at_least, equals, given, not_given, schema_rules, when
 from liaison_cli.scenario.spec_base import StrictModel
 
+
+# The two process-noise conventions (FilterSpec.process_noise_of; estimation.process_noise): the filter key
+# each is given by, and the unit of its value.
+PROCESS_NOISE_PSD = "process_noise_psd_m2_s3"
+PROCESS_NOISE_SIGMA_A = "process_noise_accel_m_s2"
+PROCESS_NOISE_UNITS = {PROCESS_NOISE_PSD: "m^2/s^3", PROCESS_NOISE_SIGMA_A: "m/s^2"}
 
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 
@@ -29,16 +36,26 @@ class FilterSpec(StrictModel):
     """The estimator's settings: a priori, process noise, health checks, the filter's measurement models."""
 
     model_config = ConfigDict(json_schema_extra=schema_rules(
-        when(equals("bias", "estimate", "consider"), given("bias_apriori_sigma_m"))))
+        when(equals("bias", "estimate", "consider"), given("bias_apriori_sigma_m")),
+        when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2"))))
 
     initial_sigma_position_m: float = Field(1000.0, gt=0, description="a-priori 1-sigma per position axis (m)")
     initial_sigma_velocity_m_s: float = Field(0.01, gt=0, description="a-priori 1-sigma per velocity axis (m/s)")
-    process_noise_accel_m_s2: float = Field(1e-7, ge=0, description="SNC white acceleration sigma_a of every "
-                                            "spacecraft (a spacecraft's own key overrides it) (m/s^2)")
+    process_noise_psd_m2_s3: float | None = Field(
+        None, ge=0, description="SNC as a power spectral density q of a continuous white acceleration, the same on "
+        "every axis of every frame (isotropic: inertial and radial / in-track / cross-track alike; a PSD per RIC "
+        "axis is not offered), for every spacecraft (a spacecraft's own key overrides it): Q = q [[dt^3/3, dt^2/2], "
+        "[dt^2/2, dt]] per axis, so the noise per day does not depend on measurement.interval_s. Not with "
+        f"process_noise_accel_m_s2; neither given: {DEFAULT_PSD_M2_S3:g} (m^2/s^3)")
+    process_noise_accel_m_s2: float | None = Field(
+        None, ge=0, description="per-step sigma_a: q = sigma_a^2 dt, dt the measurement interval — the convention "
+        "of 001/003/004's reproductions (the noise per day grows with measurement.interval_s), for every "
+        "spacecraft (a spacecraft's own key overrides it). Not with process_noise_psd_m2_s3 (m/s^2)")
     process_noise_model: Literal["continuous_white_acceleration", "velocity_only"] = Field(
-        "continuous_white_acceleration", description="how sigma_a becomes Q per step dt: continuous white "
-        "acceleration (q = sigma_a^2 dt; Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis) or (sigma_a dt)^2 on "
-        "the velocities only (the form before issue 26)")
+        "continuous_white_acceleration", description="how a per-step sigma_a becomes Q per step dt: continuous "
+        "white acceleration (q = sigma_a^2 dt; Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis) or (sigma_a dt)^2 "
+        "on the velocities only (the form before issue 26). A PSD (process_noise_psd_m2_s3, here or per "
+        "spacecraft) always takes the continuous form")
     divergence_position_km: float = Field(1e4, gt=0, description="a run whose position error exceeds this is "
                                           "stopped as diverged (km)")
     divergence_nees_factor: float = Field(
@@ -47,8 +64,11 @@ class FilterSpec(StrictModel):
     divergence_window_days: float = Field(1.0, gt=0, description="see divergence_nees_factor (days)")
     rk4_substeps: int = Field(4, ge=1, le=256, description="RK4 steps of the filter's propagation per "
                               "measurement interval (count)")
-    range_model: Literal["geometric", "light_time"] = Field(
-        "geometric", description="filter's two-way range: geometric (paper Eq. 17) or light-time corrected"
+    range_model: Literal["geometric", "light_time"] | None = Field(
+        None, description="the filter's range model: light_time (each path with its light time, tagged at "
+        "reception as the truth is) or geometric (001 Eq. 17: the instantaneous distance at the reception epoch; "
+        "it lags a light-time truth by about the one-way light time). Absent: the truth's model "
+        "(measurement.light_time), so the filter is matched unless a scenario names the paper's geometric model"
     )
     bias: Literal["ignore", "estimate", "consider"] = Field(
         "ignore", description="range bias per link: not modelled, estimated (augmented state) or considered"
@@ -107,6 +127,24 @@ class FilterSpec(StrictModel):
             raise ValueError(f"bias {self.bias!r} needs 'bias_apriori_sigma_m' (the a-priori 1-sigma, m)")
         return self
 
+    @model_validator(mode="after")
+    def _one_process_noise_convention(self):
+        if self.process_noise_psd_m2_s3 is not None and self.process_noise_accel_m_s2 is not None:
+            raise ValueError("give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and "
+                             "'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not both")
+        return self
+
+    def process_noise_of(self, spacecraft) -> tuple[str, float]:
+        """(PROCESS_NOISE_PSD, q in m^2/s^3) or (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its
+        own key, else the filter's, else the default PSD (estimation.process_noise)."""
+        for psd, sigma_a in ((spacecraft.process_noise_psd_m2_s3, spacecraft.process_noise_accel_m_s2),
+                             (self.process_noise_psd_m2_s3, self.process_noise_accel_m_s2)):
+            if psd is not None:
+                return PROCESS_NOISE_PSD, psd
+            if sigma_a is not None:
+                return PROCESS_NOISE_SIGMA_A, sigma_a
+        return PROCESS_NOISE_PSD, DEFAULT_PSD_M2_S3
+
 
 class BatchSpec(StrictModel):
     """The batch least-squares estimator (estimator: batch, 002 §3): one solve for the epoch state from the
@@ -153,11 +191,13 @@ class ClockSyncSpec(StrictModel):
 
 
 class InitialErrorSpec(StrictModel):
-    """`fixed_sigma`: independent normal errors with the sigmas below (the paper's Monte Carlo);
-    `from_covariance`: drawn from the filter's own P0 (for NEES consistency checks)."""
+    """`from_covariance` (default): drawn from the filter's own P0, so that the filter's sigma describes its
+    error from the first epoch; `fixed_sigma`: independent normal errors with the sigmas below (001's Monte
+    Carlo: 500 m and 1 mm/s under a P0 of 1 km and 1 cm/s, a filter pessimistic by design)."""
 
-    draw: Literal["fixed_sigma", "from_covariance"] = Field("fixed_sigma", description="fixed_sigma: the sigmas "
-                                                            "below; from_covariance: the filter's P0")
+    draw: Literal["fixed_sigma", "from_covariance"] = Field("from_covariance", description="from_covariance: the "
+                                                            "filter's P0; fixed_sigma: the sigmas below (the "
+                                                            "paper's draw)")
     sigma_position_m: float = Field(500.0, ge=0, description="fixed_sigma: 1-sigma per position axis (m)")
     sigma_velocity_m_s: float = Field(0.001, ge=0, description="fixed_sigma: 1-sigma per velocity axis (m/s)")
 

@@ -14,9 +14,10 @@ from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT, StateBlock, StateLayout
 from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
 from liaison_cli.estimation.initial_batch import InitialBatchSettings
-from liaison_cli.estimation.process_noise import spacecraft_process_noise
+from liaison_cli.estimation.process_noise import psd_process_noise, spacecraft_process_noise
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
+from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.scenario.truth import burn_step, link_observables
 
@@ -142,10 +143,11 @@ def _matrices(scenario: Scenario, layout: StateLayout):
             sigma_r, sigma_v = _apriori_sigmas(by_name[block.owner], flt.initial_sigma_position_m,
                                                flt.initial_sigma_velocity_m_s)
             P0[s, s] = per_axis_block_diagonal(1, (sigma_r / M_PER_LU) ** 2, (sigma_v / M_S_PER_VU) ** 2)
-            # State-noise compensation (estimation.process_noise): white acceleration sigma_a.
-            own = by_name[block.owner].process_noise_accel_m_s2
-            sigma_a = flt.process_noise_accel_m_s2 if own is None else own
-            Q[s, s] = spacecraft_process_noise(sigma_a, interval_s, flt.process_noise_model, M_PER_LU, M_S_PER_VU)
+            # State-noise compensation (estimation.process_noise): a PSD, or the papers' per-step sigma_a.
+            convention, value = flt.process_noise_of(by_name[block.owner])
+            Q[s, s] = (psd_process_noise(value, interval_s, M_PER_LU, M_S_PER_VU) if convention == PROCESS_NOISE_PSD
+                       else spacecraft_process_noise(value, interval_s, flt.process_noise_model, M_PER_LU,
+                                                     M_S_PER_VU))
         elif block.kind == BLOCK_CLOCK:
             clock = by_name[block.owner].clock
             scale = _clock_scale()
@@ -168,6 +170,7 @@ def _channel_tables(scenario: Scenario, channels, layout: StateLayout, index_of_
     mod_index = np.full((n_channels, MAX_MODIFIERS), -1, dtype=np.int64)
     mod_coeff = np.zeros((n_channels, MAX_MODIFIERS))
     bias_start = layout.start_of(BLOCK_CONSTANT, "bias 0")
+    matched = scenario.filter.model_copy(update={"range_model": scenario.filter_range_model()})
     for c, ch in enumerate(channels):
         link = scenario.links[ch.link]
         for column, who in ((0, link.receiver), (2, link.transponder), (4, link.second_receiver)):
@@ -176,7 +179,7 @@ def _channel_tables(scenario: Scenario, channels, layout: StateLayout, index_of_
             state = layout.start_of(BLOCK_SPACECRAFT, who)
             ends[c, column] = state
             ends[c, column + 1] = -1 if state >= 0 else index_of_known[who]
-        flags[c] = OBSERVABLES[ch.observable].filter_flags(scenario.filter)
+        flags[c] = OBSERVABLES[ch.observable].filter_flags(matched)
         mods = []
         if ch.takes_range_bias and bias_start >= 0:
             mods.append((bias_start + ch.link, 1.0))

@@ -180,7 +180,8 @@ class SpacecraftSpec(StrictModel):
         when(equals("orbit", *family_names()), one_of(given("period_days"), given("amplitude_km")),
              all_of(not_given("period_days"), not_given("amplitude_km"))),
         when(equals("orbit", KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS), {"properties": {"phase": {"const": 0}}}),
-        when(equals("role", "known"), all_of(not_given("clock"), not_given("manoeuvre")))))
+        when(equals("role", "known"), all_of(not_given("clock"), not_given("manoeuvre"))),
+        when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2"))))
 
     name: str = Field(pattern=NAME_PATTERN, description="unique among spacecraft and ground stations; letters, "
                       "digits, '_', '.', '-'")
@@ -198,9 +199,15 @@ class SpacecraftSpec(StrictModel):
                                        "(spatial families) or Ay (planar) (km)")
     antenna_baseline_m: float | None = Field(None, gt=0, description="interferometer baseline of the receiver, "
                                              "needed to measure LOS angles (m)")
+    process_noise_psd_m2_s3: float | None = Field(
+        None, ge=0, description="this spacecraft's SNC as an isotropic white-acceleration PSD (as "
+        "filter.process_noise_psd_m2_s3); overrides the filter's key of either convention; not with this "
+        "spacecraft's process_noise_accel_m_s2 (m^2/s^3)"
+    )
     process_noise_accel_m_s2: float | None = Field(
-        None, ge=0, description="this spacecraft's SNC white acceleration sigma_a; default "
-        "filter.process_noise_accel_m_s2 (m/s^2)"
+        None, ge=0, description="this spacecraft's per-step sigma_a (as filter.process_noise_accel_m_s2: q = "
+        "sigma_a^2 dt, the reproductions' convention); overrides the filter's key of either convention; not with "
+        "this spacecraft's process_noise_psd_m2_s3 (m/s^2)"
     )
     state_km: list[float] | None = Field(None, description=f"orbit: {ICRF_STATE_ORBIT}: geocentric ICRF state at "
                                          "the epoch x, y, z, vx, vy, vz (km, km/s)",
@@ -225,6 +232,13 @@ class SpacecraftSpec(StrictModel):
     @classmethod
     def _orbit_from_file(cls, data):
         return orbit_file_from_mapping(data)
+
+    @model_validator(mode="after")
+    def _one_process_noise_convention(self):
+        if self.process_noise_psd_m2_s3 is not None and self.process_noise_accel_m_s2 is not None:
+            raise ValueError("give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and "
+                             "'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not both")
+        return self
 
     @field_validator("orbit")
     @classmethod

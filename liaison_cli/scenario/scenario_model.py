@@ -415,6 +415,13 @@ class Scenario(StrictModel):
         if not any(OBSERVABLES[o].clock_offset_channel >= 0 for link in self.links for o in link.observables):
             raise ValueError("clock_sync needs a link that measures clock offsets (observable dual_one_way_derived)")
 
+    def filter_range_model(self) -> str:
+        """filter.range_model, or, when absent, the truth's: light_time when measurement.light_time, else
+        geometric (the filter matches the truth unless the scenario names the paper's geometric model)."""
+        if self.filter.range_model is not None:
+            return self.filter.range_model
+        return "light_time" if self.measurement.light_time else "geometric"
+
     def settle_days(self) -> float:
         """filter.settle_days, or its default: 1 d, or half the scenario's epochs when they span less than 2 d."""
         if self.filter.settle_days is not None:
@@ -459,3 +466,4 @@ class Scenario(StrictModel):
 
     def participant(self, name: str):
         return next(p for p in [*self.spacecraft, *self.ground_stations] if p.name == name)
+

@@ -244,8 +244,8 @@ def test_a_run_that_loses_track_is_diverged_by_the_nees_rule(tmp_path):
     estimated = apply_overrides(ignored, {"filter.bias": "estimate", "filter.bias_apriori_sigma_m": 30_000.0},
                                 "test")
     assert [o.status for o in run_campaign(estimated, runs=2, jobs=1, progress=False).outcomes] == ["ok", "ok"]
-    strict = apply_overrides(base, {"filter.divergence_nees_factor": 1.0, "filter.divergence_window_days": 0.01},
-                             "test")
+    strict = apply_overrides(base, {"filter.divergence_nees_factor": 1.0, "filter.divergence_window_days": 0.01,
+                                    "filter.range_model": "geometric"}, "test")  # the paper's mismatched model
     assert {o.status for o in run_campaign(strict, runs=2, jobs=1, progress=False).outcomes} == {"diverged"}
 
 

@@ -181,7 +181,8 @@ def test_light_time_truth_makes_a_geometric_filter_overconfident():
     scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
     scenario = apply_overrides(
         scenario,
-        {"initial_error.draw": "from_covariance", "monte_carlo.runs": 10, "spacecraft.1.process_noise_accel_m_s2": 1e-7},
+        {"initial_error.draw": "from_covariance", "monte_carlo.runs": 10, "spacecraft.1.process_noise_accel_m_s2": 1e-7,
+         "filter.range_model": "geometric"},  # named: the default matches the truth's light time
     )
     table = results_module.consistency_table(run_campaign(scenario, jobs=2, progress=False))
     table = table[table.t_s > 0]

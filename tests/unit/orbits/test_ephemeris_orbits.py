@@ -56,3 +56,27 @@ def test_eml1_halo_corrected_into_the_ephemeris_model(cassini_forces):
     truth = propagate_truth(result.nodes[0], times[0], times, forces.window, forces.bodies, forces.gms,
                             forces.gm_earth, forces.cr_am)
     assert np.max(np.linalg.norm(truth[:, :3] - result.nodes[:, :3], axis=1)) < 1e-2
+
+
+def test_a_two_month_eml1_halo_is_corrected_in_stages():
+    """004's low-energy-transfer receiver L1A: the 11.94-d EML1 halo over 60 d with 1.5-d nodes. In one piece
+    this stalled with 12-24 m/s velocity defects at every node spacing (the dated orbit's phase drifts 1.5 d
+    from the CRTBP's by day 48, so late patch points were thousands of km off); in 24-d stages re-phased on
+    each corrected end it reaches 003's criterion, and stays an EML1 halo throughout."""
+    from liaison_cli.orbits.ephemeris_correction import corrected_in_stages
+    from liaison_cli.scenario.dated import dated_model
+    from liaison_cli.scenario.loading import load_scenario
+    from liaison_cli.scenario.reference_states import phased_state_lu
+    from liaison_cli.scenario.shipped import shipped_scenario
+
+    scenario, _ = load_scenario(shipped_scenario("004/low_energy_transfer.yaml"))
+    model = dated_model(scenario)
+    forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
+    receiver = next(sc for sc in scenario.spacecraft if sc.name == "L1A")
+    result = corrected_in_stages(phased_state_lu(receiver), model.epoch_tdb_s, 60 * 86400.0, 1.5 * 86400.0, forces)
+    assert result.converged and len(result.nodes) == 41
+    assert result.position_defects_km[-1] < POSITION_TOLERANCE_KM
+    assert result.velocity_defects_km_s[-1] < VELOCITY_TOLERANCE_KM_S
+    for t, node in zip(result.node_times_s, result.nodes):
+        rotating = inertial_to_crtbp(node, forces.moon_state(t), MU)
+        assert 0.75 < rotating[0] < 0.9 and abs(rotating[1]) < 0.2 and abs(rotating[2]) < 0.2

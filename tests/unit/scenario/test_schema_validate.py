@@ -143,6 +143,8 @@ BROKEN = [
     (MT, [("noise.range_rate_sigma_m_s", 0.001)], "or 'carrier' (which derives it)"),
     (SMOKE, [("noise.carrier", CARRIER)], "give 'link_budget'"),
     (SMOKE, [("filter", {"bias": "estimate"})], "needs 'bias_apriori_sigma_m'"),
+    (SMOKE, [("filter", {"process_noise_psd_m2_s3": 1e-12, "process_noise_accel_m_s2": 1e-7})], "at most one of"),
+    (SMOKE, [("spacecraft.0.process_noise_psd_m2_s3", 1e-12)], "at most one of"),
     (BATCH, [("batch.windows", 2)], "needs 'renewal_hours'"),
     (BATCH, [("batch", DROP)], "'batch' section go together"),
     (SMOKE, [("batch", {"span_days": 1})], "'batch' section go together"),
