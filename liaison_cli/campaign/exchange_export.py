@@ -31,7 +31,10 @@ from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.storage import read_metadata, write_text_atomic
 
 KM_PER_SCALED = np.array([LU_KM] * 3 + [VU_KM_S] * 3)  # scaled state -> km, km/s (both dynamics)
-STORED_ERROR_TOLERANCE_M = 1e-3  # float32 storage of errors of up to ~1e4 m: a relative 1e-7 is ~1 mm
+STORED_ERROR_TOLERANCE_M = 1e-3  # the recomputation's own reach: the same arithmetic, to 1 mm
+# On top, the storage's rounding: float32 (the default) keeps 24 bits, so a stored error of 16 km is known
+# only to 1 mm and one of 300 km to 2 cm; four half-units of its last place are allowed.
+STORED_ROUNDING = {"float": 4 * 2.0**-24, "double": 4 * 2.0**-53}
 CRTBP_COMMENTS = (
     f"Earth-Moon CRTBP rotating frame: origin the barycentre, x from the Earth to the Moon, z along the Moon's "
     f"orbit normal; mu = {MU:.10f}",
@@ -91,19 +94,24 @@ def recompute_run(problem: Problem, run: int) -> RecomputedRun:
                          matrices[:, 1, :n_dyn, :n_dyn], inputs.y_obs, healthy, error_m)
 
 
-def check_against_stored(result_dir, recomputed: RecomputedRun) -> float:
-    """The largest difference (m) between the recomputed run's position errors and timeseries.parquet's."""
+def check_against_stored(result_dir, recomputed: RecomputedRun) -> tuple[float, bool]:
+    """(the largest difference (m) between the recomputed run's position errors and timeseries.parquet's,
+    whether every one is within STORED_ERROR_TOLERANCE_M plus the stored type's rounding of its value)."""
     import pyarrow.parquet as pq
 
     table = pq.read_table(Path(result_dir) / "timeseries.parquet", columns=["run", "position_error_m"],
                           filters=[("run", "=", recomputed.run)])
-    stored = table.column("position_error_m").to_numpy().astype(float)
+    column = table.column("position_error_m")
+    stored = column.to_numpy().astype(float)
     if len(stored) != recomputed.position_error_m.size:
         raise ExchangeFileError(f"{result_dir}: run {recomputed.run} is not in timeseries.parquet")
     steps = recomputed.healthy_steps
-    here = recomputed.position_error_m.reshape(-1)
     n_sc = recomputed.position_error_m.shape[1]
-    return float(np.max(np.abs(stored[: steps * n_sc] - here[: steps * n_sc])))
+    here = recomputed.position_error_m.reshape(-1)[: steps * n_sc]
+    difference = np.abs(stored[: steps * n_sc] - here)
+    rounding = STORED_ROUNDING.get(str(column.type), STORED_ROUNDING["float"])
+    within = bool(np.all(difference <= STORED_ERROR_TOLERANCE_M + rounding * np.abs(here)))
+    return (float(np.max(difference)) if difference.size else 0.0), within
 
 
 def _time_frame(problem: Problem):
@@ -165,10 +173,11 @@ def export_run(result_dir, run: int, formats: tuple, out_dir) -> dict:
         run = 0
     problem = prepare_problem(scenario)
     recomputed = recompute_run(problem, run)
-    difference_m = check_against_stored(result_dir, recomputed)
-    if difference_m > STORED_ERROR_TOLERANCE_M:
+    difference_m, within = check_against_stored(result_dir, recomputed)
+    if not within:
         raise ExchangeFileError(f"{result_dir}: run {run} recomputed differs from the stored run by "
-                                f"{difference_m:.3g} m in position error; the folder's scenario or its files changed")
+                                f"{difference_m:.3g} m in position error, more than 1 mm plus the stored values' "
+                                "rounding; the folder's scenario or its files changed")
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
     messages = {f"{stem}.oem": oem_message(eph, created) for stem, eph in ephemerides(recomputed).items()}
     track_list, skipped = tracks(recomputed)

@@ -1,7 +1,8 @@
 """Sweep grids from the command line: `--sigma 50:700[:50]` or `50,150,300`, and `--grid key=v1,v2`.
 
-Values are parsed with YAML `safe_load` rules, so `60` is an int, `187.5` a float, `true` a bool and
-`null` removes a key (restoring its default).
+Values are read as a scenario file reads them (scenario.loading.read_yaml_value): `60` is an int, `187.5`
+and `6e-5` floats (YAML 1.2's rule: PyYAML's YAML 1.1 rule read `6e-5` as text, and a sweep then failed after
+computing every run), `true` a bool and `null` removes a key (restoring its default).
 """
 
 import math
@@ -9,6 +10,7 @@ import math
 import yaml
 
 from liaison_cli.errors import LiaisonError
+from liaison_cli.scenario.loading import read_yaml_value
 
 # A sweep's plan validates every grid point's scenario and keeps it (measured: ~1.3 ms and ~10 kB per point
 # on smoke.yaml), then holds a task per point and run: 10,000 points plan in ~15 s and ~100 MB; the task
@@ -77,10 +79,11 @@ def parse_grid(text: str) -> tuple[str, list]:
         if not part:
             raise GridError(f"--grid {text!r}: empty value in the list")
         try:
-            values.append(yaml.safe_load(part))
+            values.append(read_yaml_value(part))  # as the scenario file reads it: 6e-5 is a number
         except yaml.YAMLError:
             raise GridError(f"--grid {text!r}: cannot read value {part!r}") from None
-    if len(set(map(repr, values))) != len(values):
+    if len({repr(float(v)) if isinstance(v, (int, float)) and not isinstance(v, bool) else repr(v)
+            for v in values}) != len(values):  # 1e2 and 100.0 are one value
         raise GridError(f"--grid {text!r}: repeated value")
     return key, values
 

@@ -16,6 +16,9 @@ Per transmitter and pair:
   state for the rest of the arc;
 - `rankings`: per transmitter (and grid point, e.g. an SNC sensitivity through `--grid`), the pairs best
   first by LinCov and by the EKF, so a ranking that flips with the tuning shows;
+- `check_claims`: every ordering and comparison 004 states (report/data/study004_claims.yaml), checked per grid
+  point on the EKF's settled error RMS (primary) and on LinCov's steady 3-sigma (convergence claims: on their
+  convergence times), with a flag where the two verdicts differ;
 - DOP (004 §4) along the true geometry: sqrt(trace(pinv(H' H))) with H the TDoA path partials with respect
   to the transmitter's position (one pair: 1 / |dTDoA/dr|, in metres of path per metre), its median over
   the epochs that have a measurement, and the share of such epochs.
@@ -202,11 +205,207 @@ def rankings(summary: pd.DataFrame, grid_keys: list[str]) -> pd.DataFrame:
     ranking flips with the tuning, the table shows it."""
     rows = []
     group_keys = grid_keys + ["transmitter"]
-    for keys, part in summary.groupby(group_keys, sort=False):
-        keys = keys if isinstance(keys, tuple) else (keys,)
+    for _, part in summary.groupby(group_keys, sort=False, dropna=False):  # a null grid value is a grid point
+        keys = [part[k].iloc[0] for k in group_keys]
         by_lincov = list(part.sort_values("steady_3sigma_position_m").pair)
         ekf = part[np.isfinite(part.ekf_error_rms_position_settled_m)]
         by_ekf = list(ekf.sort_values("ekf_error_rms_position_settled_m").pair)
         rows.append({**dict(zip(group_keys, keys)), "best_first_lincov": " < ".join(by_lincov),
                      "best_first_ekf": " < ".join(by_ekf) if len(by_ekf) == len(part) else "—"})
+    return pd.DataFrame(rows)
+
+
+# --- 004's claims, checked on one metric each ----------------------------------------------------------------
+# The claims ship as data beside the report that prints them (report/data/study004_claims.yaml: 004's statement
+# in our words, where it comes from, and a metric-free check). Each is evaluated on the EKF's actual error
+# after the settle time (primary) and, beside it, on LinCov's steady 3-sigma; convergence claims on the EKF's
+# and LinCov's convergence times; the one DOP claim on the geometry alone.
+
+HOLDS, FAILS, NOT_COMPUTABLE, NOT_APPLICABLE = "yes", "no", "not computable", "n/a"
+CLAIM_METRICS = {  # quantity -> {reading: summary column}
+    "accuracy": {"ekf": "ekf_error_rms_position_settled_m", "lincov": "steady_3sigma_position_m"},
+    "convergence": {"ekf": "ekf_converged_days_median", "lincov": "convergence_days_position"},
+    "geometry": {"geometry": "median_dop"},
+}
+# `below` compares 3-sigma bounds: LinCov's steady 3-sigma, and 3 x the EKF's settled error RMS.
+BELOW_METRICS = {"ekf": {"position": ("ekf_error_rms_position_settled_m", 3.0),
+                         "velocity": ("ekf_error_rms_velocity_settled_m_s", 3.0)},
+                 "lincov": {"position": ("steady_3sigma_position_m", 1.0),
+                            "velocity": ("steady_3sigma_velocity_m_s", 1.0)}}
+READINGS = ("ekf", "lincov", "geometry")
+MONTE_CARLO_READING = READINGS[0]  # the Monte Carlo's (a label of the reading, not an estimator name)
+
+
+def claims_004() -> dict:
+    """report/data/study004_claims.yaml: {pairs: alias -> pair name, claims: [...]}."""
+    import yaml
+    from importlib.resources import files
+
+    return yaml.safe_load(files("liaison_cli.report").joinpath("data/study004_claims.yaml").read_text())
+
+
+def _listed(value) -> list:
+    return list(value) if isinstance(value, (list, tuple)) else [value]
+
+
+def _metric_name(check: dict, reading: str) -> str:
+    if check["kind"] == "below":
+        return ", ".join(f"{scale:g} x {column}" if scale != 1 else column
+                         for column, scale in BELOW_METRICS[reading].values())
+    return CLAIM_METRICS[check["quantity"]][reading]
+
+
+def _ratio(worse: float, better: float) -> float:
+    """worse / better with "never" (inf) allowed: NaN when both are never or both zero."""
+    if np.isinf(worse) and np.isinf(better):
+        return float("nan")
+    if better == 0.0:
+        return float("inf") if worse > 0 else float("nan")
+    return worse / better
+
+
+def _verdict(check: dict, values: dict) -> bool | None:
+    """One transmitter: does the check hold on `values` (alias -> number, inf = never converges, NaN = not
+    computable)? None when it cannot be told."""
+    kind = check["kind"]
+    if kind == "below":
+        position, velocity = values.get("position", np.nan), values.get("velocity", np.nan)
+        if not (np.isfinite(position) and np.isfinite(velocity)):
+            return None
+        return bool(position < check["position_m"] and velocity < check["velocity_m_s"])
+    if any(np.isnan(v) for v in values.values()):
+        return None
+    if kind in ("best_pair", "worst_pair"):
+        if len(values) < 2 or all(np.isinf(v) for v in values.values()):
+            return None
+        mine = values[check["pair"]]
+        others = [v for alias, v in values.items() if alias != check["pair"]]
+        return bool(mine < min(others)) if kind == "best_pair" else bool(mine > max(others))
+    if kind in ("better", "ratio_at_least", "ratio_between"):
+        ratios = [_ratio(values[w], values[check["better"]]) for w in _listed(check["worse"])]
+        if any(np.isnan(r) for r in ratios):
+            return None
+        if kind == "better":
+            return all(r > 1.0 for r in ratios)
+        if kind == "ratio_at_least":
+            return all(r >= check["factor"] for r in ratios)
+        return all(check["low"] <= r <= check["high"] for r in ratios)
+    if kind == "similar":
+        first, second = (values[a] for a in check["pairs"])
+        ratio = _ratio(max(first, second), min(first, second))
+        return None if np.isnan(ratio) else bool(ratio <= check["factor"])
+    if kind == "about":
+        value = values[check["pair"]]
+        return bool(check["value"] / check["factor"] <= value <= check["value"] * check["factor"])
+    if kind == "within":
+        return all(check["low"] <= values[a] <= check["high"] for a in check["pairs"])
+    raise ValueError(f"unknown claim kind {kind!r}")
+
+
+def _involved(check: dict, aliases: list[str]) -> list[str]:
+    """The pairs a check reads: all of them for a ranking, else those it names."""
+    kind = check["kind"]
+    if kind in ("best_pair", "worst_pair"):
+        return aliases
+    if kind in ("about", "below"):
+        return [check["pair"]]
+    if kind == "similar" or kind == "within":
+        return list(check["pairs"])
+    return [check["better"], *_listed(check["worse"])]
+
+
+def _transmitter_values(rows: pd.DataFrame, check: dict, reading: str, names: dict) -> tuple[dict, str]:
+    """(alias -> value, note) of one transmitter's rows for one reading. A convergence time that never came
+    is inf (slower than any time); a missing pair or an accuracy without converged runs is NaN."""
+    by_alias = {names.get(pair, pair): row for pair, row in zip(rows.pair, rows.to_dict("records"))}
+    wanted = _involved(check, list(dict.fromkeys([*names.values(), *by_alias])))  # a ranking: 004's pairs and more
+    missing = [a for a in wanted if a not in by_alias]
+    if check["kind"] == "below":
+        row = by_alias.get(check["pair"])
+        values = {kind: (row[column] * scale if row is not None else np.nan)
+                  for kind, (column, scale) in BELOW_METRICS[reading].items()}
+        values = {k: float(v) for k, v in values.items()}
+    else:
+        column = CLAIM_METRICS[check["quantity"]][reading]
+        values = {}
+        for alias in wanted:
+            value = float(by_alias[alias][column]) if alias in by_alias else np.nan
+            if check["quantity"] == "convergence" and alias in by_alias and np.isnan(value):
+                value = float("inf")  # never converged
+            values[alias] = value
+    note = f"no {', '.join(missing)} pair" if missing else ""
+    if not note and any(np.isnan(v) for v in values.values()):
+        note = "no converged EKF run" if reading == MONTE_CARLO_READING else "a value is missing"
+    return values, note
+
+
+def _json_values(values: dict) -> dict:
+    return {k: ("never" if np.isinf(v) else None if np.isnan(v) else round(float(v), 6)) for k, v in values.items()}
+
+
+def _evaluate(claim: dict, part: pd.DataFrame, names: dict, reading: str) -> tuple[str, dict, str]:
+    """(verdict, {transmitter: {alias: value}}, note) of one claim on one reading over its transmitters: it
+    holds when it holds for each; fails when it fails for one; else cannot be told."""
+    check = claim["check"]
+    verdicts, values, notes = [], {}, []
+    for transmitter in check["transmitters"]:
+        rows = part[part.transmitter == transmitter]
+        if rows.empty:
+            verdicts.append(None)
+            notes.append(f"{transmitter}: not in the study")
+            continue
+        numbers, note = _transmitter_values(rows, check, reading, names)
+        values[transmitter] = _json_values(numbers)
+        verdict = _verdict(check, numbers)
+        verdicts.append(verdict)
+        if verdict is None:
+            notes.append(f"{transmitter}: {note or 'the pairs compared never converged'}")
+    if any(v is False for v in verdicts):
+        status = FAILS
+    elif any(v is None for v in verdicts):
+        status = NOT_COMPUTABLE
+    else:
+        status = HOLDS
+    return status, values, "; ".join(notes)
+
+
+def check_claims(summary: pd.DataFrame, grid_keys: list[str] | None = None, claims: dict | None = None) -> pd.DataFrame:
+    """004's claims (claims_004()) checked per grid point on the study's summary: one row per claim and grid
+    point with, for each reading (ekf: the EKF's settled error RMS over converged runs, the primary; lincov:
+    LinCov's steady 3-sigma; for convergence claims the two convergence times; geometry: the median DOP, for
+    geometry claims only), whether the claim holds ("yes", "no", "not computable", "n/a"), the values it was
+    judged on (JSON: transmitter -> pair alias -> value, "never" for a convergence that never came), and
+    `metrics_disagree` where the EKF and LinCov verdicts are yes and no."""
+    import json
+
+    claims = claims or claims_004()
+    names = {name: alias for alias, name in claims["pairs"].items()}
+    keys = list(grid_keys or [])
+    groups = summary.groupby(keys, sort=False, dropna=False) if keys else [((), summary)]  # null is a grid value
+    rows = []
+    for _, part in groups:
+        point = {k: part[k].iloc[0] for k in keys}  # as given (a null stays None)
+        for claim in claims["claims"]:
+            check = claim["check"]
+            row = {**point, "id": claim["id"], "source": claim["source"],
+                   "claim": " ".join(claim["claim"].split()), "quantity": check["quantity"], "kind": check["kind"],
+                   "check": json.dumps(check, ensure_ascii=False)}
+            notes = []
+            for reading in READINGS:
+                applies = (reading == "geometry") == (check["quantity"] == "geometry")
+                if not applies:
+                    status, values, metric = NOT_APPLICABLE, {}, ""
+                elif check["kind"] == "not_checked":
+                    status, values, metric = NOT_COMPUTABLE, {}, ""
+                else:
+                    status, values, note = _evaluate(claim, part, names, reading)
+                    metric = _metric_name(check, reading)
+                    if note and status == NOT_COMPUTABLE:
+                        notes.append(f"{reading}: {note}")
+                row[f"{reading}_metric"] = metric
+                row[f"{reading}_holds"] = status
+                row[f"{reading}_values"] = json.dumps(values, ensure_ascii=False)
+            row["metrics_disagree"] = {row["ekf_holds"], row["lincov_holds"]} == {HOLDS, FAILS}
+            row["note"] = " ".join(check["reason"].split()) if check["kind"] == "not_checked" else "; ".join(notes)
+            rows.append(row)
     return pd.DataFrame(rows)

@@ -13,17 +13,16 @@ The rule, for one EKF scenario:
   measurement noise (common random numbers: a difference between rungs is the process noise's, not luck's).
 - Statistics, after the scenario's settle time (Scenario.settle_days(): filter.settle_days, default 1 d), over
   the runs that finished: per estimated spacecraft the campaign error RMS / sigma RMS of position and of
-  velocity (analysis.metrics.campaign_error_to_sigma), and the mean over runs of the share of epochs whose
-  whole-state NEES lies in its two-sided 95 % chi-square band (analysis.metrics.nees_run_band).
-- A rung passes the sigma test when every run finished 'ok' and every ratio is at most
-  CONSISTENCY_RATIO_LIMIT (1.5: the limit above which `run` marks a spacecraft inconsistent); it passes the
-  NEES test when the NEES-in-band share is at least NEES_IN_BAND_MIN (0.8; a consistent filter gives about
-  0.95, and the share of one run is correlated in time, so 0.8 leaves room for sampling and still fails a
-  filter whose NEES sits outside its band a fifth of the time).
-- Chosen: the smallest rung passing both tests ('rule met'). When no rung passes the NEES test, the smallest
-  rung passing the sigma test, and the table says so ('sigma test only': the NEES never stays in its band on
-  this ladder; process noise alone does not make the filter consistent). When no rung passes the sigma test
-  either, nothing is chosen ('no rung passes') and the shipped value stays. A choice on the ladder's lowest
+  velocity with the 95 % interval of each ratio from the run count (the test's power: the interval narrows as
+  1/sqrt(runs)), and the shares of settled epochs whose whole-state NEES, and whose own 6-state NEES, lie in
+  their single-run 95 % chi-square bands.
+- A rung passes when every run finished 'ok' and every estimated spacecraft passes the one verdict of
+  `run`, `compare`, the sweeps and the studies (analysis.consistency.campaign_verdict): the NEES test (whole
+  state and own states, at least NEES_REQUIRED_SHARE in band) and the two-sided ratio test (the interval
+  reaches [1/1.5, 1.5]: a pessimistic filter fails as an optimistic one does). What failed is kept per rung
+  (`consistency_failed`) and printed.
+- Chosen: the smallest rung that passes ('rule met'). When none does, nothing is chosen ('no rung passes')
+  and the shipped value stays: no fallback accepts a filter the NEES rejects. A choice on the ladder's lowest
   rung says only that a smaller value was not tried.
 - Batch least squares has no process noise: its scenarios get the shipped row only ('batch: no SNC').
 The campaigns are sweeps (campaign.sweep) in a work folder, one per scenario and ladder (plus one for the
@@ -39,7 +38,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
+from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE, RATIO_LIMIT, campaign_verdict
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
 from liaison_cli.errors import LiaisonError
@@ -50,9 +49,7 @@ from liaison_cli.storage import resumable_output
 SNC_KEY = "filter.process_noise_accel_m_s2"
 DEFAULT_LADDER_M_S2 = (1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5)
 DEFAULT_RUNS = 20
-NEES_IN_BAND_MIN = 0.8
 VERDICT_MET = "rule met"
-VERDICT_SIGMA_ONLY = "sigma test only"
 VERDICT_NONE = "no rung passes"
 VERDICT_BATCH = "batch: no SNC"
 
@@ -67,13 +64,13 @@ def rule_text(ladder, runs: int) -> str:
     return (f"Rule: sigma_a (m/s^2, every estimated spacecraft alike, per-spacecraft values removed) takes each "
             f"rung of {{{rungs}}}; {runs} Monte Carlo runs per rung over the scenario's full arc (common random "
             f"numbers), statistics after the "
-            f"settle time over the runs that finished. A rung passes the sigma test when every run finished and every "
-            f"estimated spacecraft's campaign error RMS / sigma RMS is at most {CONSISTENCY_RATIO_LIMIT:g} for position "
-            f"and velocity, and the NEES test when the mean share of epochs whose whole-state NEES lies in its 95 % "
-            f"chi-square band is at least {NEES_IN_BAND_MIN:g}. Chosen: the smallest rung passing both ('{VERDICT_MET}'); "
-            f"if none passes the NEES test, the smallest passing the sigma test ('{VERDICT_SIGMA_ONLY}': the NEES "
-            f"never stays in its band on this ladder); if none passes the sigma test, none ('{VERDICT_NONE}', the "
-            f"shipped value stays). Batch scenarios have no process noise ('{VERDICT_BATCH}').")
+            f"settle time over the runs that finished. A rung passes when every run finished and every estimated "
+            f"spacecraft passes the consistency verdict: the NEES test (at least {NEES_REQUIRED_SHARE:g} of the "
+            f"settled epochs' whole-state NEES, and of its own 6-state NEES, in their single-run 95 % chi-square "
+            f"bands) and the two-sided ratio test (the 95 % interval of the campaign error RMS / sigma RMS, from "
+            f"the {runs} runs, reaches [{1 / RATIO_LIMIT:.2f}, {RATIO_LIMIT:g}] for position and velocity). Chosen: "
+            f"the smallest rung that passes ('{VERDICT_MET}'); if none does, none ('{VERDICT_NONE}', the shipped "
+            f"value stays). Batch scenarios have no process noise ('{VERDICT_BATCH}').")
 
 
 def parse_ladder(text: str | None) -> tuple[float, ...]:
@@ -143,7 +140,8 @@ def shipped_snc(scenario: Scenario) -> dict:
 def rung_statistics(runs_table: pd.DataFrame) -> pd.DataFrame:
     """Per (point, spacecraft) of a sweep's runs table: runs, runs ok, the campaign error RMS and sigma RMS of
     position (m) and velocity (m/s) after the settle time (sqrt of the mean square over the runs that finished),
-    their ratios, and the mean NEES-in-band and above-band shares."""
+    their ratios with their intervals' half-widths, the NEES shares (whole state and own states) and the
+    verdict with what failed (analysis.consistency.campaign_verdict)."""
     rows = []
     for (point, name), group in runs_table.groupby(["point", "spacecraft"], sort=False):
         ok = group[group.status == "ok"]
@@ -152,33 +150,30 @@ def rung_statistics(runs_table: pd.DataFrame) -> pd.DataFrame:
             errors, sigmas = ok[f"rms_{kind}_settled_{unit}"].dropna(), ok[f"sigma_{kind}_settled_{unit}"].dropna()
             row[f"error_rms_{kind}_{unit}"] = float(np.sqrt(np.mean(errors**2))) if len(errors) else np.nan
             row[f"sigma_rms_{kind}_{unit}"] = float(np.sqrt(np.mean(sigmas**2))) if len(sigmas) else np.nan
-            row[f"{kind}_error_to_sigma"] = campaign_error_to_sigma(errors, sigmas)
+        verdict = campaign_verdict(ok)
+        for kind in ("position", "velocity"):
+            row[f"{kind}_error_to_sigma"] = verdict[f"{kind}_error_to_sigma_settled"]
+            row[f"{kind}_error_to_sigma_halfwidth"] = verdict[f"{kind}_error_to_sigma_halfwidth"]
         for share in ("in_band", "above_band"):
-            values = ok[f"frac_nees_{share}_settled"].dropna()
-            row[f"nees_{share}_share"] = float(values.mean()) if len(values) else np.nan
+            row[f"nees_{share}_share"] = verdict[f"frac_nees_{share}_settled"]
+            row[f"nees_spacecraft_{share}_share"] = verdict[f"frac_nees_spacecraft_{share}_settled"]
+        row["consistent"], row["consistency_failed"] = verdict["consistent_settled"], verdict["consistency_failed"]
         rows.append(row)
     return pd.DataFrame(rows)
 
 
-def passes(stats: pd.DataFrame) -> tuple[bool, bool]:
-    """(sigma test, NEES test) of one rung's rows (one per estimated spacecraft); see the module docstring."""
+def passes(stats: pd.DataFrame) -> bool:
+    """One rung's rows (one per estimated spacecraft) pass: every run finished and every spacecraft is
+    consistent (module docstring)."""
     finished = bool((stats.runs_ok == stats.runs).all()) and len(stats) > 0
-    ratios = stats[["position_error_to_sigma", "velocity_error_to_sigma"]].to_numpy(dtype=float)
-    sigma_test = finished and bool(np.all(ratios <= CONSISTENCY_RATIO_LIMIT))  # NaN fails
-    nees = stats.nees_in_band_share.to_numpy(dtype=float)
-    nees_test = finished and bool(np.all(nees >= NEES_IN_BAND_MIN))
-    return sigma_test, nees_test
+    return finished and bool(stats.consistent.all())
 
 
 def choose(rungs: list[tuple[float, pd.DataFrame]]) -> tuple[float | None, str]:
     """(chosen sigma_a or None, verdict) from [(rung value, its statistics)] in ascending order."""
-    tests = [(value, *passes(stats)) for value, stats in rungs]
-    for value, sigma_test, nees_test in tests:
-        if sigma_test and nees_test:
+    for value, stats in rungs:
+        if passes(stats):
             return value, VERDICT_MET
-    for value, sigma_test, _ in tests:
-        if sigma_test:
-            return value, VERDICT_SIGMA_ONLY
     return None, VERDICT_NONE
 
 
@@ -225,7 +220,7 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
         shipped_stats = rung_statistics(table)
         shipped_stats = shipped_stats[shipped_stats.spacecraft.isin(estimated)]
     chosen, verdict = choose(ladder_stats) if ladder_stats else (None, VERDICT_BATCH)
-    shipped_sigma, shipped_nees = passes(shipped_stats)
+    shipped_passes = passes(shipped_stats)
     shipped = shipped_snc(scenario)
     rows = []
     for setting, value, stats in [("shipped", None, shipped_stats)] + [("rung", v, s) for v, s in ladder_stats]:
@@ -233,7 +228,7 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
             snc = shipped[row["spacecraft"]] if setting == "shipped" else value
             rows.append({"scenario": case.label, "setting": setting, "spacecraft": row["spacecraft"],
                          "snc_m_s2": snc, "settle_days": scenario.settle_days(), "chosen": setting == "rung" and value == chosen, "verdict": verdict,
-                         "shipped_passes_sigma_test": shipped_sigma, "shipped_passes_nees_test": shipped_nees,
+                         "shipped_passes_rule": shipped_passes,
                          "lowest_rung": setting == "rung" and value == min(ladder),
                          **{k: v for k, v in row.items() if k not in ("point", "spacecraft")}})
     return pd.DataFrame(rows)

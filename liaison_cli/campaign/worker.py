@@ -5,6 +5,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from liaison_cli.analysis.consistency import direction_columns, run_verdict
+from liaison_cli.analysis.ric import primaries_lu, ric_columns
 from liaison_cli.analysis.metrics import (
     error_and_sigma,
     error_norms,
@@ -18,6 +19,7 @@ from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.interrupts import caused_by_interrupt
+from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import SPEED_OF_LIGHT_M_S, Problem
 
 
@@ -122,14 +124,17 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
 
 
 def _filter_params(problem: Problem, rng):
-    """Dated scenarios: the filter's C_R is the truth's times (1 + N(0, cr_error_sigma)), drawn last so no
-    other draw moves (003: 5 %). None when the filter uses the scenario's own parameters."""
-    spec = problem.scenario.ephemeris
-    if spec is None or spec.cr_error_sigma == 0.0:
+    """The filter's dynamics parameters of this run when scenario.model_error draws per run: C_R off by a factor
+    1 + N(0, cr sigma) (003: 5 %), then the Moon's GM by 1 + N(0, moon_gm_sigma), each drawn only when its
+    sigma is set, and last, so no other draw moves; the fixed errors on top (filter_arrays.biased_filter_params).
+    None when nothing is drawn (the problem's filter parameters hold)."""
+    scenario = problem.scenario
+    cr_sigma, gm_sigma = scenario.cr_error_sigma(), scenario.model_error.moon_gm_sigma
+    if cr_sigma == 0.0 and gm_sigma == 0.0:
         return None
-    from liaison_cli.dynamics.ephemeris_model import with_cr_scaled
-
-    return with_cr_scaled(problem.filter.model_params, 1.0 + spec.cr_error_sigma * rng.standard_normal())
+    cr_draw = cr_sigma * rng.standard_normal() if cr_sigma > 0.0 else 0.0
+    gm_draw = gm_sigma * rng.standard_normal() if gm_sigma > 0.0 else 0.0
+    return biased_filter_params(scenario, problem.dynamics, cr_draw, gm_draw)
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
@@ -147,6 +152,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
                                       settle_s=problem.scenario.settle_days() * SECONDS_PER_DAY,
                                       nees=history.nees, n_nees=problem.filter.n_nees)
         _add_directions(problem, arrays, history, summary)
+        _add_ric(problem, inputs, history, summary, n_dyn)
         _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
         _add_clock_sync(problem, inputs, history.data_end_step, summary)
@@ -162,7 +168,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         scale = problem.channel_scale_si
         clock_error, clock_sigma = _clock_histories(problem, err, sigma)
         rejected = np.zeros(history.innovation.shape, dtype=bool) if history.rejected is None else history.rejected
-        summary = summary if history.ok else _nan_summary(summary)
+        summary = summary if history.ok else _nan_summary(summary, norms, history.fail_step)
         _add_rejections(problem, history.innovation, rejected, summary)  # kept for a diverged run: why it failed
         return RunOutcome(
             run=run,
@@ -200,6 +206,24 @@ def _add_directions(problem: Problem, arrays, history, summary) -> None:
         row.update(own)
         row.update(run)
         row["consistent_settled"], row["consistency_failed"] = run_verdict(row)
+
+
+_PRIMARIES: dict = {}
+
+
+def _add_ric(problem: Problem, inputs: RunInputs, history, summary, n_dyn: int) -> None:
+    """Each spacecraft's errors and sigmas along its radial / in-track / cross-track axes (analysis.ric)."""
+    key = id(problem)
+    if key not in _PRIMARIES or _PRIMARIES[key][0] is not problem:
+        if len(_PRIMARIES) >= 4:
+            _PRIMARIES.pop(next(iter(_PRIMARIES)))
+        _PRIMARIES[key] = (problem, primaries_lu(problem.mu, problem.dynamics.body_positions_lu(problem.times_s),
+                                                 problem.times_s))
+    covariance = None if history.directions is None else history.directions.covariance
+    rows = ric_columns(problem.times_s, history.err[:, :n_dyn], inputs.truth[:, :n_dyn], covariance,
+                       _PRIMARIES[key][1], problem.scenario.settle_days() * SECONDS_PER_DAY, M_PER_LU, M_S_PER_VU)
+    for row, own in zip(summary, rows):
+        row.update(own)
 
 
 def _check_consistency(problem: Problem, history):
@@ -305,10 +329,17 @@ def _clock_histories(problem: Problem, err, sigma):
     return error, spread
 
 
-def _nan_summary(rows):
-    """A diverged run keeps its rows (with status) but no metrics, so it cannot be averaged in."""
-    return [{k: (v if k == "spacecraft" else "" if isinstance(v, str) else float("nan")) for k, v in row.items()}
-            for row in rows]
+def _nan_summary(rows, norms, fail_step: int):
+    """A diverged run keeps its rows (with status) but no metrics, so it cannot be averaged in; each row keeps
+    how far off its spacecraft was when the run was stopped (fail_position_error_m: the last finite position
+    error at or before the failure epoch)."""
+    out = [{k: (v if k == "spacecraft" else "" if isinstance(v, str) else float("nan")) for k, v in row.items()}
+           for row in rows]
+    errors = norms["position_error_m"][: max(fail_step, 0) + 1]
+    for i, row in enumerate(out):
+        finite = errors[np.isfinite(errors[:, i]), i]
+        row["fail_position_error_m"] = float(finite[-1]) if finite.size else float("nan")
+    return out
 
 
 __all__ = ["RunTask", "RunOutcome", "RunInputs", "execute_run", "draw_run_inputs"]

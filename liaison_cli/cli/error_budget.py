@@ -8,7 +8,6 @@ import typer
 from liaison_cli.cli import common
 from liaison_cli.cli.common import echo_json, json_option, user_errors
 from liaison_cli.cli.root import app
-from liaison_cli.errors import LiaisonError
 
 
 @app.command("errors")
@@ -39,10 +38,7 @@ def errors(
     where = common.fan_out(backend, scheduler, scheduler_timeout, connect=check_runs > 0)
     chosen = select_sources(sources)
     data, text = read_scenario_text(scenario_path)
-    if isinstance(data, dict) and "filter" not in data:
-        raise LiaisonError(f"{scenario_path}: key 'filter' is missing: the error budget splits the filter's own "
-                           "error, so give its settings (a 'filter' section)")
-    scenario = validate_scenario(data, str(scenario_path))
+    scenario = validate_scenario(data, str(scenario_path))  # the filter `run` would build, defaults included
     progress = not quiet and not as_json and sys.stderr.isatty()
     study = budget_study(prepare_problem(scenario), chosen, check_runs, jobs, where, progress)
     table = format_shares(study.rows_all, study.rows_late)

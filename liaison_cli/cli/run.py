@@ -27,6 +27,7 @@ from liaison_cli.cli.root import app
 from liaison_cli.report.run_text import (
     format_consistency as _format_consistency,
     format_prediction as _format_prediction,
+    format_ric as _format_ric,
     format_smoothed as _format_smoothed,
     format_summary as _format_summary,
     rejection_line as _rejection_line,
@@ -46,16 +47,20 @@ def run(
     backend: str = backend_option(),
     scheduler: str = scheduler_option(),
     scheduler_timeout: float = scheduler_timeout_option(),
-    output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>)"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
+    output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>, "
+                                "replaced by the next run of the same command)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder given by --output"),
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
     quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
-    """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results."""
+    """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results.
+
+    Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2"""
     from liaison_cli.campaign.results import stream_campaign
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
+    from liaison_cli.storage.ownership import is_ours
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -63,6 +68,9 @@ def run(
     config, text = load_scenario(scenario)
     log.info("read and checked %s in %.2f s", scenario, time.perf_counter() - started)
     out_dir = output or Path("results") / config.name
+    if output is None and not overwrite and is_ours(out_dir):  # an edit-and-rerun cycle: the default folder is
+        overwrite = True                                         # ours, so the new result takes its place
+        log.warning("replacing %s (an earlier result of liaison; --output keeps both)", out_dir)
     with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
         problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
                                            progress=not quiet and sys.stderr.isatty(),
@@ -87,7 +95,8 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
-    for optional in (_format_smoothed(summary, problem.spacecraft), _format_prediction(summary, problem.spacecraft)):
+    for optional in (_format_ric(summary, problem.spacecraft, config.settle_days()),
+                     _format_smoothed(summary, problem.spacecraft), _format_prediction(summary, problem.spacecraft)):
         if optional:
             typer.echo(optional)
     typer.echo(_status_line(summary))

@@ -32,9 +32,11 @@ def _load_study(paths: list[Path]) -> list:
     return [(Path(path).stem, *load_scenario(path)) for path in paths]
 
 
-def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, history, table: str, draw) -> None:
+def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, history, table: str, draw,
+                 tables: dict | None = None) -> None:
     """A study's table, Parquet (scenario texts, seeds and version in the metadata) and figures, swapped in
-    whole; `draw(history, stage)` draws the figures into the staging folder."""
+    whole; `draw(history, stage)` draws the figures into the staging folder; `tables`: further Parquet files,
+    {stem: DataFrame}."""
     from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
 
     typer.echo(table, nl=False)
@@ -44,6 +46,8 @@ def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, hist
     with staged_output(output, overwrite) as stage:
         write_parquet_atomic(summary, stage / "summary.parquet", meta)
         write_parquet_atomic(history, stage / "histories.parquet", meta)
+        for stem, frame in (tables or {}).items():
+            write_parquet_atomic(frame, stage / f"{stem}.parquet", meta)
         write_text_atomic(table, stage / "table.md")
         draw(history, stage)
     typer.echo(f"results: {output}")
@@ -137,11 +141,12 @@ def study004(
     quiet: QuietOption = False,
 ):
     """004's study: each transmitter x receiver pair (TDoA + FDoA); LinCov 3σ and the EKF Monte Carlo
-    (converged share, time to converge, consistency), rankings, DOP; table and figures."""
+    (converged share, time to converge, consistency), rankings, DOP, and 004's claims checked on the EKF's
+    settled error with LinCov σ beside it (claims.parquet); table and figures."""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid
     from liaison_cli.campaign.study003 import tuning
-    from liaison_cli.campaign.study004 import rankings, run_study
-    from liaison_cli.report.study004 import draw_histories, format_rankings, format_table
+    from liaison_cli.campaign.study004 import check_claims, rankings, run_study
+    from liaison_cli.report.study004 import draw_histories, format_claims, format_rankings, format_table
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -155,14 +160,17 @@ def study004(
               "= 3σ position below twice it from then on. EKF: a run converged when its position error stays below "
               "twice LinCov's steady 3σ (not before its initial batch hands over); steady state and convergence are "
               "judged before a manoeuvre where there is one; settled = after each "
-              "scenario's settle time; consistent = error/σ RMS at most 1.5 in position and velocity."]
+              "scenario's settle time; consistent = the consistency verdict (analysis.consistency: the NEES test "
+              "and the error/σ ratio's 95 % interval against [0.67, 1.5]; summary.parquet: "
+              "ekf_consistency_failed)."]
     header += [f"Filter ({name}): {tuning(scenario)}{_initial_batch_text(scenario)}" for name, scenario, _ in loaded]
     header.append("Written by `liaison study004 " + " ".join([*map(str, scenarios or []), f"--runs {runs}"]
                                                             + [f"--grid {text}" for text in grid or []]) + "`")
     if axes:
         header.append(f"Grid over {', '.join(keys)} (overrides the files' values)")
+    claims = check_claims(summary, keys)
     table = "\n".join(header) + "\n\n" + format_table(summary, keys) + "\n" + format_rankings(
-        rankings(summary, keys), keys)
+        rankings(summary, keys), keys) + "\n" + format_claims(claims, keys)
 
     def draw(history_, stage):
         if axes:  # the figures show the first grid point; every point's numbers are in the tables
@@ -171,7 +179,7 @@ def study004(
         for name, _, _ in loaded:
             draw_histories(history_, name, stage)
 
-    _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
+    _write_study(output, overwrite, loaded, runs, summary, history, table, draw, {"claims": claims})
 
 
 def _initial_batch_text(scenario) -> str:
@@ -193,14 +201,16 @@ def tables002(
     span_days: float = typer.Option(9.885, "--span", help="grid cell of the histograms: span (days)"),
     interval_s: float = typer.Option(1800, "--interval", help="grid cell of the histograms: interval (s)"),
 ):
-    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms."""
+    """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms; with
+    the nrho_gateway_anchors_mesh* scenarios in the sweep, both readings of 002's links side by side."""
     from liaison_cli.report.nrho002 import (clock_table, consistency_table, draw_histograms, drms_table,
-                                            format_consistency, format_tables, per_run_metrics)
+                                            format_consistency, format_readings, format_tables, per_run_metrics)
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
     metrics = per_run_metrics(sweep_dir)
     drms, clocks, consistency = drms_table(metrics), clock_table(metrics), consistency_table(sweep_dir)
-    text = format_tables(drms, clocks) + "\n" + format_consistency(consistency)
+    readings = format_readings(drms, clocks)
+    text = format_tables(drms, clocks) + ("\n" + readings if readings else "") + "\n" + format_consistency(consistency)
     typer.echo(text, nl=False)
     out_dir = output or sweep_dir / "tables002"
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -212,6 +222,9 @@ def tables002(
     write_parquet_atomic(metrics, paths[2], meta)
     write_parquet_atomic(consistency, paths[3], meta)
     write_text_atomic(text, paths[4])
+    if readings:
+        paths.append(out_dir / "readings.md")
+        write_text_atomic(readings, paths[-1])
     paths += draw_histograms(metrics, span_days, interval_s, out_dir)
     for path in paths:
         typer.echo(f"wrote {path}")

@@ -42,10 +42,8 @@ def _format_curve(curve: "pd.DataFrame", grid_keys) -> str:
             + _right(_curve_ratio(row), 15)
         )
     if "consistent_settled" in curve and not curve.consistent_settled.all():
-        from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
-
-        lines.append(f"! inconsistent after the settle time: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the "
-                     "filter's sigma RMS (curve.parquet: *_error_to_sigma_settled)")
+        lines.append("! inconsistent after the settle time: the point fails the consistency verdict (the NEES test "
+                     "or the error/σ ratio's interval; curve.parquet: consistency_failed says which)")
     return "\n".join(lines)
 
 

@@ -28,6 +28,18 @@ def with_cr_scaled(params: np.ndarray, factor: float) -> np.ndarray:
     return out
 
 
+def with_body_gm_scaled(params: np.ndarray, body: int, factor: float) -> np.ndarray:
+    """A copy of packed parameters whose third body `body` (NAIF code) has `factor` times its GM (unchanged
+    when the model does not carry that body)."""
+    out = params.copy()
+    n_segments, n_bodies = int(params[0]), int(params[3])
+    bodies_at = HEADER + 3 * n_segments
+    codes = params[bodies_at : bodies_at + n_bodies].astype(np.int64)
+    for i in np.flatnonzero(codes == body):
+        out[bodies_at + n_bodies + i] *= factor
+    return out
+
+
 def pack_params(window, bodies, gms, gm_earth: float, cr_am: float, epoch_tdb_s: float) -> np.ndarray:
     """One flat float64 vector: the header, the window's record tables, the bodies, then the coefficients."""
     S, _, R, N = window.coeffs.shape
@@ -124,6 +136,12 @@ class EphemerisDynamicsModel:
         self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)
         keep = np.isin(self.bodies, self.bodies if filter_bodies is None else filter_bodies)
         self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s)
+
+    def scaled_filter_params(self, cr_factor: float = 1.0, moon_gm_factor: float = 1.0) -> np.ndarray:
+        """The filter's parameters with its C_R A/m times cr_factor and the Moon's GM times moon_gm_factor."""
+        from liaison_cli.dynamics.ephemeris import BODY_MOON
+
+        return with_body_gm_scaled(with_cr_scaled(self.filter_params, cr_factor), BODY_MOON, moon_gm_factor)
 
     def body_positions_lu(self, times_s) -> dict:
         """The Earth (origin) and the Moon's geocentric positions (m, 3) at times_s past the epoch, scaled."""

@@ -117,6 +117,14 @@ class DynamicsModel:
         """The parameters of the filter's own model: the CRTBP's are the truth's."""
         return self.params
 
+    def scaled_filter_params(self, cr_factor: float = 1.0, moon_gm_factor: float = 1.0) -> np.ndarray:
+        """The filter's parameters with the Moon's GM times moon_gm_factor: mu (GM_moon / (GM_earth + GM_moon))
+        becomes mu f / (1 + mu (f - 1)). The CRTBP has no C_R (cr_factor must be 1)."""
+        if cr_factor != 1.0:
+            raise ValueError("the CRTBP has no solar radiation pressure: no C_R to scale")
+        mu = float(self.params[0])
+        return np.array([mu * moon_gm_factor / (1.0 + mu * (moon_gm_factor - 1.0)), *self.params[1:]])
+
     rotating_frame = True  # the states' frame turns at 1 rad/TU about z (measurements.tdoa)
 
     def trajectory(self, states, times_tu=None):

@@ -205,7 +205,8 @@ def _after_window(directions: DirectionRecord, e: int) -> DirectionRecord:
     def padded(a):
         return np.concatenate([np.full((e, *a.shape[1:]), np.nan), a])
     return directions._replace(nees_spacecraft=padded(directions.nees_spacecraft),
-                               time_shift=padded(directions.time_shift), along_pair=padded(directions.along_pair))
+                               time_shift=padded(directions.time_shift), along_pair=padded(directions.along_pair),
+                               covariance=padded(directions.covariance))
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:

@@ -216,14 +216,24 @@ def record_directions(k, e, P, truth, nees_k, chol, z, directions, work6, z6, u,
     [v'z, v'v]: into time_shift[k] for the common time shift, u = the true spacecraft states' central
     difference over one step (zero on other blocks; an estimate that lags the truth by d steps has e = -d u,
     and -v'z / v'v estimates d); into along_pair[k, p] for each pair's line of sight, u = +rho_hat on the
-    second block's position and -rho_hat on the first's. u, v (n,) are scratch."""
-    starts, pair_starts, nees_spacecraft, time_shift, along_pair = directions
+    second block's position and -rho_hat on the first's. Each spacecraft's position and velocity covariance
+    blocks (6 numbers each: xx, yy, zz, xy, xz, yz) into covariance[k, s] (analysis.consistency.ric_columns
+    turns them into radial / in-track / cross-track sigmas). u, v (n,) are scratch."""
+    starts, pair_starts, nees_spacecraft, time_shift, along_pair, covariance = directions
     if nees_spacecraft.shape[0] == 0:
         return
     m, n = truth.shape
     for s in range(starts.shape[0]):
         a = starts[s]
         nees_spacecraft[k, s] = nees_into(e[a : a + 6], P[a : a + 6, a : a + 6], work6, z6)
+        for half in range(2):  # the position and velocity 3 x 3 blocks: xx, yy, zz, xy, xz, yz
+            b = a + 3 * half
+            covariance[k, s, 6 * half + 0] = P[b, b]
+            covariance[k, s, 6 * half + 1] = P[b + 1, b + 1]
+            covariance[k, s, 6 * half + 2] = P[b + 2, b + 2]
+            covariance[k, s, 6 * half + 3] = P[b, b + 1]
+            covariance[k, s, 6 * half + 4] = P[b, b + 2]
+            covariance[k, s, 6 * half + 5] = P[b + 1, b + 2]
     if not np.isfinite(nees_k):
         return
     lo, hi = max(k - 1, 0), min(k + 1, m - 1)

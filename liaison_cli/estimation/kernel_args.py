@@ -28,17 +28,18 @@ EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_positio
                                          "gate_after"])
 SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
 DirectionRecord = namedtuple("DirectionRecord", ["spacecraft_starts", "pair_starts", "nees_spacecraft", "time_shift",
-                                                 "along_pair"])
+                                                 "along_pair", "covariance"])
 
 
 def direction_record(spacecraft_starts, pair_starts, m: int) -> DirectionRecord:
     """Room for filter_loop.record_directions over m epochs: spacecraft_starts (S,) the 6-state blocks' offsets,
     pair_starts (L, 2) two such offsets per linked pair; nees_spacecraft (m, S), time_shift (m, 2) and
-    along_pair (m, L, 2), NaN until recorded."""
+    along_pair (m, L, 2), covariance (m, S, 12) (each spacecraft's position and velocity blocks), NaN until
+    recorded."""
     starts = np.ascontiguousarray(spacecraft_starts, dtype=np.int64)
     pairs = np.ascontiguousarray(np.reshape(pair_starts, (-1, 2)), dtype=np.int64)
     return DirectionRecord(starts, pairs, np.full((m, starts.shape[0]), np.nan), np.full((m, 2), np.nan),
-                           np.full((m, pairs.shape[0], 2), np.nan))
+                           np.full((m, pairs.shape[0], 2), np.nan), np.full((m, starts.shape[0], 12), np.nan))
 
 
 def channels_of(kind, ends, flags, mod_index, mod_coeff, sigma) -> Channels:

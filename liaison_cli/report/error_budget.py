@@ -10,7 +10,7 @@ from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
 
 COLOURS = {"initial": "tab:blue", "noise": "tab:orange", "process": "tab:green", "bias": "tab:red",
-           "measurement_model": "tab:purple", "dynamics_model": "tab:brown", "cr": "tab:olive"}
+           "measurement_model": "tab:purple", "dynamics_model": "tab:brown", "cr": "tab:olive", "moon_gm": "tab:cyan"}
 
 
 def budget_table(budget) -> pd.DataFrame:
@@ -107,7 +107,7 @@ def format_consistency(rows: list[dict], settle_days: float, nees_share: float |
     from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 
     def ratio(value):
-        return f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
+        return f"{value:.2f}" + ("" if 1.0 / CONSISTENCY_RATIO_LIMIT <= value <= CONSISTENCY_RATIO_LIMIT else " !")
 
     nees = (f"; NEES in its 95 % band at {100 * nees_share:.1f} % of those epochs (mean of the {check_runs} check "
             "runs)" if nees_share is not None else "; NEES in band: needs --check-runs (LinCov has no single run)")
@@ -121,8 +121,8 @@ def format_consistency(rows: list[dict], settle_days: float, nees_share: float |
                      f"{1e3 * row['sigma_rms_velocity_m_s']:.3f} | {ratio(row['velocity_error_to_sigma'])} |")
     bad = [row["spacecraft"] for row in rows if not row["consistent"]]
     if bad:
-        lines.append(f"! inconsistent ({', '.join(bad)}): error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's "
-                     "sigma RMS (consistency.parquet: consistent)")
+        lines.append(f"! inconsistent ({', '.join(bad)}): error RMS outside [{1 / CONSISTENCY_RATIO_LIMIT:.2f}, "
+                     f"{CONSISTENCY_RATIO_LIMIT:g}]x the filter's sigma RMS (consistency.parquet: consistent)")
     return "\n".join(lines) + "\n"
 
 

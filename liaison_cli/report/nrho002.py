@@ -2,7 +2,12 @@
 
 The sweep is any `liaison sweep` over scenarios whose estimator is batch, with the grid keys
 `batch.span_days` and `measurement.interval_s`. Each grid point's scenario is classed from its own
-content (kept in sweep.json): Earth-based when it has ground stations, RR when a link measures range-rate.
+content (kept in sweep.json): Earth-based when it has ground stations, RR when a link measures range-rate,
+and its reading of 002's links: 'star' when every crosslink touches the main spacecraft (the receiver of the
+first link, the Gateway: the shipped reading), 'mesh' when the anchors also range to each other (the second
+reading, scenarios nrho_gateway_anchors_mesh*). The DRMS and clock tables keep the star reading in their
+original columns; a sweep that also holds mesh scenarios adds the mesh reading's columns and the ratio
+mesh / star per cell (format_readings prints them side by side).
 Metrics, per run: DRMS = the mean over the constellation of each spacecraft's prediction RMS (002 Eq. 37-39,
 the 3 h after the span); clock RMS = each anchor's synchronisation error RMS over the sync window and over
 the prediction after it. Tables give the 90th percentile over the runs that finished ('ok').
@@ -52,8 +57,21 @@ def _read(sweep_dir: Path):
     return runs, meta
 
 
+STAR, MESH = "star", "mesh"  # the two readings of 002's crosslinks
+
+
+def _reading(scenario) -> str:
+    """'mesh' when some crosslink joins two spacecraft neither of which is the main one (the first link's
+    receiver), else 'star' (Earth-based scenarios: every link starts at a station)."""
+    if scenario.ground_stations or not scenario.links:
+        return STAR
+    main = scenario.links[0].receiver
+    return MESH if any(main not in (link.receiver, link.transponder) for link in scenario.links) else STAR
+
+
 def _classes(meta) -> dict:
-    """{scenario name: (case 'autonomous' | 'earth', measurements 'RR' | 'NORR')} from the scenario texts."""
+    """{scenario name: (case 'autonomous' | 'earth', measurements 'RR' | 'NORR', reading 'star' | 'mesh')}
+    from the scenario texts."""
     import yaml
 
     out = {}
@@ -63,23 +81,23 @@ def _classes(meta) -> dict:
         # RR: some link measures a rate (a channel in m/s), whatever the observable is called.
         rr = any(channel.unit == "m/s" for link in scenario.links for name in link.observables
                  for channel in OBSERVABLES[name].channels)
-        out[name] = (case, "RR" if rr else "NORR")
+        out[name] = (case, "RR" if rr else "NORR", _reading(scenario))
     return out
 
 
 def per_run_metrics(sweep_dir) -> pd.DataFrame:
-    """One row per (grid point, run): case, measurements, span, interval, status, DRMS mean, per-spacecraft
-    DRMS, and the clock RMS of each anchor (window / prediction, ns)."""
+    """One row per (grid point, run): case, measurements, reading, span, interval, status, DRMS mean,
+    per-spacecraft DRMS, and the clock RMS of each anchor (window / prediction, ns)."""
     sweep_dir = Path(sweep_dir)
     runs, meta = _read(sweep_dir)
     classes = _classes(meta)
     rows = []
     for (point, run), group in runs.groupby(["point", "run"], sort=True):
         first = group.iloc[0]
-        case, measurements = classes[first.scenario]
+        case, measurements, reading = classes[first.scenario]
         ok = bool((group.status == "ok").all())
         row = {"point": int(point), "run": int(run), "scenario": first.scenario, "case": case,
-               "measurements": measurements, "span_days": float(first[SPAN_KEY]),
+               "measurements": measurements, "reading": reading, "span_days": float(first[SPAN_KEY]),
                "span_periods": float(first[SPAN_KEY]) / NRHO_PERIOD_DAYS, "interval_s": float(first[INTERVAL_KEY]),
                "status": "ok" if ok else "failed",
                "drms_mean_m": float(group.rms_position_prediction_m.mean()) if ok else np.nan}
@@ -98,7 +116,7 @@ CONSISTENCY_COLUMNS = ("rms_position_settled_m", "sigma_position_settled_m", "rm
 
 
 def consistency_table(sweep_dir) -> pd.DataFrame:
-    """Per (span, interval, case, measurements, spacecraft), over the runs that finished ('ok' for every
+    """Per (span, interval, case, measurements, reading, spacecraft), over the runs that finished ('ok' for every
     spacecraft, as in the DRMS tables) and the epochs after the scenario's settle time (filter.settle_days):
     the error RMS and sigma RMS of position (m) and velocity (m/s) (root of the mean square over the runs),
     their ratios (analysis.metrics.campaign_error_to_sigma), the mean share of epochs whose NEES lies in its
@@ -115,9 +133,10 @@ def consistency_table(sweep_dir) -> pd.DataFrame:
     rows = []
     for (point, name), group in runs.groupby(["point", "spacecraft"], sort=True):
         first = group.iloc[0]
-        case, measurements = classes[first.scenario]
+        case, measurements, reading = classes[first.scenario]
         ok = group[group.run_ok]
         row = {"point": int(point), "scenario": first.scenario, "case": case, "measurements": measurements,
+               "reading": reading,
                "span_days": float(first[SPAN_KEY]), "span_periods": float(first[SPAN_KEY]) / NRHO_PERIOD_DAYS,
                "interval_s": float(first[INTERVAL_KEY]), "spacecraft": name, "runs": len(group), "runs_ok": len(ok)}
         for kind, unit in (("position", "m"), ("velocity", "m_s")):
@@ -135,8 +154,9 @@ def consistency_table(sweep_dir) -> pd.DataFrame:
 
 
 def format_consistency(table: pd.DataFrame) -> str:
-    """The consistency table as Markdown, one row per grid cell, case and spacecraft; '!' marks a ratio above
-    the limit, and a closing line counts the inconsistent rows."""
+    """The consistency table as Markdown, one row per grid cell, case and spacecraft ('+ anchor link' after
+    the case for the mesh reading); '!' marks a ratio above the limit, and a closing line counts the
+    inconsistent rows."""
     def ratio(value):
         return "-" if value != value else f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
 
@@ -147,7 +167,8 @@ def format_consistency(table: pd.DataFrame) -> str:
              "| NEES in band |", "|---|---|---|---|---|---|---|---|---|---|"]
     for row in table.itertuples():
         share = "-" if row.nees_in_band_share != row.nees_in_band_share else f"{100 * row.nees_in_band_share:.0f} %"
-        lines.append(f"| {row.span_periods:.2g} T | {row.interval_s / 60:g} min | {row.case} {row.measurements} | "
+        case = f"{row.case} {row.measurements}" + (" + anchor link" if getattr(row, "reading", STAR) == MESH else "")
+        lines.append(f"| {row.span_periods:.2g} T | {row.interval_s / 60:g} min | {case} | "
                      f"{row.spacecraft} | {row.runs_ok}/{row.runs} | {row.error_rms_position_m:.3f} | "
                      f"{row.sigma_rms_position_m:.3f} | {ratio(row.position_error_to_sigma)} | "
                      f"{ratio(row.velocity_error_to_sigma)} | {share} |")
@@ -164,31 +185,64 @@ def _p90(values) -> float:
     return float(np.quantile(values, 0.9)) if values.size else np.nan
 
 
+def _readings(metrics: pd.DataFrame) -> pd.Series:
+    """Each row's reading ('star' for a per_run table written before readings were recorded)."""
+    return metrics["reading"] if "reading" in metrics else pd.Series(STAR, index=metrics.index)
+
+
+def _ratio(mesh: float, star: float) -> float:
+    return mesh / star if star == star and mesh == mesh and star > 0 else np.nan
+
+
 def drms_table(metrics: pd.DataFrame) -> pd.DataFrame:
-    """Table 3 layout: one row per (span, interval), DRMS-mean p90 per (case, measurements) column."""
+    """Table 3 layout: one row per (span, interval), DRMS-mean p90 per (case, measurements) column, from the
+    star reading. With mesh runs in the sweep, per (case, measurements) that has them also
+    `{case}_mesh_{measurements}_drms_p90_m` / `_runs_ok` / `_runs` and `{case}_{measurements}_mesh_ratio`
+    (mesh p90 / star p90)."""
+    metrics = metrics.assign(reading=_readings(metrics))
     rows = []
     for (span, interval), cell in metrics.groupby(["span_days", "interval_s"], sort=True):
         row = {"span_days": span, "span_periods": span / NRHO_PERIOD_DAYS, "interval_min": interval / 60.0}
-        for (case, measurements), runs in cell.groupby(["case", "measurements"]):
+        mesh_keys = []
+        groups = sorted(cell.groupby(["case", "measurements", "reading"]),
+                        key=lambda kv: (*kv[0][:2], kv[0][2] != STAR))
+        for (case, measurements, reading), runs in groups:  # the star reading's columns first, as before
             ok = runs[runs.status == "ok"]
-            row[f"{case}_{measurements}_drms_p90_m"] = _p90(ok.drms_mean_m)
-            row[f"{case}_{measurements}_runs_ok"] = len(ok)
-            row[f"{case}_{measurements}_runs"] = len(runs)
+            key = f"{case}_{measurements}" if reading == STAR else f"{case}_mesh_{measurements}"
+            row[f"{key}_drms_p90_m"] = _p90(ok.drms_mean_m)
+            row[f"{key}_runs_ok"] = len(ok)
+            row[f"{key}_runs"] = len(runs)
+            if reading == MESH:
+                mesh_keys.append((case, measurements))
+        for case, measurements in mesh_keys:
+            row[f"{case}_{measurements}_mesh_ratio"] = _ratio(row[f"{case}_mesh_{measurements}_drms_p90_m"],
+                                                              row.get(f"{case}_{measurements}_drms_p90_m", np.nan))
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def clock_table(metrics: pd.DataFrame) -> pd.DataFrame:
     """Table 4 layout: per (span, interval) and RR / NORR, the p90 over runs and anchors of the clock RMS over
-    the 3 h sync window and over the 3 h prediction after it (autonomous cases only)."""
+    the 3 h sync window and over the 3 h prediction after it (autonomous cases only, star reading). With mesh
+    runs in the sweep, also `mesh_runs_ok`, `mesh_clock_{window,prediction}_p90_ns` and
+    `clock_{window,prediction}_mesh_ratio` (mesh p90 / star p90)."""
     own = metrics[(metrics.case == "autonomous") & (metrics.status == "ok")]
+    own = own.assign(reading=_readings(own))
+    has_mesh = bool((own.reading == MESH).any())
     rows = []
     for (span, interval, measurements), cell in own.groupby(["span_days", "interval_s", "measurements"], sort=True):
         row = {"span_days": span, "span_periods": span / NRHO_PERIOD_DAYS, "interval_min": interval / 60.0,
-               "measurements": measurements, "runs_ok": len(cell)}
-        for which in ("window", "prediction"):
-            columns = [c for c in cell.columns if c.startswith(f"clock_{which}_")]
-            row[f"clock_{which}_p90_ns"] = _p90(cell[columns].to_numpy().ravel()) if columns else np.nan
+               "measurements": measurements}
+        for reading, prefix in ((STAR, ""), (MESH, "mesh_")) if has_mesh else ((STAR, ""),):
+            runs = cell[cell.reading == reading]
+            row[f"{prefix}runs_ok"] = len(runs)
+            for which in ("window", "prediction"):
+                columns = [c for c in runs.columns if c.startswith(f"clock_{which}_")]
+                row[f"{prefix}clock_{which}_p90_ns"] = _p90(runs[columns].to_numpy().ravel()) if columns else np.nan
+        if has_mesh:
+            for which in ("window", "prediction"):
+                row[f"clock_{which}_mesh_ratio"] = _ratio(row[f"mesh_clock_{which}_p90_ns"],
+                                                          row[f"clock_{which}_p90_ns"])
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -215,6 +269,52 @@ def format_tables(drms: pd.DataFrame, clocks: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _cell(value, digits: int) -> str:
+    return "-" if value != value else f"{value:.{digits}f}"
+
+
+def format_readings(drms: pd.DataFrame, clocks: pd.DataFrame) -> str:
+    """The two readings of 002's links side by side (autonomous case): per cell the star reading's p90 (Gateway
+    <-> each anchor, as shipped), the mesh reading's (anchor <-> anchor link added) and mesh / star, for the
+    DRMS and for the clocks. '' when the tables hold no mesh reading."""
+    if not any(column.endswith("_mesh_ratio") for column in drms.columns):
+        return ""
+    lines = ["Two readings of 002's links (autonomous case), DRMS p90 (m): shipped = crosslinks Gateway <-> each "
+             "anchor; + anchor link = the anchors also range to each other; ratio = + anchor link / shipped. "
+             "002 Table 3's values are withheld from our copy of the paper: no paper column, no ratio to the paper.",
+             "", "| span | interval | NORR shipped | NORR + anchor link | NORR ratio | RR shipped | RR + anchor link "
+             "| RR ratio |", "|---|---|---|---|---|---|---|---|"]
+    for row in drms.itertuples():
+        cells = []
+        for measurements in ("NORR", "RR"):
+            cells += [_cell(getattr(row, f"autonomous_{measurements}_drms_p90_m", np.nan), 3),
+                      _cell(getattr(row, f"autonomous_mesh_{measurements}_drms_p90_m", np.nan), 3),
+                      _cell(getattr(row, f"autonomous_{measurements}_mesh_ratio", np.nan), 2)]
+        lines.append(f"| {row.span_periods:.2g} T ({row.span_days:g} d) | {row.interval_min:g} min | "
+                     + " | ".join(cells) + " |")
+    runs = [int(getattr(row, f"autonomous{mesh}_{m}_runs_ok", 0)) for row in drms.itertuples()
+            for mesh in ("", "_mesh") for m in ("NORR", "RR") if f"autonomous{mesh}_{m}_runs_ok" in drms]
+    total = [int(getattr(row, f"autonomous{mesh}_{m}_runs", 0)) for row in drms.itertuples()
+             for mesh in ("", "_mesh") for m in ("NORR", "RR") if f"autonomous{mesh}_{m}_runs" in drms]
+    if runs:
+        finished = f"{min(runs)}" if min(runs) == max(runs) else f"{min(runs)}-{max(runs)}"
+        lines += ["", f"Runs that finished, per cell and reading: {finished} of {max(total)}."]
+    if "mesh_clock_window_p90_ns" in clocks:
+        lines += ["", "Two readings, clock RMS p90 (ns) of the anchors against the Gateway's clock; in both readings "
+                  "the fit uses the Gateway <-> anchor offsets only. 002 Table 4's values are withheld from our copy "
+                  "of the paper: no paper column, no ratio to the paper.", "",
+                  "| span | interval | measurements | window shipped | window + anchor link | window ratio "
+                  "| prediction shipped | prediction + anchor link | prediction ratio |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for row in clocks.itertuples():
+            lines.append(f"| {row.span_periods:.2g} T | {row.interval_min:g} min | {row.measurements} | "
+                         f"{_cell(row.clock_window_p90_ns, 2)} | {_cell(row.mesh_clock_window_p90_ns, 2)} | "
+                         f"{_cell(row.clock_window_mesh_ratio, 2)} | {_cell(row.clock_prediction_p90_ns, 2)} | "
+                         f"{_cell(row.mesh_clock_prediction_p90_ns, 2)} | "
+                         f"{_cell(row.clock_prediction_mesh_ratio, 2)} |")
+    return "\n".join(lines) + "\n"
+
+
 def draw_histograms(metrics: pd.DataFrame, span_days: float, interval_s: float, out_dir: Path) -> list[Path]:
     """DRMS histograms (cf. 002 Figs. 7-8) and clock RMS histograms (cf. Figs. 9-10) for one grid cell."""
     import matplotlib
@@ -223,7 +323,7 @@ def draw_histograms(metrics: pd.DataFrame, span_days: float, interval_s: float, 
     import matplotlib.pyplot as plt
 
     cell = metrics[np.isclose(metrics.span_days, span_days) & np.isclose(metrics.interval_s, interval_s)
-                   & (metrics.status == "ok")]
+                   & (metrics.status == "ok") & (_readings(metrics) == STAR)]  # the shipped reading
     paths = []
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex="col")
     for j, measurements in enumerate(("RR", "NORR")):

@@ -123,8 +123,10 @@ def _draw_nees(result: RunResult, highlight: int):
     ax.plot(t, table.mean_nees, color=HIGHLIGHT, linewidth=1.0, label="NEES averaged over the runs")
     _log_scale(ax, table[["mean_nees", "band_low", "band_high"]].to_numpy())
     inside = 100.0 * float(np.mean(table.inside_band)) if len(table) else float("nan")
-    ax.set_title(f"{result.name}: run-averaged NEES ({int(table.runs.max())} runs, state size "
-                 f"{int(table.state_size.max())}); inside the band at {inside:.0f} % of epochs")
+    runs, states = int(table.runs.max()), int(table.state_size.max())
+    ax.set_title(f"{result.name}: run-averaged NEES test, band χ²({runs}·{states})/{runs} at 95 %: inside at "
+                 f"{inside:.0f} % of all epochs\n(the run text's verdict is the single-run band test after the "
+                 "settle time: analysis.consistency)", fontsize=10)
     ax.set_xlabel("time (days)")
     ax.set_ylabel("NEES")
     ax.grid(True, which="both", alpha=0.3)

@@ -50,6 +50,10 @@ def format_summary(summary: list[dict], spacecraft) -> str:
         def column_mean(column, scale=1.0):
             return mean(ok_values(summary, name, column, scale))
 
+        if not ok_values(summary, name, "rms_position_m"):
+            lines.append(left(name, 12) + "  - (no run finished healthy: see the status line)")
+            continue
+
         lines.append(
             left(name, 12) + right(f"{column_mean('rms_position_m'):.1f}", 11)
             + right(f"{column_mean('rms_position_after_day1_m'):.1f}", 9)
@@ -82,12 +86,15 @@ def format_consistency(summary: list[dict], spacecraft, settle_days: float) -> s
     from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE, campaign_verdict
 
     lines = [f"consistency after {settle_days:g} d (error RMS / sigma RMS over the runs, 95 % interval; NEES test: "
-             f"share of epochs in the single-run 95 % chi-square band, {NEES_REQUIRED_SHARE:.0%} needed, whole state "
+             f"share of epochs in the single-run 95 % chi-square band, {100 * NEES_REQUIRED_SHARE:.0f} % needed, whole state "
              "and own 6 states):",
              f"{'spacecraft':<12}{'pos err/σ':>13}{'vel err/σ':>13}{'NEES state':>12}{'above':>7}{'own':>7}"
              f"{'consistent':>12}"]
     failures = []
     for name in spacecraft:
+        if not ok_values(summary, name, "rms_position_settled_m"):
+            lines.append(left(name, 12) + "  - (no healthy run, or no epoch after the settle time)")
+            continue
         out = campaign_verdict({column: ok_values(summary, name, column) for column in CONSISTENCY_COLUMNS})
         cells = [_ratio_cell(out[f"{kind}_error_to_sigma_settled"], out[f"{kind}_error_to_sigma_halfwidth"])
                  for kind in ("position", "velocity")]
@@ -139,6 +146,28 @@ def format_directions(summary: list[dict], spacecraft) -> list[str]:
     if worst[0] > DIRECTION_FLAG:
         lines.append(f"  most overconfident named direction: {worst[1]} ({worst[0]:.1f} of the NEES of {total:.1f})")
     return lines
+
+
+def format_ric(summary: list[dict], spacecraft, settle_days: float) -> str:
+    """Per spacecraft after the settle time, along its radial / in-track / cross-track axes (analysis.ric):
+    error RMS, mean error and sigma RMS of position (m) and velocity (mm/s), means over the runs that
+    finished; empty when the estimator records no covariance blocks."""
+    from liaison_cli.analysis.ric import AXES
+
+    if not any(math.isfinite(row.get("sigma_radial_position_settled_m", math.nan)) for row in summary):
+        return ""
+    lines = [f"RIC after {settle_days:g} d (about the nearer primary): error RMS / mean error / σ RMS",
+             f"{'spacecraft':<12}{'':<5}" + "".join(f"{axis:>24}" for axis in ("radial", "in-track", "cross-track"))]
+    for name in spacecraft:
+        for kind, unit, scale, label in (("position", "m", 1.0, "m"), ("velocity", "m_s", 1e3, "mm/s")):
+            cells = []
+            for axis in AXES:
+                values = [mean(ok_values(summary, name, f"{stat}_{axis}_{kind}_settled_{unit}", scale))
+                          for stat in ("rms", "mean", "sigma")]
+                digits = 0 if kind == "position" else 2
+                cells.append(right(f"{values[0]:.{digits}f} / {values[1]:+.{digits}f} / {values[2]:.{digits}f}", 24))
+            lines.append(left(name if kind == "position" else "", 12) + left(label, 5) + "".join(cells))
+    return "\n".join(lines)
 
 
 def format_smoothed(summary: list[dict], spacecraft) -> str:
@@ -206,6 +235,16 @@ def status_line(summary: list[dict]) -> str:
     bad = [row for row in runs if row["status"] != "ok"]
     text = f"{len(runs) - len(bad)}/{len(runs)} runs ok"
     if bad:
-        reasons = "; ".join(f"run {r['run']}: {r['status']} ({r['reason']})" for r in bad)
-        text += f"; excluded from the averages: {reasons}"
+        text += f"; excluded from the averages: {'; '.join(_failure(r) for r in bad)}"
     return text
+
+
+def _failure(row: dict) -> str:
+    """'run 3: diverged: NEES above ... at day 2.41' (the reason names the status; the epoch from fail_time_s)."""
+    reason = row.get("reason") or row["status"]
+    if not reason.startswith(row["status"]):
+        reason = f"{row['status']}: {reason}"
+    when, size = row.get("fail_time_s"), row.get("fail_position_error_m")
+    at = f" at day {when / 86400.0:.2f}" if isinstance(when, float) and math.isfinite(when) else ""
+    off = f", {row['spacecraft']} {size / 1e3:.3g} km off" if isinstance(size, float) and math.isfinite(size) else ""
+    return f"run {row['run']}: {reason}{at}{off}"

@@ -44,7 +44,9 @@ def format_table(summary: pd.DataFrame, grid_keys=(), settle_days: float = 1.0) 
                 f"{r.error_to_sigma_velocity_settled:.2f} | {100 * r.inside_3sigma_position:.1f} % | "
                 f"{r.runs_ok}/{r.runs} |")
         out.append("")
-    out.append(f"! marks an error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the filter's sigma RMS after the settle time.")
+    out.append("! marks a spacecraft that fails the consistency verdict after the settle time (analysis.consistency: "
+               "the NEES test, whole state and its own states, and the error/σ ratio's 95 % interval against "
+               f"[{1 / CONSISTENCY_RATIO_LIMIT:.2f}, {CONSISTENCY_RATIO_LIMIT:g}]; the Parquet's consistency_failed says which).")
     return "\n".join(out) + "\n"
 
 

@@ -1,6 +1,7 @@
 """004's study as tables and figures: per transmitter, the 3σ position and velocity histories of each
 receiver pair (the analogue of 004 Figs. 6-9) and the pairs' DOP (the analogue of Fig. 2); the LinCov
-table with the EKF Monte Carlo beside it, and the rankings per grid point."""
+table with the EKF Monte Carlo beside it, the rankings per grid point, and 004's claims with their verdicts on
+the EKF's settled error and on LinCov's σ."""
 
 from pathlib import Path
 
@@ -91,3 +92,89 @@ def draw_histories(history: pd.DataFrame, transmitter: str, out_dir: Path) -> Pa
     path = save_png(fig, out_dir / f"{transmitter}_3sigma.png")
     plt.close(fig)
     return path
+
+
+# --- 004's claims (campaign.study004.check_claims) -------------------------------------------------------------
+
+CLAIMS_LEGEND = (
+    "004's claims, each checked on one metric (report/data/study004_claims.yaml holds the statements and their "
+    "checks; claims.parquet the values). Accuracy claims: EKF = its position error RMS after the settle time over "
+    "the converged runs (the primary reading; for the transfer this window runs through the burn), LinCov = its "
+    "steady 3σ (median over the last quarter before any burn); a 3σ threshold is compared with 3 × the EKF's "
+    "error RMS. Convergence claims: EKF = the median day its runs converged, LinCov = the day its 3σ converged "
+    "(\"never\" counts as slower than any day). The DOP claim is geometry alone (no filter). \"not computable\": "
+    "the study lacks the transmitter, the pair, a converged run, or any statistic for the claim (note).")
+
+
+def _claim_number(value, quantity: str, part: str = "") -> str:
+    if value is None:
+        return "—"
+    if value == "never":
+        return "never"
+    if quantity == "convergence":
+        return f"{value:.2f} d"
+    if quantity == "geometry":
+        return f"{value:.1f}"
+    return f"{value * 1e2:.3f} cm/s" if part == "velocity" else f"{value / 1e3:.3f} km"
+
+
+def _ratio_text(check: dict, numbers: dict) -> str:
+    """The ratio a ratio check judged, e.g. "ground/geo 6.2×"."""
+    kind = check["kind"]
+    if kind == "similar":
+        pairs = [(check["pairs"][0], check["pairs"][1])]
+    elif kind in ("ratio_at_least", "ratio_between"):
+        worse = check["worse"] if isinstance(check["worse"], list) else [check["worse"]]
+        pairs = [(w, check["better"]) for w in worse]
+    else:
+        return ""
+    texts = []
+    for top, bottom in pairs:
+        a, b = numbers.get(top), numbers.get(bottom)
+        if isinstance(a, (int, float)) and isinstance(b, (int, float)) and b > 0:
+            ratio = a / b
+            texts.append(f"{top}/{bottom} {ratio:.{2 if ratio < 1 else 1 if ratio < 10 else 0}f}×")
+    return f" ({', '.join(texts)})" if texts else ""
+
+
+def _claim_values(values_json: str, check: dict) -> str:
+    import json
+
+    values = json.loads(values_json)
+    parts = []
+    for transmitter, numbers in values.items():
+        shown = ", ".join(f"{alias} {_claim_number(v, check['quantity'], alias)}" for alias, v in numbers.items())
+        parts.append(f"{transmitter}: {shown}{_ratio_text(check, numbers)}")
+    return "; ".join(parts)
+
+
+def _verdict_cell(status: str) -> str:
+    return "**no**" if status == "no" else status
+
+
+def format_claims(claims: pd.DataFrame, grid_keys: list[str] | None = None) -> str:
+    """004's claims: id, 004's statement and where, whether it holds on the EKF's settled error (primary) and on
+    LinCov's σ (or their convergence times), a mark where the two disagree, and the values they were judged on
+    (or why a claim cannot be checked)."""
+    import json
+
+    keys = grid_keys or []
+    head = "".join(f"{k} | " for k in keys)
+    lines = [CLAIMS_LEGEND, "",
+             f"| {head}id | 004 says (where) | EKF: holds? | LinCov: holds? | metrics disagree | measured / note |",
+             f"|{'---|' * len(keys)}---|---|---|---|---|---|"]
+    for r in claims.to_dict("records"):
+        point = "".join(f"{r[k]:g} | " if isinstance(r[k], float) else f"{r[k]} | " for k in keys)
+        check = json.loads(r["check"])
+        if r["quantity"] == "geometry":
+            measured = "; ".join(t for t in (f"DOP (geometry, no filter) holds: {_verdict_cell(r['geometry_holds'])}",
+                                             _claim_values(r["geometry_values"], check)) if t)
+        else:
+            measured = "; ".join(f"{label} {text}" for label, text in (
+                ("EKF", _claim_values(r["ekf_values"], check)), ("LinCov", _claim_values(r["lincov_values"], check)))
+                if text)
+        cell = " — ".join(t for t in (measured, r["note"]) if t) or "—"
+        disagree = "**disagree**" if r["metrics_disagree"] else ""
+        lines.append(f"| {point}`{r['id']}` | {r['claim']} ({r['source']}) | {_verdict_cell(r['ekf_holds'])} | "
+                     f"{_verdict_cell(r['lincov_holds'])} | {disagree} | {cell.replace('|', '/')} |")
+    return "\n".join(lines) + "\n"

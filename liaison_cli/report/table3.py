@@ -43,8 +43,10 @@ def to_markdown(table: pd.DataFrame, checks: dict[str, bool]) -> str:
             f"{('yes' + (' (' + r.tolerance_note + ')' if r.tolerance_note else '')) if r.within_tolerance else 'NO: ' + r.tolerance_note} |"
         )
     lines += ["", "err/σ: error RMS over the filter's sigma RMS after filter.settle_days (1 d), over the runs; "
-              f"! above {CONSISTENCY_RATIO_LIMIT:g} (inconsistent). NEES in band: share of those epochs whose "
-              "NEES lies in its 95 % chi-square band.", "", "Orderings from the paper:", ""]
+              "! the row fails the consistency verdict (analysis.consistency: the NEES test, whole state and each "
+              "spacecraft's own, and the ratio's 95 % interval against "
+              f"[{1 / CONSISTENCY_RATIO_LIMIT:.2f}, {CONSISTENCY_RATIO_LIMIT:g}]; table3.parquet: consistency_failed). "
+              "NEES in band: share of those epochs whose whole-state NEES lies in its single-run 95 % chi-square band.", "", "Orderings from the paper:", ""]
     lines += [f"- {'pass' if ok else 'FAIL'}: {name}" for name, ok in checks.items()]
     return "\n".join(lines) + "\n"
 

@@ -8,7 +8,6 @@ from importlib.resources import files
 import pandas as pd
 import yaml
 
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.tuning import VERDICT_BATCH
 
 
@@ -17,10 +16,10 @@ def paper_tuned_notes() -> dict:
     return yaml.safe_load(files("liaison_cli.report").joinpath("data/paper_tuned.yaml").read_text())
 
 
-def _ratio(value: float) -> str:
+def _ratio(value: float, half_width: float = math.nan) -> str:
     if not math.isfinite(value):
         return "-"
-    return f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
+    return f"{value:.2f}" + (f"±{half_width:.2f}" if math.isfinite(half_width) else "")
 
 
 def _cells(row) -> list[str]:
@@ -29,9 +28,11 @@ def _cells(row) -> list[str]:
     if row is None:
         return ["-"] * 7
     share = row["nees_in_band_share"]
+    mark = "" if row.get("consistent", True) else " !"
     return ["-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}", f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
-            _ratio(row["position_error_to_sigma"]), _ratio(row["velocity_error_to_sigma"]),
-            "-" if not math.isfinite(share) else f"{100 * share:.0f} %", f"{row['runs_ok']}/{row['runs']}"]
+            _ratio(row["position_error_to_sigma"], row.get("position_error_to_sigma_halfwidth", math.nan)),
+            _ratio(row["velocity_error_to_sigma"], row.get("velocity_error_to_sigma_halfwidth", math.nan)),
+            ("-" if not math.isfinite(share) else f"{100 * share:.0f} %") + mark, f"{row['runs_ok']}/{row['runs']}"]
 
 
 def _verdict(rows: pd.DataFrame, chosen, notes: dict) -> str:
@@ -59,9 +60,10 @@ def format_table(table: pd.DataFrame, rule: str, command: str, settle_note: str,
              f"Written by `{command}`; do not edit by hand.", "", rule, "",
              f"Statistics after the settle time ({settle_note}), over the runs that finished: error RMS and sigma "
              "RMS of the 3-D position error (m; sigma of the norm, sqrt(sx^2 + sy^2 + sz^2)), their ratio for "
-             f"position and velocity (! above {CONSISTENCY_RATIO_LIMIT:g}: inconsistent), and the mean share of "
-             "epochs whose whole-state NEES lies in its 95 % chi-square band (the same for every spacecraft of a "
-             "scenario). SNC in m/s^2; a shipped value per spacecraft where they differ.", ""]
+             "position and velocity with its 95 % interval from the run count, and the mean share of epochs whose "
+             "whole-state NEES lies in its single-run 95 % chi-square band (the same for every spacecraft of a "
+             "scenario); ! marks a spacecraft that fails the consistency verdict (the ladder text says which test). "
+             "SNC in m/s^2; a shipped value per spacecraft where they differ.", ""]
     kept = [label for label in table.scenario.unique() if label in notes]
     if kept:
         lines += [f"Kept tuned to a paper, not to the rule: {', '.join(kept)} (why, and the rule's value: their "
@@ -82,15 +84,16 @@ def format_table(table: pd.DataFrame, rule: str, command: str, settle_note: str,
 
 def format_ladder(table: pd.DataFrame) -> str:
     """Plain text for the terminal: every rung's ratios and NEES share, per scenario and spacecraft."""
-    lines = [f"{'scenario':<32}{'S/C':<12}{'SNC m/s^2':>10}{'pos err/σ':>11}{'vel err/σ':>11}{'NEES in band':>14}"
-             f"{'runs ok':>9}"]
+    lines = [f"{'scenario':<32}{'S/C':<12}{'SNC m/s^2':>10}{'pos err/σ':>13}{'vel err/σ':>13}{'NEES in band':>14}"
+             f"{'runs ok':>9}  why not consistent"]
     for row in table.to_dict("records"):
         value = "-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}"
         snc = value + ("*" if row["chosen"] else (" s" if row["setting"] == "shipped" else ""))
         share = row["nees_in_band_share"]
-        lines.append(f"{row['scenario']:<32}{row['spacecraft']:<12}{snc:>10}{_ratio(row['position_error_to_sigma']):>11}"
-                     f"{_ratio(row['velocity_error_to_sigma']):>11}"
+        position = _ratio(row["position_error_to_sigma"], row.get("position_error_to_sigma_halfwidth", math.nan))
+        velocity = _ratio(row["velocity_error_to_sigma"], row.get("velocity_error_to_sigma_halfwidth", math.nan))
+        lines.append(f"{row['scenario']:<32}{row['spacecraft']:<12}{snc:>10}{position:>13}{velocity:>13}"
                      f"{('-' if not math.isfinite(share) else f'{100 * share:.0f} %'):>14}"
-                     f"{str(row['runs_ok']) + '/' + str(row['runs']):>9}")
+                     f"{str(row['runs_ok']) + '/' + str(row['runs']):>9}  {row.get('consistency_failed') or ''}")
     lines.append("s: shipped settings; *: the rung the rule chose")
     return "\n".join(lines)

@@ -130,6 +130,17 @@ def initial_error_sigma(scenario: Scenario) -> np.ndarray:
     return np.array(out)
 
 
+def biased_filter_params(scenario: Scenario, model, cr_draw: float = 0.0, moon_gm_draw: float = 0.0):
+    """The filter's dynamics parameters with model_error's fixed errors, times 1 + a run's drawn ones (the draws
+    are the fractions cr_sigma N and moon_gm_sigma N; 0: none): scenario.model_error."""
+    error = scenario.model_error
+    cr_factor = (1.0 + error.cr_bias) * (1.0 + cr_draw)
+    gm_factor = (1.0 + error.moon_gm_bias) * (1.0 + moon_gm_draw)
+    if cr_factor == 1.0 and gm_factor == 1.0:
+        return model.filter_params
+    return model.scaled_filter_params(cr_factor, gm_factor)
+
+
 def _matrices(scenario: Scenario, layout: StateLayout):
     """P0 and Q (n, n), block by block."""
     n = layout.n
@@ -302,7 +313,7 @@ def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajector
         layout=layout, P0=P0, Q=Q, known_states=known_states,
         channel_kind=np.array([ch.kind for ch in channels], dtype=np.int64), channel_ends=ends,
         channel_flags=flags, channel_mod_index=mod_index, channel_mod_coeff=mod_coeff,
-        sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=model.filter_params,
+        sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=biased_filter_params(scenario, model),
         dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
         divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting, burns=burns,
         residual_gate_sigma=flt.residual_gate_sigma or 0.0, residual_gate_after=flt.residual_gate_after,

@@ -109,6 +109,11 @@ _YamlLoader.add_implicit_resolver("tag:yaml.org,2002:float",
                                   list("-+0123456789"))
 
 
+def read_yaml_value(text: str):
+    """One YAML value as a scenario file reads it (1e5 and 6e-5 are numbers): a --grid or --set value."""
+    return yaml.load(text, Loader=_YamlLoader)
+
+
 def read_scenario_text(path) -> tuple[dict, str]:
     path = Path(path)
     text = _read_bounded(path)

@@ -15,6 +15,7 @@ from liaison_cli.scenario.estimation_settings import (
     BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec)
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
 from liaison_cli.scenario.links import LinkSpec, MeasurementSpec, TopologySpec, expand_topology
+from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.participants import (
     DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
 from liaison_cli.scenario.radio_settings import NoiseSpec
@@ -75,6 +76,8 @@ class Scenario(StrictModel):
     filter: FilterSpec = Field(FilterSpec(), description="the estimator's settings")
     initial_error: InitialErrorSpec = Field(InitialErrorSpec(), description="how each run's initial state error "
                                             "is drawn")
+    model_error: ModelErrorSpec = Field(ModelErrorSpec(), description="the filter's dynamics off from the truth's "
+                                        "on purpose: C_R and lunar GM, fixed or drawn per run")
     monte_carlo: MonteCarloSpec = Field(description="runs and seed")
     measurements: MeasurementFileSpec | None = Field(None, description="{tdm: FILE}: the filter's measurements from "
                                                      "a TDM, one run (docs/exchange.md)")
@@ -120,6 +123,7 @@ class Scenario(StrictModel):
         self._check_initial_batch()
         self._check_clock_sync()
         self._check_dynamics()
+        self._check_model_error()
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
@@ -414,6 +418,19 @@ class Scenario(StrictModel):
                              f"measurement intervals ({self.measurement.interval_s:g} s)")
         if not any(OBSERVABLES[o].clock_offset_channel >= 0 for link in self.links for o in link.observables):
             raise ValueError("clock_sync needs a link that measures clock offsets (observable dual_one_way_derived)")
+
+    def _check_model_error(self):
+        error = self.model_error
+        if self.dynamics != "ephemeris" and (error.cr_bias or error.cr_sigma):
+            raise ValueError("model_error.cr_bias / cr_sigma need dynamics: ephemeris (the CRTBP has no solar "
+                             "radiation pressure); allowed for the CRTBP: moon_gm_bias, moon_gm_sigma")
+        if self.ephemeris is not None and self.ephemeris.cr_error_sigma and error.cr_sigma:
+            raise ValueError("ephemeris.cr_error_sigma and model_error.cr_sigma are the same setting: give one")
+
+    def cr_error_sigma(self) -> float:
+        """The per-run relative sigma of the filter's C_R: model_error.cr_sigma or ephemeris.cr_error_sigma."""
+        older = self.ephemeris.cr_error_sigma if self.ephemeris is not None else 0.0
+        return self.model_error.cr_sigma or older
 
     def filter_range_model(self) -> str:
         """filter.range_model, or, when absent, the truth's: light_time when measurement.light_time, else

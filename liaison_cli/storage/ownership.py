@@ -9,6 +9,7 @@ from liaison_cli.storage.atomic import write_text_atomic
 from liaison_cli.storage.parquet import read_metadata
 
 RESULT_MARKER = ".liaison-result"  # in every folder liaison writes: only such folders are ever replaced
+MANIFEST_HEADER_LIMIT = 64 * 2**20  # a sweep header lists its points: 10,000 points fit
 
 
 def mark_ours(folder: Path) -> None:
@@ -16,11 +17,12 @@ def mark_ours(folder: Path) -> None:
 
 
 def is_ours(path: Path) -> bool:
-    """A folder liaison wrote: its marker, a sweep manifest, or (results from before the marker) a Parquet
-    table carrying liaison's provenance metadata."""
+    """A folder liaison wrote: its marker; or, for results from before the marker, a sweep manifest whose header
+    is liaison's or a Parquet table carrying liaison's provenance metadata. A file name alone proves nothing:
+    a user's folder may hold a `manifest.jsonl` of its own (issue 35: --overwrite deleted such a folder)."""
     if not path.is_dir():
         return False
-    if (path / RESULT_MARKER).exists() or (path / "manifest.jsonl").exists():
+    if (path / RESULT_MARKER).exists() or _liaison_manifest(path / "manifest.jsonl"):
         return True
     for table in path.glob("*.parquet"):
         try:
@@ -29,6 +31,20 @@ def is_ours(path: Path) -> bool:
         except Exception:  # noqa: BLE001 - not readable as a liaison table: not evidence of ours
             continue
     return False
+
+
+def _liaison_manifest(path: Path) -> bool:
+    """The file's first line is a liaison sweep manifest's header (campaign.sweep_plan.SweepPlan.header): a JSON
+    object of kind 'header' with a format number, the sweep's name, the code hash and its points."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as handle:
+            header = json.loads(handle.readline(MANIFEST_HEADER_LIMIT))
+    except (OSError, ValueError):
+        return False
+    return (isinstance(header, dict) and header.get("kind") == "header" and isinstance(header.get("format"), int)
+            and {"sweep", "core_hash", "points"} <= set(header) and isinstance(header["points"], list))
 
 
 def check_replaceable(path: Path, overwrite: bool) -> bool:

@@ -76,6 +76,39 @@ def test_existing_output_needs_overwrite(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "out"]  # no staging folder left behind
 
 
+def test_the_readme_command_runs_twice_and_a_foreign_default_folder_is_kept(tmp_path):
+    """Issue 35: `liaison run X` again replaces results/<name> when liaison wrote it (an edit-and-rerun cycle),
+    with one note; a folder of that name liaison did not write is refused and kept."""
+    import contextlib
+    import json
+    from types import SimpleNamespace
+
+    from typer.testing import CliRunner
+
+    from liaison_cli.cli import app
+
+    def here(*args):  # the CLI with the working folder in tmp_path (run_cli_in_process works from the repository)
+        with contextlib.chdir(tmp_path):
+            result = CliRunner().invoke(app, [str(a) for a in args])
+        return SimpleNamespace(returncode=result.exit_code, stderr=result.stderr, stdout=result.stdout)
+
+    first = here("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--json")
+    second = here("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--json")
+    assert first.returncode == 0 and second.returncode == 0, second.stderr
+    assert "replacing results/smoke" in second.stderr and "Traceback" not in second.stderr
+    assert json.loads(second.stdout)["runs"] == 2
+    assert sorted(p.name for p in (tmp_path / "results").iterdir()) == ["smoke"]  # nothing staged left behind
+    foreign = tmp_path / "results" / "smoke"
+    import shutil
+
+    shutil.rmtree(foreign)
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    proc = here("run", SCENARIOS / "smoke.yaml", "--runs", "1")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert (foreign / "notes.txt").read_text() == "mine"
+
+
 def test_yaml_tags_are_not_executed(tmp_path):
     """A Python tag in the YAML is refused, not run: the command it names would leave a file behind."""
     marker = tmp_path / "pwned"
@@ -83,3 +116,14 @@ def test_yaml_tags_are_not_executed(tmp_path):
     proc = run_cli_in_process("run", path)
     assert proc.returncode == 2 and "malformed YAML" in proc.stderr
     assert not marker.exists()
+
+
+def test_overwrite_never_deletes_a_folder_whose_files_only_look_like_ours(tmp_path):
+    """Issue 35 fault 1: a user's folder with a file named manifest.jsonl was taken for a sweep's and replaced."""
+    mine = tmp_path / "mydata"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("hi")
+    (mine / "manifest.jsonl").write_text("{}\n")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--output", mine, "--overwrite")
+    assert proc.returncode == 2 and "not a liaison result" in proc.stderr
+    assert (mine / "thesis.tex").read_text() == "hi"

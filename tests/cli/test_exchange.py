@@ -398,3 +398,18 @@ def test_export_command_writes_the_files_and_keeps_an_existing_folder(tmp_path):
     again = run_cli_in_process("export", result, "--run", "1")
     assert again.returncode == 2 and "--overwrite" in again.stderr
     assert (folder / "measurements.tdm").read_text() == before
+
+
+def test_a_float32_result_with_large_errors_exports(tmp_path):
+    """Issue 35: the tdoa-pair template's run (position errors of tens of km, stored as float32) was refused by
+    export as 'changed' (0.03 m off against a 1 mm check); the check now allows the storage's own rounding."""
+    import pyarrow.parquet as pq
+
+    scenario = tmp_path / "t.yaml"
+    assert run_cli_in_process("new", scenario, "--from", "tdoa-pair").returncode == 0
+    result = tmp_path / "result"
+    assert run_cli_in_process("run", scenario, "--runs", "1", "--output", result).returncode == 0
+    stored = pq.read_table(result / "timeseries.parquet", columns=["position_error_m"]).column(0)
+    assert str(stored.type) == "float" and max(stored.to_numpy()) > 16e3  # beyond float32's 1 mm
+    proc = run_cli_in_process("export", result, "--output", tmp_path / "export")
+    assert proc.returncode == 0, proc.stderr

@@ -332,7 +332,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing_that_blocks_a_rerun(small_di
     assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", out, "--quiet").returncode == 0
     # A sweep that meets a full disk keeps its manifest and resumes once there is room.
     sweep = small_disk / "sweep"
-    _fill(small_disk, 8192)
+    _fill(small_disk, 32768)  # room for the header and a few records (each about 5 kB), not for all
     args = ["sweep", SCENARIOS / "smoke.yaml", "--sigma", "100:700:100", "--runs", "4", "--jobs", "1",
             "--output", sweep, "--quiet"]
     proc = run_cli_in_process(*args)

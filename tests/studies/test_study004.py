@@ -6,6 +6,7 @@ import pandas as pd
 import pytest
 
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
+from tests.test_docs import ALWAYS, expected_columns
 from liaison_cli.campaign import backends, study004
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
@@ -67,9 +68,9 @@ def test_bad_tdoa_input_is_one_line(tmp_path, old, new, fragments):
 
 
 def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
-    """Two days, 2 runs per pair: the table, Parquet and figure are written, and the GEO pair's 3σ position
-    along the truth ends below the ground pair's (a 7x longer baseline; measured over the full 14.75 days:
-    0.12 km against 1.18 km)."""
+    """Two days, 2 runs per pair: the table, Parquet (with 004's claims) and figure are written, and the GEO
+    pair's 3σ position along the truth ends below the ground pair's (a 7x longer baseline; measured over the
+    full 14.75 days: 0.12 km against 1.18 km)."""
     short = tmp_path / "eml2_halo.yaml"
     short.write_text(HALO.read_text().replace("duration_days: 14.75", "duration_days: 2")
                      .replace("initial_batch_max_hours: 96", "initial_batch_max_hours: 24")
@@ -77,7 +78,7 @@ def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
     out = tmp_path / "study"
     proc = run_cli_in_process("study004", short, "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
     assert proc.returncode == 0, proc.stderr
-    for name in ("summary.parquet", "histories.parquet", "table.md", "eml2_halo_3sigma.png"):
+    for name in ("summary.parquet", "histories.parquet", "claims.parquet", "table.md", "eml2_halo_3sigma.png"):
         assert (out / name).exists(), name
     history = pd.read_parquet(out / "histories.parquet")
     final = history[history.t_days == history.t_days.max()].set_index("pair").position_3sigma_m
@@ -90,6 +91,17 @@ def test_study004_runs_and_the_geo_pair_beats_the_ground_pair(tmp_path):
     assert summary.set_index("pair").ekf_converged_share["GEO130W+GEO170W"] == 1.0
     table = (out / "table.md").read_text()
     assert "EKF converged" in table and "best first, LinCov steady 3σ" in table and "initial batch 12 h" in table
+    # 004's claims: one row per claim, in the table and claims.parquet; those on the DRO and the transfer cannot be
+    # told from a halo-only study, the halo's get a verdict on each metric (or say why not).
+    claims = pd.read_parquet(out / "claims.parquet")
+    shipped = study004.claims_004()["claims"]
+    assert list(claims.id) == [c["id"] for c in shipped]
+    assert all(f"`{c['id']}`" in table for c in shipped) and "LinCov: holds?" in table
+    by_id = claims.set_index("id")
+    assert (by_id.loc["dro_geo_most_accurate", ["ekf_holds", "lincov_holds"]] == "not computable").all()
+    assert by_id.loc["halo_geo_fastest", "lincov_holds"] in ("yes", "no")
+    assert by_id.loc["dop_geo_below_ground", "geometry_holds"] in ("yes", "no")
+    assert set(claims.columns) == expected_columns("claims", ALWAYS)  # docs/outputs.md documents every column
 
 
 def test_the_low_energy_transfer_scenario_carries_its_manoeuvre():

@@ -50,6 +50,11 @@ def test_the_direction_record_is_the_whitened_error_along_each_direction():
         u[6:9], u[0:3] = rho / np.linalg.norm(rho), -rho / np.linalg.norm(rho)
         np.testing.assert_allclose(d.along_pair[k, 0], [u @ np.linalg.solve(P, e), u @ np.linalg.solve(P, u)],
                                    rtol=1e-8)
+        for s, a in enumerate(d.spacecraft_starts):  # the position and velocity blocks, packed
+            for half in range(2):
+                block = P[a + 3 * half : a + 3 * half + 3, a + 3 * half : a + 3 * half + 3]
+                packed = [block[0, 0], block[1, 1], block[2, 2], block[0, 1], block[0, 2], block[1, 2]]
+                np.testing.assert_array_equal(d.covariance[k, s, 6 * half : 6 * half + 6], packed)
 
 
 @pytest.mark.parametrize("range_model, lags", [("geometric", True), ("light_time", False)])
@@ -88,3 +93,22 @@ def test_the_campaign_ratio_interval_shrinks_with_the_run_count():
     assert widths[0] > widths[1] > widths[2] > 0
     assert math.isinf(campaign_verdict({"rms_position_settled_m": [1.0], "sigma_position_settled_m": [1.0]})[
         "position_error_to_sigma_halfwidth"])
+
+
+def test_ric_components_are_a_rotation_of_the_3d_figures():
+    """Per spacecraft, the RIC axes are orthonormal with R away from the nearer primary, so the settled error
+    RMS and sigma RMS of the three axes add in quadrature to the 3-D figures of the same epochs."""
+    from liaison_cli.analysis.ric import primaries_lu, ric_axes
+    from liaison_cli.campaign.worker import execute_run, RunTask
+
+    problem, inputs, _, _ = _history(days=3.0)
+    row = execute_run(problem, RunTask(0)).summary[1]  # the lunar orbiter
+    for kind, unit in (("position", "m"), ("velocity", "m_s")):
+        for stat in ("rms", "sigma"):
+            parts = sum(row[f"{stat}_{axis}_{kind}_settled_{unit}"] ** 2 for axis in ("radial", "intrack", "crosstrack"))
+            assert math.sqrt(parts) == pytest.approx(row[f"{stat}_{kind}_settled_{unit}"], rel=1e-9)
+    primaries = primaries_lu(problem.mu, {}, problem.times_s)
+    lunar = inputs.truth[:, 6:12]
+    axes = ric_axes(lunar[:, :3], lunar[:, 3:], primaries, 1.0)
+    np.testing.assert_allclose(np.einsum("kij,klj->kil", axes, axes), np.broadcast_to(np.eye(3), axes.shape), atol=1e-12)
+    assert np.all(np.einsum("kj,kj->k", axes[:, 0], lunar[:, :3] - primaries[:, 1]) > 0)  # the Moon is nearer

@@ -59,7 +59,7 @@ def test_the_single_run_nees_band_is_the_chi_square_quantiles():
 
 def test_run_prints_the_consistency_table_and_marks_an_inconsistent_spacecraft(tmp_path):
     path = edited_scenario(tmp_path, "smoke.yaml", "monte_carlo:",
-                           "initial_error: {sigma_position_m: 10000, sigma_velocity_m_s: 0.1}\n"
+                           "initial_error: {draw: fixed_sigma, sigma_position_m: 10000, sigma_velocity_m_s: 0.1}\n"
                            "filter: {settle_days: 0.25}\nmonte_carlo:")
     proc = run_cli_in_process("run", path, "--output", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
@@ -67,8 +67,10 @@ def test_run_prints_the_consistency_table_and_marks_an_inconsistent_spacecraft(t
     for name in ("EML2", "Lunar"):  # started 10 x outside P0: optimistic, and said so with the test that failed
         assert any(line.startswith(f"not consistent: {name}: ") and "optimistic" in line
                    for line in proc.stdout.splitlines()), proc.stdout
-    rows = [line for line in proc.stdout.splitlines() if line.startswith(("EML2 ", "Lunar "))][-2:]
-    assert all(row.rstrip().endswith(" no") for row in rows), rows
+    lines = proc.stdout.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("spacecraft") and "consistent" in line)
+    rows = lines[header + 1 : header + 3]  # the consistency table's two rows
+    assert [row.split()[0] for row in rows] == ["EML2", "Lunar"] and all(row.rstrip().endswith(" no") for row in rows)
     import pandas as pd
 
     summary = pd.read_parquet(tmp_path / "out" / "summary.parquet")

@@ -106,9 +106,12 @@ def test_unknown_source_is_one_line():
     assert "\n" not in line and "'solar_wind'" in line and "allowed: initial, noise, process" in line
 
 
-def test_scenario_without_a_filter_section_is_one_line():
-    path = SCENARIOS / "smoke.yaml"  # leaves the filter to its defaults
-    assert_one_line_error(run_cli_in_process("errors", path), path, ["key 'filter' is missing", "error budget"])
+def test_errors_takes_what_run_takes(tmp_path):
+    """Issue 35: a scenario without a filter section runs with the filter's defaults; `errors` budgets that same
+    filter instead of refusing it."""
+    proc = run_cli_in_process("errors", SCENARIOS / "smoke.yaml", "--output", tmp_path / "budget")
+    assert proc.returncode == 0, proc.stderr
+    assert "consistency after" in proc.stdout
 
 
 def _matched_smoke(**extra):

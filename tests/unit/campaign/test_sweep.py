@@ -31,7 +31,11 @@ def test_grid_syntax():
     assert parse_grid("measurement.interval_s=60,187.5,600") == ("measurement.interval_s", [60, 187.5, 600])
     assert parse_grid("measurement.light_time=true,false") == ("measurement.light_time", [True, False])
     assert parse_grid("noise.sigma_m=100:300:100") == ("noise.sigma_m", [100, 200, 300])
-    for bad in ("noise.sigma_m", "=1,2", "noise.sigma_m=", "noise.sigma_m=1,1"):
+    # Issue 35: 6e-5 is a number, as in a scenario file (YAML 1.1 read it as text), and 6e-5 = 6.0e-5.
+    assert parse_grid("noise.range_rate_sigma_m_s=6e-5,4.243e-5,3e-5") == ("noise.range_rate_sigma_m_s",
+                                                                           [6e-5, 4.243e-5, 3e-5])
+    assert parse_grid("noise.range_rate_sigma_m_s=6.0e-5")[1] == parse_grid("noise.range_rate_sigma_m_s=6e-5")[1]
+    for bad in ("noise.sigma_m", "=1,2", "noise.sigma_m=", "noise.sigma_m=1,1", "noise.sigma_m=1e2,100.0"):
         with pytest.raises(GridError):
             parse_grid(bad)
 
