@@ -113,6 +113,7 @@ def _span(values, digits: int) -> str:
 def test_table3_page_ranges_are_the_reference_tables():
     """The prose of the Table 3 page quotes ranges over results/reference/table3.md's columns."""
     rows = [r for r in _table_rows(REFERENCE / "table3.md") if r[0] in ("eml2_lunar", "eml1_lunar", "eml1_eml2")]
+    rows = [r for r in rows if len(r) > 11]  # the comparison table (the cost table after it is narrower)
     assert len(rows) == 12
     ratios = [re.findall(r"\d+\.\d+", r[11]) for r in rows]
     nees = [int(re.search(r"(\d+) %", r[11]).group(1)) for r in rows]

@@ -11,6 +11,8 @@ record_directions); the error along it is u'e.
 
 import numpy as np
 
+from liaison_cli.dynamics.constants import TU_S
+
 AXES = ("radial", "intrack", "crosstrack")
 
 
@@ -24,58 +26,66 @@ def primaries_lu(mu: float, body_positions: dict, times_s) -> np.ndarray:
     return np.stack([earth, np.asarray(body_positions["moon_lu"], dtype=float)], axis=1)
 
 
-def ric_axes(position, velocity, primaries, dt) -> np.ndarray:
-    """(m, 3, 3) rows R, I, C per epoch for one spacecraft: position, velocity (m, 3), primaries (m, 2, 3), dt
-    the epoch spacing (for the primaries' velocities by finite differences)."""
-    distances = np.linalg.norm(position[:, None, :] - primaries, axis=2)
-    nearer = np.argmin(distances, axis=1)
-    centre = primaries[np.arange(len(position)), nearer]
-    centre_velocity = np.gradient(primaries, dt, axis=0)[np.arange(len(position)), nearer] if len(position) > 1 \
-        else np.zeros_like(centre)
-    r = position - centre
-    v = velocity - centre_velocity
+def ric_axes(position, velocity, primaries, primary_velocities) -> np.ndarray:
+    """(m, 3, 3) rows R, I, C per epoch for one spacecraft: position, velocity (m, 3); primaries and their
+    velocities (m, 2, 3) (primary_velocities: see primary_velocities_lu)."""
+    rows = np.arange(len(position))
+    nearer = np.argmin(np.sum((position[:, None, :] - primaries) ** 2, axis=2), axis=1)
+    r = position - primaries[rows, nearer]
+    v = velocity - primary_velocities[rows, nearer]
     radial = r / np.linalg.norm(r, axis=1, keepdims=True)
     normal = np.cross(r, v)
     cross = normal / np.linalg.norm(normal, axis=1, keepdims=True)
     return np.stack([radial, np.cross(cross, radial), cross], axis=1)
 
 
-def _block(packed) -> np.ndarray:
-    """(m, 3, 3) from (m, 6) = xx, yy, zz, xy, xz, yz."""
-    xx, yy, zz, xy, xz, yz = (packed[:, i] for i in range(6))
-    return np.stack([np.stack([xx, xy, xz], 1), np.stack([xy, yy, yz], 1), np.stack([xz, yz, zz], 1)], 1)
+def primary_velocities_lu(primaries, step_s: float) -> np.ndarray:
+    """(m, 2, 3) LU/TU: the primaries' velocities from their positions sampled every step_s (central
+    differences; 0 for one epoch)."""
+    return np.gradient(primaries, step_s / TU_S, axis=0) if len(primaries) > 1 else np.zeros_like(primaries)
 
 
-def ric_columns(times_s, err, truth, covariance, primaries, settle_s: float, to_m: float, to_m_s: float) -> list:
+def _along(axis, packed) -> np.ndarray:
+    """u' B u per epoch for unit vectors axis (k, 3) and symmetric blocks packed (k, 6) = xx, yy, zz, xy, xz, yz."""
+    x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+    return (packed[:, 0] * x * x + packed[:, 1] * y * y + packed[:, 2] * z * z
+            + 2.0 * (packed[:, 3] * x * y + packed[:, 4] * x * z + packed[:, 5] * y * z))
+
+
+def ric_columns(times_s, err, truth, covariance, primaries, settle_s: float, to_m: float, to_m_s: float,
+                primary_velocities=None) -> list:
     """Per spacecraft after settle_s, for position (m) and velocity (m/s) along R, I and C: the error RMS
     (rms_{axis}_{kind}_settled_{unit}), the mean error (mean_...: a bias), and the RMS of the filter's sigma
-    (sigma_...). err, truth (m, 6 S) in LU, LU/TU; covariance (m, S, 12) or None (all NaN)."""
+    (sigma_...). err, truth (m, 6 S) in LU, LU/TU; covariance (m, S, 12) or None (all NaN); primaries (m, 2, 3)
+    and, when known, their velocities (else from the positions). The epochs are in time order, so the settled
+    ones are a tail (views, no copies: this runs once per Monte Carlo run)."""
     times_s = np.asarray(times_s, dtype=float)
-    settled = times_s >= settle_s
-    dt = float(times_s[1] - times_s[0]) if len(times_s) > 1 else 1.0
-    n_spacecraft = err.shape[1] // 6
+    if primary_velocities is None:
+        primary_velocities = primary_velocities_lu(primaries, float(times_s[1] - times_s[0]) if len(times_s) > 1
+                                                   else 1.0)
+    tail = slice(int(np.searchsorted(times_s, settle_s)), None)
+    primaries, primary_velocities = primaries[tail], primary_velocities[tail]
     rows = []
-    for s in range(n_spacecraft):
+    for s in range(err.shape[1] // 6):
         row = {}
-        state = truth[:, 6 * s : 6 * s + 6]
-        axes = ric_axes(state[:, :3], state[:, 3:], primaries, dt)[settled]
+        state = truth[tail, 6 * s : 6 * s + 6]
+        axes = ric_axes(state[:, :3], state[:, 3:], primaries, primary_velocities)
         for half, (kind, unit, scale) in enumerate((("position", "m", to_m), ("velocity", "m_s", to_m_s))):
-            e = np.einsum("kij,kj->ki", axes, err[settled, 6 * s + 3 * half : 6 * s + 3 * half + 3])
-            if covariance is None:
-                variance = np.full(e.shape, np.nan)
-            else:
-                block = _block(covariance[settled, s, 6 * half : 6 * half + 6])
-                variance = np.einsum("kij,kjl,kil->ki", axes, block, axes)
+            columns = slice(6 * s + 3 * half, 6 * s + 3 * half + 3)
+            along = np.einsum("kaj,kj->ka", axes, err[tail, columns])
+            ok = np.all(np.isfinite(along), axis=1)
+            along = along[ok]
+            blocks = covariance[tail, s, 6 * half : 6 * half + 6][ok] if covariance is not None else None
             for a, axis in enumerate(AXES):
-                ok = np.isfinite(e[:, a])
-                row[f"rms_{axis}_{kind}_settled_{unit}"] = _rms(e[ok, a]) * scale
-                row[f"mean_{axis}_{kind}_settled_{unit}"] = (float(np.mean(e[ok, a])) if ok.any() else np.nan) * scale
-                row[f"sigma_{axis}_{kind}_settled_{unit}"] = _rms(np.sqrt(variance[ok, a])) * scale
+                variance = _along(axes[ok, a, :], blocks) if blocks is not None else np.full(len(along), np.nan)
+                empty = not len(along)
+                row[f"rms_{axis}_{kind}_settled_{unit}"] = _rms(along[:, a]) * scale
+                row[f"mean_{axis}_{kind}_settled_{unit}"] = (np.nan if empty else float(np.mean(along[:, a]))) * scale
+                row[f"sigma_{axis}_{kind}_settled_{unit}"] = (np.nan if empty else float(np.sqrt(np.mean(variance)))
+                                                              ) * scale
         rows.append(row)
     return rows
 
 
 def _rms(values) -> float:
-    values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
     return float(np.sqrt(np.mean(values * values))) if values.size else float("nan")

@@ -5,7 +5,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from liaison_cli.analysis.consistency import direction_columns, run_verdict
-from liaison_cli.analysis.ric import primaries_lu, ric_columns
+from liaison_cli.analysis.ric import primaries_lu, primary_velocities_lu, ric_columns
 from liaison_cli.analysis.metrics import (
     error_and_sigma,
     error_norms,
@@ -217,11 +217,13 @@ def _add_ric(problem: Problem, inputs: RunInputs, history, summary, n_dyn: int) 
     if key not in _PRIMARIES or _PRIMARIES[key][0] is not problem:
         if len(_PRIMARIES) >= 4:
             _PRIMARIES.pop(next(iter(_PRIMARIES)))
-        _PRIMARIES[key] = (problem, primaries_lu(problem.mu, problem.dynamics.body_positions_lu(problem.times_s),
-                                                 problem.times_s))
+        positions = primaries_lu(problem.mu, problem.dynamics.body_positions_lu(problem.times_s), problem.times_s)
+        step_s = float(problem.times_s[1] - problem.times_s[0]) if problem.n_steps > 1 else 1.0
+        _PRIMARIES[key] = (problem, positions, primary_velocities_lu(positions, step_s))
+    _, positions, velocities = _PRIMARIES[key]
     covariance = None if history.directions is None else history.directions.covariance
-    rows = ric_columns(problem.times_s, history.err[:, :n_dyn], inputs.truth[:, :n_dyn], covariance,
-                       _PRIMARIES[key][1], problem.scenario.settle_days() * SECONDS_PER_DAY, M_PER_LU, M_S_PER_VU)
+    rows = ric_columns(problem.times_s, history.err[:, :n_dyn], inputs.truth[:, :n_dyn], covariance, positions,
+                       problem.scenario.settle_days() * SECONDS_PER_DAY, M_PER_LU, M_S_PER_VU, velocities)
     for row, own in zip(summary, rows):
         row.update(own)
 

@@ -25,6 +25,9 @@ def export(
     if formats is None:
         fail(f"--format {data_format!r}: allowed kvn, xml, both", 2)
     out_dir = output or result / f"ccsds-run{run_index}"
+    if Path(out_dir).resolve() in (Path(result).resolve(), *Path(result).resolve().parents):
+        fail(f"--output {out_dir}: the result folder being exported, or a folder holding it; allowed: a folder "
+             f"beside or inside it (default: {result / f'ccsds-run{run_index}'})", 2)
     with staged_output(out_dir, overwrite) as stage:
         done = export_run(result, run_index, formats, stage)
     typer.echo(f"{done['scenario']}: run {done['run']}, {done['epochs']} epochs recomputed (position errors within "

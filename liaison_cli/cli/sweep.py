@@ -29,11 +29,28 @@ def _curve_ratio(row: dict) -> str:
     return f"{ratio:.2f}{'' if row.get('consistent_settled', True) else ' !'}"
 
 
+def _column_labels(grid_keys) -> list[str]:
+    """Each grid key's column label: its last component, or more of its path where two keys would share one
+    (filter.process_noise_accel_m_s2 beside spacecraft.1.process_noise_accel_m_s2)."""
+    labels = {}
+    for key in grid_keys:
+        parts = key.split(".")
+        depth = 1
+        while depth < len(parts) and sum(k.split(".")[-depth:] == parts[-depth:] for k in grid_keys) > 1:
+            depth += 1
+        if depth < len(parts) and parts[-depth].isdigit():  # 'spacecraft.1.x', not '1.x'
+            depth += 1
+        labels[key] = ".".join(parts[-depth:])
+    return [labels[key] for key in grid_keys]
+
+
 def _format_curve(curve: "pd.DataFrame", grid_keys) -> str:
-    header = f"{'scenario':<12}{'spacecraft':<11}" + "".join(f"{k.split('.')[-1]:>12}" for k in grid_keys)
+    labels = _column_labels(grid_keys)
+    widths = [max(12, len(label) + 2) for label in labels]
+    header = f"{'scenario':<12}{'spacecraft':<11}" + "".join(_right(label, w) for label, w in zip(labels, widths))
     lines = [header + f"{'runs ok':>9}{'pos RMS m (p10-p90)':>26}{'vel RMS mm/s':>14}{'err/σ >settle':>15}"]
     for row in curve.to_dict("records"):
-        cells = "".join(_right(str(row[k]), 12) for k in grid_keys)
+        cells = "".join(_right(str(row[k]), w) for k, w in zip(grid_keys, widths))
         band = f"{row['rms_position_m_mean']:.1f} ({row['rms_position_m_p10']:.0f}-{row['rms_position_m_p90']:.0f})"
         lines.append(
             _left(row["scenario"], 12) + _left(row["spacecraft"], 11) + cells

@@ -39,6 +39,9 @@ def tune(
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
     rungs = parse_ladder(ladder)
+    from liaison_cli.campaign.grid import check_grid_size  # the sweeps' caps: bounded work before any run
+
+    check_grid_size([("ladder", list(rungs))], len(scenarios), runs)
     if table.suffix != ".md" or table.is_dir():
         raise LiaisonError(f"--table {table}: allowed: a Markdown file path ending in .md (the Parquet goes beside it)")
     loaded = _load_study(scenarios)

@@ -111,18 +111,20 @@ def corrected_in_stages(state_lu, epoch_s: float, span_s: float, node_spacing_s:
                         steps_per_node: int = 200, max_iterations: int = 20) -> CorrectedOrbit:
     """The CRTBP orbit state_lu corrected over [epoch_s, epoch_s + span_s], STAGE_DAYS of arc at a time (module
     docstring); an arc no longer than one stage is plain multiple shooting from patch_points_from_crtbp. The
-    result's defects are the last stage's; its iterations count every stage's Jacobians. Stops at the first
-    stage that does not converge (returned, converged False)."""
+    result's defect histories run through every stage in turn (one entry per Jacobian, so the last is the
+    final stage's last) and its iterations count them all. Stops at the first stage that does not converge
+    (returned, converged False)."""
     times_s, seed = patch_points_from_crtbp(state_lu, epoch_s, span_s, node_spacing_s, forces)
     per_stage = max(1, int(round(STAGE_DAYS * 86400.0 / node_spacing_s)))
     end = min(per_stage, len(times_s) - 1)
-    nodes, iterations = seed[: end + 1], 0
+    nodes, position_defects, velocity_defects = seed[: end + 1], (), ()
     while True:
         stage = multiple_shooting(times_s[: end + 1], nodes, forces, steps_per_node, max_iterations)
-        iterations += stage.iterations
+        position_defects += stage.position_defects_km
+        velocity_defects += stage.velocity_defects_km_s
         if not stage.converged or end == len(times_s) - 1:
-            return CorrectedOrbit(stage.node_times_s, stage.nodes, stage.position_defects_km,
-                                  stage.velocity_defects_km_s, iterations, stage.converged)
+            return CorrectedOrbit(stage.node_times_s, stage.nodes, position_defects, velocity_defects,
+                                  len(position_defects), stage.converged)
         following = min(end + per_stage, len(times_s) - 1)
         rephased = _rephased(state_lu, stage.nodes[-1], times_s[end], forces)
         nodes = np.vstack([stage.nodes, _mapped(rephased, times_s[end:following + 1], forces)[1:]])

@@ -7,7 +7,7 @@ from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
 from liaison_cli.scenario.schema_rules import at_least, equals, given, not_given, schema_rules, when
-from liaison_cli.scenario.spec_base import StrictModel
+from liaison_cli.scenario.spec_base import StrictModel, one_process_noise_convention
 
 
 # The two process-noise conventions (FilterSpec.process_noise_of; estimation.process_noise): the filter key
@@ -129,10 +129,7 @@ class FilterSpec(StrictModel):
 
     @model_validator(mode="after")
     def _one_process_noise_convention(self):
-        if self.process_noise_psd_m2_s3 is not None and self.process_noise_accel_m_s2 is not None:
-            raise ValueError("give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and "
-                             "'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not both")
-        return self
+        return one_process_noise_convention(self)
 
     def process_noise_of(self, spacecraft) -> tuple[str, float]:
         """(PROCESS_NOISE_PSD, q in m^2/s^3) or (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its

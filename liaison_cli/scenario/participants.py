@@ -14,7 +14,13 @@ from liaison_cli.scenario.exchange_specs import (
     ORBIT_FILE_KINDS, OrbitFileSpec, orbit_file_from_mapping, orbit_json_schema)
 from liaison_cli.scenario.schema_rules import (
     all_of, any_of, equals, given, not_given, one_of, schema_rules, together, when)
-from liaison_cli.scenario.spec_base import NAME_PATTERN, UNIQUE, StrictModel, allowed_names
+from liaison_cli.scenario.spec_base import (
+    NAME_PATTERN,
+    UNIQUE,
+    StrictModel,
+    allowed_names,
+    one_process_noise_convention,
+)
 
 
 KEPLERIAN_ORBIT = "lunar_keplerian"
@@ -235,10 +241,7 @@ class SpacecraftSpec(StrictModel):
 
     @model_validator(mode="after")
     def _one_process_noise_convention(self):
-        if self.process_noise_psd_m2_s3 is not None and self.process_noise_accel_m_s2 is not None:
-            raise ValueError("give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and "
-                             "'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not both")
-        return self
+        return one_process_noise_convention(self)
 
     @field_validator("orbit")
     @classmethod

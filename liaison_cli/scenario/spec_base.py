@@ -18,6 +18,15 @@ def allowed_names(schema: dict, what: str) -> None:
     schema["enum"] = [*names(), None]
 
 
+def one_process_noise_convention(spec):
+    """A section (the filter, or a spacecraft) gives its process noise in at most one convention
+    (estimation.process_noise: a PSD, or the papers' per-step sigma_a); returns spec."""
+    if spec.process_noise_psd_m2_s3 is not None and spec.process_noise_accel_m_s2 is not None:
+        raise ValueError("give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and "
+                         "'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not both")
+    return spec
+
+
 class StrictModel(BaseModel):
     # allow_inf_nan=False: every number in a scenario must be finite (.inf / .nan are refused, one line).
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)

@@ -413,3 +413,14 @@ def test_a_float32_result_with_large_errors_exports(tmp_path):
     assert str(stored.type) == "float" and max(stored.to_numpy()) > 16e3  # beyond float32's 1 mm
     proc = run_cli_in_process("export", result, "--output", tmp_path / "export")
     assert proc.returncode == 0, proc.stderr
+
+
+def test_export_never_writes_over_the_result_it_exports(tmp_path):
+    """Issue 35 fault 2: `export R --output R --overwrite` replaced the result with the CCSDS files."""
+    result = tmp_path / "result"
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", result).returncode == 0
+    before = sorted(p.name for p in result.iterdir())
+    for target in (result, tmp_path):
+        proc = run_cli_in_process("export", result, "--output", target, "--overwrite")
+        assert proc.returncode == 2 and "the result folder being exported" in proc.stderr
+    assert sorted(p.name for p in result.iterdir()) == before

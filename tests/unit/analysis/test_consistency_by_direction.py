@@ -109,6 +109,6 @@ def test_ric_components_are_a_rotation_of_the_3d_figures():
             assert math.sqrt(parts) == pytest.approx(row[f"{stat}_{kind}_settled_{unit}"], rel=1e-9)
     primaries = primaries_lu(problem.mu, {}, problem.times_s)
     lunar = inputs.truth[:, 6:12]
-    axes = ric_axes(lunar[:, :3], lunar[:, 3:], primaries, 1.0)
+    axes = ric_axes(lunar[:, :3], lunar[:, 3:], primaries, np.zeros_like(primaries))
     np.testing.assert_allclose(np.einsum("kij,klj->kil", axes, axes), np.broadcast_to(np.eye(3), axes.shape), atol=1e-12)
     assert np.all(np.einsum("kj,kj->k", axes[:, 0], lunar[:, :3] - primaries[:, 1]) > 0)  # the Moon is nearer

@@ -192,3 +192,11 @@ def test_bad_grid_gives_one_line_and_exit_2(tmp_path, case):
     assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
     for text in expected:
         assert text in lines[0], (text, lines[0])
+
+
+def test_curve_columns_of_keys_that_end_alike_are_told_apart():
+    from liaison_cli.cli.sweep import _column_labels
+
+    assert _column_labels(["measurement.interval_s", "filter.process_noise_accel_m_s2",
+                           "spacecraft.1.process_noise_accel_m_s2"]) == [
+        "interval_s", "filter.process_noise_accel_m_s2", "spacecraft.1.process_noise_accel_m_s2"]

@@ -157,3 +157,11 @@ def test_the_reference_table_covers_every_shipped_scenario_and_the_rule_is_appli
             assert set(rows.verdict) == {VERDICT_NONE}, path.stem
         else:
             assert set(shipped.values()) == set(chosen.snc_m_s2), path.stem
+
+
+def test_tune_keeps_the_sweeps_caps(tmp_path):
+    """Issue 35 fault 5: a ladder of 12,000 rungs at a million runs was planned (5.4 GB) before any check."""
+    ladder = ",".join(f"{v:.6e}" for v in [1e-12 * 1.001**k for k in range(12_000)])
+    proc = cli("tune", SCENARIOS / "smoke.yaml", "--ladder", ladder, "--runs", "1000000", "--work", tmp_path / "w",
+               "--table", tmp_path / "t.md")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

@@ -94,3 +94,17 @@ def test_a_file_with_nodes_that_do_not_fit_their_times_is_rebuilt(setting, cache
     rebuilt, from_cache = corrected_store.corrected_orbit(state, t0, SPAN_S, SPACING_S, forces)
     assert not from_cache and "malformed arrays" in capsys.readouterr().err
     assert np.array_equal(rebuilt.nodes, good.nodes)
+
+
+def test_an_orbit_corrected_in_stages_is_read_back_from_disk(setting, cache, monkeypatch):
+    """Stages keep one defect entry per Jacobian, so the file passes its intact check: a staged orbit was
+    rebuilt at every read (a 'damaged cache' note each time) while its defects counted the last stage only."""
+    from liaison_cli.orbits import ephemeris_correction
+
+    monkeypatch.setattr(ephemeris_correction, "STAGE_DAYS", 1.0)  # three one-day stages over the 3 d
+    state, t0, forces = setting
+    first, cached_first = corrected_store.corrected_orbit(state, t0, SPAN_S, SPACING_S, forces)
+    second, cached_second = corrected_store.corrected_orbit(state, t0, SPAN_S, SPACING_S, forces)
+    assert (cached_first, cached_second) == (False, True) and first.converged
+    assert first.iterations == len(first.position_defects_km) > 3  # every stage's Jacobians
+    assert np.array_equal(first.nodes, second.nodes)
