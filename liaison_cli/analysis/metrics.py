@@ -1,6 +1,7 @@
 """Per-run accuracy and consistency metrics from estimation errors and covariance diagonals."""
 
 import math
+from functools import lru_cache
 from statistics import NormalDist
 
 import numpy as np
@@ -131,6 +132,7 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
     return rows, norms
 
 
+@lru_cache(maxsize=1024)  # every run asks for the same few quantiles
 def chi2_quantile(probability: float, dof: float) -> float:
     """The chi-square quantile with `dof` degrees of freedom: x with P(dof / 2, x / 2) = probability, P the
     regularised lower incomplete gamma function. Pure Python: importing scipy.special cost 50 ms at every

@@ -206,7 +206,7 @@ def record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nee
     nees[k] = nees_into(e[:n_nees], P[:n_nees, :n_nees], work_nees, z_nees)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: it runs at one epoch in stride and kept out of the loop's body
 def record_directions(k, e, P, truth, nees_k, chol, z, directions, work6, z6, u, v):
     """Epoch k's consistency resolved by direction (directions: kernel_args.DirectionRecord; arrays of length 0
     record nothing), after record_epoch: chol holds L with P = L L' and z = L^-1 e over the NEES's states (when
@@ -218,9 +218,10 @@ def record_directions(k, e, P, truth, nees_k, chol, z, directions, work6, z6, u,
     and -v'z / v'v estimates d); into along_pair[k, p] for each pair's line of sight, u = +rho_hat on the
     second block's position and -rho_hat on the first's. Each spacecraft's position and velocity covariance
     blocks (6 numbers each: xx, yy, zz, xy, xz, yz) into covariance[k, s] (analysis.consistency.ric_columns
-    turns them into radial / in-track / cross-track sigmas). u, v (n,) are scratch."""
-    starts, pair_starts, nees_spacecraft, time_shift, along_pair, covariance = directions
-    if nees_spacecraft.shape[0] == 0:
+    turns them into radial / in-track / cross-track sigmas). Only every stride-th epoch is recorded
+    (kernel_args.MAX_DIRECTION_SAMPLES). u, v (n,) are scratch."""
+    starts, pair_starts, nees_spacecraft, time_shift, along_pair, covariance, stride = directions
+    if nees_spacecraft.shape[0] == 0 or k % stride != 0:
         return
     m, n = truth.shape
     for s in range(starts.shape[0]):

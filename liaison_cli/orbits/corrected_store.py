@@ -25,7 +25,7 @@ from liaison_cli.orbits.ephemeris_correction import (
 )
 from liaison_cli.orbits.npz_cache import cache_folder, read_intact, write_npz
 
-STORE_FORMAT = 2  # 2: corrected in stages
+STORE_FORMAT = 3  # 2: corrected in stages; 3: re-phased continuously
 FIELDS = ("node_times_s", "nodes", "position_defects_km", "velocity_defects_km_s", "iterations", "converged")
 
 

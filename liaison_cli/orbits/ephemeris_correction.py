@@ -133,12 +133,25 @@ def corrected_in_stages(state_lu, epoch_s: float, span_s: float, node_spacing_s:
 
 def _rephased(state_lu, node_km, t_s: float, forces: ForceModel) -> np.ndarray:
     """The state of the CRTBP orbit through state_lu nearest (position in LU, velocity in LU/TU) to node_km
-    seen in the rotating frame of t_s, searched over one sweep of PHASE_SEARCH_STEP_S samples as long as
-    STAGE_DAYS (which covers a period of every orbit that is corrected in stages)."""
+    seen in the rotating frame of t_s: the nearest of PHASE_SEARCH_STEP_S samples over STAGE_DAYS (which covers
+    a period of every orbit corrected in stages), refined between its neighbours by the parabola through the
+    three squared distances. The refinement makes the phase a continuous function of the corrected end: picked
+    from the samples alone, a last-bit change of the end could pick the next sample, and the 60-day EML1 halo
+    then converged to solutions 130-150 km apart under different BLAS kernels."""
     target = inertial_to_crtbp(node_km, forces.moon_state(t_s), MU)
+    step_tu = PHASE_SEARCH_STEP_S / TU_S
     samples_tu = np.arange(0.0, STAGE_DAYS * 86400.0, PHASE_SEARCH_STEP_S) / TU_S
     orbit = rk4_states(np.asarray(state_lu, dtype=float), samples_tu, 10.0 / TU_S, MU)
-    return orbit[int(np.argmin(np.linalg.norm(orbit - target, axis=1)))]
+    squared = np.sum((orbit - target) ** 2, axis=1)
+    k = int(np.argmin(squared))
+    if not 0 < k < len(squared) - 1:
+        return orbit[k]
+    curvature = squared[k - 1] - 2.0 * squared[k] + squared[k + 1]
+    offset = 0.5 * (squared[k - 1] - squared[k + 1]) / curvature if curvature > 0.0 else 0.0
+    offset = min(max(offset, -1.0), 1.0)  # in samples, from sample k
+    base = k - 1 if offset < 0.0 else k
+    forward_tu = (k + offset - base) * step_tu
+    return rk4_states(orbit[base], np.array([0.0, forward_tu]), 10.0 / TU_S, MU)[-1]
 
 
 def segment_defects(node_times_s, nodes, forces: ForceModel, steps_per_node: int) -> np.ndarray:

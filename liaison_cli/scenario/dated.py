@@ -100,6 +100,19 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
         return opm_state_lu(spacecraft, model.epoch_tdb_s)
     if spacecraft.departure is not None:
         return departure_state_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
+    return corrected_nodes_lu(spacecraft, scenario, model)[1][0]
+
+
+def is_corrected(spacecraft) -> bool:
+    """The spacecraft flies a catalog or family orbit corrected into the dated model (not a given state, an
+    orbit file or a departure)."""
+    return spacecraft.state_km is None and spacecraft.orbit_file is None and spacecraft.departure is None
+
+
+def corrected_nodes_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> tuple[np.ndarray, np.ndarray]:
+    """(node times (N + 1,) s from the scenario epoch, nodes (N + 1, 6) scaled): the spacecraft's catalog orbit
+    corrected by multiple shooting into the dated model over the scenario, at its node spacing or, failing
+    that, the others tried (RETRY_NODE_SPACINGS_DAYS); OrbitCorrectionError when none converges."""
     forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
     span_s = scenario.duration_days * SECONDS_PER_DAY
     tried = []
@@ -107,7 +120,7 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
         spacing_s = min(spacing_days * SECONDS_PER_DAY, span_s)
         corrected, _ = corrected_orbit(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s, forces)
         if corrected.converged:
-            return corrected.nodes[0] / SCALE
+            return corrected.node_times_s - model.epoch_tdb_s, corrected.nodes / SCALE
         tried.append(f"{spacing_days:g} d: {corrected.position_defects_km[-1]:.3g} km, "
                      f"{corrected.velocity_defects_km_s[-1] * 1e3:.3g} m/s after {corrected.iterations} iterations")
     raise OrbitCorrectionError(

@@ -74,11 +74,33 @@ def _flown(scenario: Scenario, model, spacecraft, state0, times_tu) -> np.ndarra
     return np.vstack([before, after[1:]])
 
 
+def _flown_from_nodes(model, node_times_s, nodes_lu, times_s) -> np.ndarray:
+    """The truth (m, 6) of a corrected orbit: each epoch propagated from the last node at or before it (the
+    nodes are continuous to 1 mm and 1 um/s: ephemeris_correction's criterion). Flown from its first node
+    alone, an unstable orbit leaves the corrected one: 004's 60-day EML1 halo receivers were 5-10 km off by
+    day 30 and 1.1e5 km by day 54-58, no longer on a halo (measured)."""
+    times_s = np.asarray(times_s, dtype=float)
+    segment = np.clip(np.searchsorted(node_times_s, times_s, side="right") - 1, 0, len(node_times_s) - 1)
+    out = np.empty((len(times_s), 6))
+    for i in np.unique(segment):
+        epochs = np.flatnonzero(segment == i)
+        at_node = times_s[epochs[0]] == node_times_s[i]  # the node is an epoch (spacings are whole intervals)
+        sampled = times_s[epochs] if at_node else np.concatenate([[node_times_s[i]], times_s[epochs]])
+        states = model.truth_states(nodes_lu[i], sampled / TU_S)
+        out[epochs] = states if at_node else states[1:]
+    return out
+
+
 def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
     times_tu = times_s / TU_S
     if scenario.dynamics == "ephemeris":
-        from liaison_cli.scenario.dated import DatedStationTrajectory, dated_initial_state_lu
+        from liaison_cli.scenario.dated import (
+            DatedStationTrajectory,
+            corrected_nodes_lu,
+            dated_initial_state_lu,
+            is_corrected,
+        )
 
         out = {}
         for sc in scenario.spacecraft:
@@ -89,6 +111,9 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
                 from liaison_cli.scenario.orbit_files import oem_truth_lu
 
                 out[sc.name] = model.trajectory(oem_truth_lu(sc, model.epoch_tdb_s, times_s), times_tu)
+            elif is_corrected(sc) and sc.manoeuvre is None:  # flown segment by segment from its corrected nodes
+                out[sc.name] = model.trajectory(_flown_from_nodes(model, *corrected_nodes_lu(sc, scenario, model),
+                                                                  times_s), times_tu)
             else:
                 out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
                                                        times_tu), times_tu)

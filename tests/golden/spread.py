@@ -2,7 +2,9 @@
 
 `python tests/golden/spread.py HOST.json.gz OTHER.json.gz ...`: records made by tests/golden/record.py (with
 LIAISON_GOLDEN_OUT set) of the same code, each under another OpenBLAS kernel (the host's, and
-OPENBLAS_CORETYPE=Haswell, Sandybridge, Nehalem). For every scenario, table and numeric column, the spread is
+OPENBLAS_CORETYPE=Haswell, Sandybridge, Nehalem), each with its own empty LIAISON_CACHE_DIR: the dated
+scenarios' corrected orbits are cached on disk, and a record reusing another kernel's orbits measures no spread
+from them (so it was once: Nehalem then failed eph_eml1_eml2_dsn's NEES shares by 1.6e-3). For every scenario, table and numeric column, the spread is
 the largest difference from the first record, relative to the column's scale (the sum of absolute values for
 the column sum; the largest |value| for the sampled values). The tolerance is SAFETY times the spread, and at
 least FLOOR: an ill-conditioned statistic (a NEES dominated by a few epochs, a per-epoch error late in a
@@ -20,6 +22,11 @@ import numpy as np
 TOLERANCES = Path(__file__).with_name("tolerances.json")
 SAFETY = 10.0  # four kernels sample the rounding; a fifth CPU may round further out
 FLOOR = 1e-9  # two runs on one machine agree bit for bit; 1e-9 leaves room for a library's summation order
+# A share of epochs (frac_*: NEES in band, inside 2 sigma, ...) moves in steps of one epoch: a NEES a hair from
+# its band edge crosses it under another kernel (eph_eml1_eml2_dsn under Nehalem: 1.3e-3 and 1.6e-3 of the
+# column sums, from corrected orbits 1e-10 km apart). A few such epochs per run are allowed whatever the
+# sampled spread says.
+SHARE_FLOOR = 1e-2
 
 
 def _values(entry: dict) -> tuple[np.ndarray, float, np.ndarray, float]:
@@ -56,16 +63,22 @@ def spreads(records: list[dict]) -> dict:
     return out
 
 
+def _floor(name: str) -> float:
+    """The least tolerance of a column "table.column": SHARE_FLOOR for a share of epochs, else FLOOR."""
+    return SHARE_FLOOR if name.split(".", 1)[1].startswith("frac_") else FLOOR
+
+
 def main(paths: list[str]) -> None:
     records = []
     for path in paths:
         with gzip.open(path, "rt", encoding="utf-8") as handle:
             records.append(json.load(handle))
     measured = spreads(records)
-    tolerances = {scenario: {name: max(FLOOR, SAFETY * spread) for name, spread in columns.items()}
+    tolerances = {scenario: {name: max(_floor(name), SAFETY * spread) for name, spread in columns.items()}
                   for scenario, columns in measured.items()}
     kernels = [Path(p).name.split(".")[0] for p in paths]
-    TOLERANCES.write_text(json.dumps({"kernels": kernels, "safety": SAFETY, "floor": FLOOR, "spread": measured,
+    TOLERANCES.write_text(json.dumps({"kernels": kernels, "safety": SAFETY, "floor": FLOOR,
+                                      "share_floor": SHARE_FLOOR, "spread": measured,
                                       "rtol": tolerances}, indent=1, sort_keys=True) + "\n")
     print(f"wrote {TOLERANCES}: {len(measured)} scenarios; kernels {', '.join(kernels)}", file=sys.stderr)
 
