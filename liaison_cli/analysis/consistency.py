@@ -42,7 +42,11 @@ def direction_columns(times_s, directions, settle_s: float, n_spacecraft: int, p
     of the estimate behind the truth that fits the settled errors best, s); the same two numbers along the
     line of sight of the linked pair whose component is largest (named in along_link_pair). NaN where not
     recorded (an estimator other than the EKF, a run without linked estimated pairs)."""
-    settled = np.asarray(times_s) >= settle_s
+    times_s = np.asarray(times_s)
+    if directions is not None:  # the recorded epochs (every stride-th of the EKF's) after the settle time
+        first = int(np.searchsorted(times_s, settle_s))
+        recorded = directions.covariance[first:, 0, 0] if directions.covariance.shape[1] else np.zeros(0)
+        settled = first + np.flatnonzero(np.isfinite(recorded))
     low, high = nees_run_band(SPACECRAFT_STATES)
     per_spacecraft = []
     for s in range(n_spacecraft):

@@ -343,7 +343,9 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     work_nees, z_nees = np.empty((n_nees, n_nees)), np.empty(n_nees)
     work6, z6, u, v = np.empty((6, 6)), np.empty(6), np.empty(n), np.empty(n)
     record_epoch(0, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
-    record_directions(0, e, P, truth, nees[0], work_nees, z_nees, directions, work6, z6, u, v)
+    direction_stride = directions.stride if directions.nees_spacecraft.shape[0] > 0 else 0
+    if direction_stride:
+        record_directions(0, e, P, truth, nees[0], work_nees, z_nees, directions, work6, z6, u, v)
     storing = store_states.shape[0] > 0
     if storing:
         _store_update(store_states, store_matrices, 0, x_hat, P)
@@ -399,7 +401,8 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
         if status != STATUS_OK:
             return err, sig, nees, innovations, innov_std, rejected, status, k
         record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
-        record_directions(k, e, P, truth, nees[k], work_nees, z_nees, directions, work6, z6, u, v)
+        if direction_stride and k % direction_stride == 0:  # the call only where it records
+            record_directions(k, e, P, truth, nees[k], work_nees, z_nees, directions, work6, z6, u, v)
         if position_beyond_bound(e, layout, divergence_position_lu):
             return err, sig, nees, innovations, innov_std, rejected, STATUS_ERROR_BEYOND_BOUND, k
     return err, sig, nees, innovations, innov_std, rejected, STATUS_OK, -1
