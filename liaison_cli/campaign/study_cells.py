@@ -14,12 +14,14 @@ them); liaison deletes nothing there.
 
 import hashlib
 import json
+import sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import pandas as pd
+from pyarrow import ArrowException
 
 from liaison_cli import __version__, core_source_hash, interrupts
 from liaison_cli.campaign.sweep_plan import scenario_hash
@@ -73,8 +75,10 @@ class CellStore:
         stem = self.folder / f"{label}-{self._key(scenario, runs)}"
         done = stem.with_suffix(".done")
         if done.exists():
-            self.reused += 1
-            return {part: pd.read_parquet(f"{stem}.{part}.parquet") for part in json.loads(done.read_text())["parts"]}
+            stored = _read_cell(stem, done)
+            if stored is not None:
+                self.reused += 1
+                return stored
         parts = compute()
         self.folder.mkdir(parents=True, exist_ok=True)
         # The arithmetic is recorded, not keyed (_key): a cell computed on another machine is still reused.
@@ -104,6 +108,18 @@ class CellStore:
             return StudyInterrupted(f"interrupted after {finished} of {total} cells; nothing was written")
         return StudyInterrupted(f"interrupted: {finished} of {total} cells saved in {self.folder}; rerun the same "
                                 "command to resume")
+
+
+def _read_cell(stem: Path, done: Path) -> dict | None:
+    """The stored tables of a finished cell, or None with a note on stderr when its `.done` or a table is
+    damaged (unreadable JSON, a missing or truncated Parquet): the cell is then computed again, instead of every
+    rerun failing until the file is deleted by hand."""
+    try:
+        return {part: pd.read_parquet(f"{stem}.{part}.parquet") for part in json.loads(done.read_text())["parts"]}
+    except (OSError, ValueError, KeyError, TypeError, ArrowException) as exc:
+        print(f"note: {done.parent}: cell {stem.name} is damaged ({type(exc).__name__}); computing it again",
+              file=sys.stderr)
+        return None
 
 
 def grid_points(grid: list[tuple[str, list]] | None) -> list[dict]:

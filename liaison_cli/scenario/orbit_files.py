@@ -36,6 +36,37 @@ def _pick(path, records, spacecraft):
     return records[names.index(wanted)]
 
 
+# What a malformed file that the CCSDS reader accepted can still raise while we use its contents (a zero or
+# NaN state, a missing component, a degree out of range, a date past datetime's years): one line, not a
+# traceback (issue 35).
+_MALFORMED = (ValueError, TypeError, AttributeError, IndexError, KeyError, ZeroDivisionError, OverflowError)
+
+
+def _one_line(kind: str):
+    """Decorator: the wrapped reader's errors from a malformed file become one ExchangeFileError line naming the
+    file (the spacecraft's orbit_file)."""
+    def wrap(read):
+        def guarded(spacecraft, *args):
+            path = getattr(spacecraft.orbit_file, kind)
+            try:
+                return read(spacecraft, *args)
+            except _MALFORMED as exc:
+                raise ExchangeFileError(f"{path}: malformed {kind.upper()} ({type(exc).__name__}: "
+                                        f"{str(exc)[:160]})") from None
+        guarded.__doc__ = read.__doc__
+        return guarded
+    return wrap
+
+
+def _finite_states(path, states_km) -> None:
+    states_km = np.asarray(states_km, dtype=float)
+    if not np.all(np.isfinite(states_km)):
+        raise ExchangeFileError(f"{path}: a state holds NaN or infinity; allowed: finite numbers")
+    if np.any(np.linalg.norm(states_km[..., :3], axis=-1) == 0.0):
+        raise ExchangeFileError(f"{path}: a state is at the centre (position 0 km); allowed: a position off it")
+
+
+@_one_line("oem")
 def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndarray:
     """(m, 6) scaled geocentric ICRF states at epoch_tdb_s + times_s, interpolated in the spacecraft's OEM."""
     from liaison_cli.exchange.oem import read_oem
@@ -43,6 +74,9 @@ def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndar
     path = spacecraft.orbit_file.oem
     ephemeris = _pick(path, read_oem(path), spacecraft)
     _check_frame(path, ephemeris.centre, ephemeris.frame, ephemeris.time_system)
+    _finite_states(path, ephemeris.states_km)
+    if ephemeris.interpolation == "LAGRANGE" and not 1 <= ephemeris.degree <= 20:
+        raise ExchangeFileError(f"{path}: INTERPOLATION_DEGREE = {ephemeris.degree}; allowed: 1 to 20")
     if ephemeris.interpolation not in METHODS:
         raise ExchangeFileError(f"{path}: INTERPOLATION = {ephemeris.interpolation}: not supported; allowed: "
                                 f"{', '.join(METHODS)}")
@@ -63,6 +97,7 @@ def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndar
     return to_icrf(states, ephemeris.frame.upper()) / SCALE
 
 
+@_one_line("opm")
 def opm_state_lu(spacecraft, epoch_tdb_s: float) -> np.ndarray:
     """(6,) scaled geocentric ICRF state of the spacecraft's OPM, whose epoch must be the scenario's."""
     from liaison_cli.exchange.opm import read_opm
@@ -70,6 +105,7 @@ def opm_state_lu(spacecraft, epoch_tdb_s: float) -> np.ndarray:
     path = spacecraft.orbit_file.opm
     record = read_opm(path)
     _check_frame(path, record.centre, record.frame, record.time_system)
+    _finite_states(path, record.state_km)
     if abs(record.seconds - epoch_tdb_s) > EPOCH_TOLERANCE_S:
         raise ExchangeFileError(f"{path}: EPOCH = {record.tag} ({record.time_system}) is "
                                 f"{record.seconds - epoch_tdb_s:+.3f} s from the scenario's epoch; allowed: "

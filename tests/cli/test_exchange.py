@@ -347,7 +347,10 @@ def _oem_case(tmp_path, edit):
     (lambda text: text.replace("TIME_SYSTEM = UTC", "TIME_SYSTEM = GPS"), ["TIME_SYSTEM = GPS", "not supported"]),
     (lambda text: text.replace("META_STOP", "META_STOPP"), ["malformed CCSDS message"]),
     (lambda text: "this is not an OEM\n", ["malformed CCSDS message"]),
-], ids=["short_span", "frame", "time_system", "malformed", "garbage"])
+    (lambda text: text.replace(" 20000 10000 -0.4", " nan 10000 -0.4", 1), ["NaN or infinity"]),
+    (lambda text: text.replace("META_STOP", "INTERPOLATION = LAGRANGE\nINTERPOLATION_DEGREE = -3\nMETA_STOP"),
+     ["DEGREE"]),
+], ids=["short_span", "frame", "time_system", "malformed", "garbage", "nan_state", "negative_degree"])
 def test_bad_oem_gives_one_line(tmp_path, edit, fragments):
     path, oem = _oem_case(tmp_path, edit)
     proc = run_cli_in_process("run", path, "--output", tmp_path / "out", "--quiet")
