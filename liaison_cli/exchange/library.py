@@ -18,13 +18,23 @@ def _ndm_io():
     return NdmIo()
 
 
+# The largest CCSDS file read (a 60-day OEM every 60 s is ~10 MB of KVN; a TDM of 100 days of three links every
+# 10 s ~100 MB): a device or a runaway file (/dev/zero) is refused instead of filling the memory (issue 35).
+MAX_MESSAGE_BYTES = 512 * 2**20
+
+
 def read_message(path, kind: str):
     """The message object of a CCSDS file (KVN or XML, detected), checked to be an `kind` ('OEM', 'OPM',
     'TDM'). A file that cannot be read or parsed raises ExchangeFileError naming it."""
     path = Path(path)
     io = _ndm_io()
     try:
-        text = path.read_text()
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_MESSAGE_BYTES + 1)
+        if len(data) > MAX_MESSAGE_BYTES:
+            raise ExchangeFileError(f"{path}: larger than {MAX_MESSAGE_BYTES // 2**20} MiB; allowed: a CCSDS {kind} "
+                                    "file of at most that size")
+        text = data.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ExchangeFileError(f"{path}: cannot read the {kind}: {getattr(exc, 'strerror', None) or exc}") from None
     try:

@@ -427,3 +427,12 @@ def test_export_never_writes_over_the_result_it_exports(tmp_path):
         proc = run_cli_in_process("export", result, "--output", target, "--overwrite")
         assert proc.returncode == 2 and "the result folder being exported" in proc.stderr
     assert sorted(p.name for p in result.iterdir()) == before
+
+
+def test_an_endless_file_is_refused_without_filling_the_memory(monkeypatch, tmp_path):
+    """Issue 35 fault 6: `orbit: {oem: /dev/zero}` grew without bound; reads stop at the cap (lowered here)."""
+    from liaison_cli.exchange import library
+
+    monkeypatch.setattr(library, "MAX_MESSAGE_BYTES", 1024)
+    with pytest.raises(ExchangeFileError, match="larger than"):
+        library.read_message("/dev/zero", "OEM")
