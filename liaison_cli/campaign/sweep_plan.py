@@ -26,9 +26,39 @@ class SweepInterrupted(LiaisonError):
 
 
 def scenario_hash(scenario: Scenario) -> str:
-    """Hash of the effective (validated, defaults filled) configuration, not of the YAML text."""
-    canonical = json.dumps(scenario.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    """Hash of the effective (validated, defaults filled) configuration, not of the YAML text, and of the
+    contents of every file it names (an orbit's OEM / OPM, the measurements' TDM): a scenario whose OEM was
+    edited is another scenario, and a sweep must not reuse its old runs (issue 35)."""
+    files = referenced_files(scenario)
+    content = scenario.model_dump(mode="json") if not files else {"scenario": scenario.model_dump(mode="json"),
+                                                                  "files": files}  # unchanged without files
+    canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
+def referenced_files(scenario: Scenario) -> dict:
+    """{path: sha256 of its bytes} of the files the scenario reads (missing or unreadable: the OS error's name,
+    so the set-up's own one-line error comes later)."""
+    paths = [path for sc in scenario.spacecraft if sc.orbit_file is not None
+             for path in (sc.orbit_file.oem, sc.orbit_file.opm) if path]
+    if scenario.measurements is not None:
+        paths.append(scenario.measurements.tdm)
+    return {str(path): _file_digest(str(path)) for path in paths}
+
+
+def _file_digest(path: str) -> str:
+    """sha256 of the file's first MAX_MESSAGE_BYTES + 1 bytes (a file beyond the cap is refused when read)."""
+    from liaison_cli.exchange.library import MAX_MESSAGE_BYTES
+
+    digest, left = hashlib.sha256(), MAX_MESSAGE_BYTES + 1
+    try:
+        with open(path, "rb") as handle:
+            while left > 0 and (block := handle.read(min(2**20, left))):
+                digest.update(block)
+                left -= len(block)
+    except OSError as exc:
+        return type(exc).__name__
+    return digest.hexdigest()
 
 
 @dataclass(frozen=True)

@@ -436,3 +436,16 @@ def test_an_endless_file_is_refused_without_filling_the_memory(monkeypatch, tmp_
     monkeypatch.setattr(library, "MAX_MESSAGE_BYTES", 1024)
     with pytest.raises(ExchangeFileError, match="larger than"):
         library.read_message("/dev/zero", "OEM")
+
+
+def test_an_edited_orbit_file_is_another_scenario(tmp_path):
+    """Issue 35 fault 3: a sweep over `orbit: {oem: FILE}` reused its old runs after FILE was edited; the files a
+    scenario names are part of its hash (campaign.sweep_plan.scenario_hash)."""
+    from liaison_cli.campaign.sweep_plan import scenario_hash
+    from liaison_cli.scenario.schema import load_scenario
+
+    path, oem = _oem_case(tmp_path, lambda text: text)
+    before = scenario_hash(load_scenario(path)[0])
+    assert scenario_hash(load_scenario(path)[0]) == before
+    oem.write_text(oem.read_text().replace(" 20000 10000 -0.4", " 20001 10000 -0.4", 1))
+    assert scenario_hash(load_scenario(path)[0]) != before
