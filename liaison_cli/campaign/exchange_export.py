@@ -69,8 +69,12 @@ def result_scenario(result_dir) -> Scenario:
         meta = read_metadata(summary)
     except Exception as exc:  # noqa: BLE001 - a damaged table
         raise UnreadableFileError(f"{summary}: cannot read its provenance ({type(exc).__name__})") from None
-    effective = {k: v for k, v in meta["scenario_effective"].items() if k != "topology"}
-    return validate_scenario(effective, f"{summary} (scenario_effective)")
+    effective = meta.get("scenario_effective") if isinstance(meta, dict) else None
+    if not isinstance(effective, dict):  # a study's or compare's folder, or tampered provenance (issue 35)
+        raise ExchangeFileError(f"{result_dir}: not the folder of one `liaison run` (its summary.parquet carries "
+                                "no scenario_effective); allowed: a run's result folder")
+    return validate_scenario({k: v for k, v in effective.items() if k != "topology"},
+                             f"{summary} (scenario_effective)")
 
 
 def recompute_run(problem: Problem, run: int) -> RecomputedRun:
@@ -99,8 +103,12 @@ def check_against_stored(result_dir, recomputed: RecomputedRun) -> tuple[float, 
     whether every one is within STORED_ERROR_TOLERANCE_M plus the stored type's rounding of its value)."""
     import pyarrow.parquet as pq
 
-    table = pq.read_table(Path(result_dir) / "timeseries.parquet", columns=["run", "position_error_m"],
-                          filters=[("run", "=", recomputed.run)])
+    path = Path(result_dir) / "timeseries.parquet"
+    try:
+        table = pq.read_table(path, columns=["run", "position_error_m"], filters=[("run", "=", recomputed.run)])
+    except (OSError, ValueError, KeyError) as exc:  # missing, truncated, or not a run's table (ArrowInvalid)
+        raise UnreadableFileError(f"{path}: cannot read the stored run ({type(exc).__name__}: "
+                                  f"{str(exc).splitlines()[0][:120] if str(exc) else ''})") from None
     column = table.column("position_error_m")
     stored = column.to_numpy().astype(float)
     if len(stored) != recomputed.position_error_m.size:

@@ -449,3 +449,22 @@ def test_an_edited_orbit_file_is_another_scenario(tmp_path):
     assert scenario_hash(load_scenario(path)[0]) == before
     oem.write_text(oem.read_text().replace(" 20000 10000 -0.4", " 20001 10000 -0.4", 1))
     assert scenario_hash(load_scenario(path)[0]) != before
+
+
+def test_export_of_a_folder_that_is_not_one_run_is_one_line(tmp_path):
+    """Issue 35 fault 10: a compare folder (no scenario_effective) and a truncated timeseries.parquet."""
+    import shutil
+
+    result = tmp_path / "result"
+    assert run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", result).returncode == 0
+    truncated = tmp_path / "truncated"
+    shutil.copytree(result, truncated)
+    data = (truncated / "timeseries.parquet").read_bytes()
+    (truncated / "timeseries.parquet").write_bytes(data[: len(data) // 2])
+    proc = run_cli_in_process("export", truncated, "--output", tmp_path / "e1")
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert "timeseries.parquet" in proc.stderr
+    compare = tmp_path / "compare"
+    assert run_cli_in_process("compare", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", compare).returncode == 0
+    proc = run_cli_in_process("export", compare, "--output", tmp_path / "e2")
+    assert proc.returncode == 2 and "not the folder of one `liaison run`" in proc.stderr
