@@ -1,5 +1,6 @@
 """The papers' studies: `liaison study003`, `liaison study004` and `liaison tables002`."""
 
+import sys
 from pathlib import Path
 
 import typer
@@ -97,7 +98,8 @@ def study003(
     axes = [parse_grid(text) for text in grid or []]
     check_grid_size(axes, 1, runs)
     loaded = _load_study(scenario_paths(scenarios, STUDY003_MISSIONS))
-    summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
+    progress = not quiet and sys.stderr.isatty()  # bars on a terminal only, never into a log
+    summary, history, _ = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, progress,
                                     grid=axes, dsn_noise=dsn_noise, where=where, work=_work_folder(work, output))
     first = loaded[0][1]
     noise = (f"003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}" if dsn_noise else "as in the scenario files")
@@ -154,7 +156,8 @@ def study004(
     check_grid_size(axes, 1, runs)
     keys = [k for k, _ in axes]
     loaded = _load_study(scenario_paths(scenarios, STUDY004_TRANSMITTERS))
-    summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, not quiet,
+    progress = not quiet and sys.stderr.isatty()  # bars on a terminal only, never into a log
+    summary, history = run_study([(name, scenario) for name, scenario, _ in loaded], runs, jobs, progress,
                                  grid=axes, where=where, work=_work_folder(work, output))
     header = [f"004 study, {runs} runs per case. LinCov: steady state = median 3σ over the last quarter; converged "
               "= 3σ position below twice it from then on. EKF: a run converged when its position error stays below "

@@ -175,3 +175,11 @@ def test_an_interrupted_study_resumes_its_missing_cells_and_writes_the_same_byte
     assert len(computed) == 3 and computed[0] not in computed[1:]  # the finished cell was not recomputed
     for name in ("summary.parquet", "histories.parquet", "table.md"):
         assert (tmp_path / "whole" / name).read_bytes() == (tmp_path / "resumed" / name).read_bytes(), name
+
+
+def test_study_progress_stays_out_of_a_log(tmp_path):
+    """Issue 35: study003 / study004 drew tqdm bars into redirected output; they draw them on a terminal only."""
+    proc = run_cli_in_process("study004", _one_day_halo(tmp_path), "--runs", "1", "--jobs", "1",
+                              "--output", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    assert "%|" not in proc.stderr and "it/s" not in proc.stderr
