@@ -17,7 +17,9 @@ def export(
     output: Path = typer.Option(None, "--output", help="folder (default: RESULT/ccsds-run<K>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing export folder"),
 ):
-    """One run as CCSDS files: truth and estimate OEM (with covariance) per spacecraft, TDM of its measurements."""
+    """One run as CCSDS files: truth and estimate OEM (with covariance) per spacecraft, TDM of its measurements.
+
+    Example: liaison export results/eml2_lunar --run 3 --format both"""
     from liaison_cli.campaign.exchange_export import export_run
     from liaison_cli.storage import staged_output
 

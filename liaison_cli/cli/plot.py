@@ -42,7 +42,9 @@ def plot_run(
     output: Path = typer.Option(None, "--output", help="folder for the figures (default: RESULT_DIR/plots)"),
     run: int = typer.Option(None, "--run", min=0, help="run to highlight (default: the first that finished ok)"),
 ):
-    """A run result's errors against 3σ, NEES against its 95 % band, normalised innovations, clocks and biases."""
+    """A run result's errors against 3σ, NEES against its 95 % band, normalised innovations, clocks and biases.
+
+    Example: liaison plot run results/eml2_lunar"""
     from liaison_cli.report.run_plots import draw_run
     from liaison_cli.report.run_result import highlighted_run, load_run_result
 

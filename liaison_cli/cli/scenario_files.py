@@ -43,7 +43,9 @@ def validate(
     files: list[Path] = typer.Argument(..., metavar="FILE...", help="scenario or link YAML files"),
     as_json: bool = json_option(),
 ):
-    """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each."""
+    """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each.
+
+    Example: liaison validate scenarios/*.yaml"""
     from liaison_cli.scenario.schema import check_file
 
     results = []
@@ -71,7 +73,9 @@ def new(
     kind: str = typer.Option(..., "--from", metavar="KIND", help="template: crosslink-pair, network, "
                              "nrho-batch, dated-dsn or tdoa-pair"),
 ):
-    """Write a commented starting scenario from a template; it validates and runs as written."""
+    """Write a commented starting scenario from a template; it validates and runs as written.
+
+    Example: liaison new my_pair.yaml --from crosslink-pair && liaison run my_pair.yaml"""
     from liaison_cli.scenario.json_schema import SCHEMA_FILE_NAME
     from liaison_cli.scenario.templates import TEMPLATES, new_scenario
 

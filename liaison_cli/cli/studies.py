@@ -86,7 +86,9 @@ def study003(
                                   "readings: table2 (10 m, 0.5 mm/s) or text (1 m, 0.1 mm/s); default: the files'"),
     quiet: QuietOption = False,
 ):
-    """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures."""
+    """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures.
+
+    Example: liaison study003 --runs 50 --grid filter.underweighting=0,0.2"""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid
     from liaison_cli.campaign.study003 import DSN_NOISE_READINGS, run_study, tuning
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table

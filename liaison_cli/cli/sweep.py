@@ -89,7 +89,10 @@ def sweep(
     quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
-    """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results."""
+    """Sweep scenarios over a grid (ranging sigma, or any field); resumable, backend-independent results.
+
+    Examples: liaison sweep --sigma 50:700 --runs 10 (Fig. 15);
+    liaison sweep scenarios/eml2_lunar.yaml --grid measurement.interval_s=60,187.5,600 --runs 20"""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
     from liaison_cli.storage import resumable_output
     from liaison_cli.scenario.schema import load_scenario

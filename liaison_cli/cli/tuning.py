@@ -31,7 +31,9 @@ def tune(
                                help="the Markdown table to write; the Parquet goes beside it (.parquet)"),
     quiet: QuietOption = False,
 ):
-    """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder."""
+    """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder.
+
+    Example: liaison tune scenarios/smoke.yaml --ladder 1e-9,1e-8,1e-7 --runs 20 --table consistency.md"""
     from liaison_cli.campaign.tuning import TuningCase, parse_ladder, rule_text, tune as run_tuning
     from liaison_cli.report.tuning import format_ladder, format_table, paper_tuned_notes
     from liaison_cli.storage import write_parquet_atomic, write_text_atomic
