@@ -3,9 +3,10 @@
 By direction (from the EKF's `estimation.kernel_args.DirectionRecord`, after the settle time):
 - each spacecraft's own 6-state NEES, against the chi-square band of 6 degrees of freedom;
 - the common time shift, u the true states' rate of change (all spacecraft at once). With P = L L' and the
-  whitened error w = L^-1 e (NEES = |w|^2), the component of w along L^-1 u, c = (L^-1 u)'w / |L^-1 u|, is
-  the error along u in its own sigma and c^2 that direction's share of the NEES (1 when consistent; the
-  shares of orthogonal whitened directions add up to the NEES). A filter that tags the measurements at the
+  whitened error w = L^-1 e (NEES = |w|^2), the component of w along L^-1 u, c = u'P^-1 e / sqrt(u'P^-1 u):
+  the information-weighted size of an error of shape u in its sigma (N(0, 1) when consistent; not the plain
+  projection u'e / sqrt(u'Pu)), and c^2 that direction's share of the NEES (the shares of orthogonal whitened
+  directions add up to the NEES). A filter that tags the measurements at the
   wrong epoch (001's geometric range against a light-time truth) lags along u: mean c is its bias in sigma,
   and the lag that fits the errors best is given in seconds;
 - the line of sight of each linked pair (relative position along the link), the same two numbers.
@@ -17,7 +18,7 @@ The verdict (`verdict`), the same for a run and for a campaign of runs: consiste
    NEES, and of each spacecraft's 6-state NEES, lie in their single-run two-sided 95 % chi-square bands
    (a consistent filter puts 95 % there; too few means optimistic where above, pessimistic where below);
 2. the error / sigma ratio test passes: the 95 % confidence interval of the campaign ratio (from the spread of
-   the runs; none with one run) reaches [1 / RATIO_LIMIT, RATIO_LIMIT]; too conservative fails as well as
+   the runs; a point with one run) reaches [1 / RATIO_LIMIT, RATIO_LIMIT]; too conservative fails as well as
    too optimistic.
 `consistency_failed` says which test failed and how.
 """
@@ -28,7 +29,7 @@ import numpy as np
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma, fraction, nees_run_band
 
-NEES_REQUIRED_SHARE = 0.85  # a matched filter measured 89.9-94 % (30 runs, test_consistency); 95 % expected
+NEES_REQUIRED_SHARE = 0.85  # a matched filter measured 89.9 % per spacecraft (30 runs, test_consistency); 95 % expected
 RATIO_LIMIT = CONSISTENCY_RATIO_LIMIT
 CONFIDENCE_Z = 1.96  # two-sided 95 % normal quantile for the ratio's interval
 SPACECRAFT_STATES = 6
@@ -91,14 +92,19 @@ def _component(projected, length) -> tuple[float, float]:
 
 def ratio_interval(error_rms, sigma_rms) -> tuple[float, float]:
     """(campaign ratio sqrt(mean e^2 / mean s^2), half-width of its 95 % interval) from the runs' settled error
-    and sigma RMS: the delta method on the ratio of means (infinite with fewer than two runs)."""
-    e2 = np.square(_finite(error_rms))
-    s2 = np.square(_finite(sigma_rms))
+    and sigma RMS, paired run by run (a run missing either is left out): the delta method on the ratio of
+    means. With one run there is no spread to measure: the half-width is 0 (a point test, as a run's own)."""
+    error_rms, sigma_rms = np.asarray(error_rms, dtype=float), np.asarray(sigma_rms, dtype=float)
+    both = np.isfinite(error_rms) & np.isfinite(sigma_rms) if error_rms.shape == sigma_rms.shape else None
+    if both is None:
+        return float("nan"), math.inf
+    e2, s2 = np.square(error_rms[both]), np.square(sigma_rms[both])
     ratio = campaign_error_to_sigma(np.sqrt(e2), np.sqrt(s2))
-    n = min(e2.size, s2.size)
-    if n < 2 or not math.isfinite(ratio) or ratio <= 0:
+    n = e2.size
+    if not math.isfinite(ratio) or ratio <= 0:
         return ratio, math.inf
-    e2, s2 = e2[:n], s2[:n]
+    if n < 2:
+        return ratio, 0.0
     squared = ratio * ratio
     variance = np.var(e2 - squared * s2, ddof=1) / (n * np.mean(s2) ** 2)  # of mean e^2 / mean s^2
     return ratio, CONFIDENCE_Z * math.sqrt(max(variance, 0.0)) / (2.0 * ratio)

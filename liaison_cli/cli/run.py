@@ -60,7 +60,6 @@ def run(
     from liaison_cli.campaign.results import stream_campaign
     from liaison_cli.scenario.schema import load_scenario
     from liaison_cli.storage import staged_output
-    from liaison_cli.storage.ownership import is_ours
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -68,9 +67,9 @@ def run(
     config, text = load_scenario(scenario)
     log.info("read and checked %s in %.2f s", scenario, time.perf_counter() - started)
     out_dir = output or Path("results") / config.name
-    if output is None and not overwrite and is_ours(out_dir):  # an edit-and-rerun cycle: the default folder is
-        overwrite = True                                         # ours, so the new result takes its place
-        log.warning("replacing %s (an earlier result of liaison; --output keeps both)", out_dir)
+    if output is None and not overwrite and _earlier_run_of(out_dir, config.name):  # an edit-and-rerun cycle
+        overwrite = True
+        log.warning("replacing %s (an earlier `liaison run` of %s; --output keeps both)", out_dir, config.name)
     with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
         problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
                                            progress=not quiet and sys.stderr.isatty(),
@@ -84,6 +83,22 @@ def run(
     if not any(row["status"] == "ok" for row in summary):
         fail(f"no run of {config.name} finished healthy (see the "
              f"{'failed_runs' if as_json else 'status line above'}); results kept in {out_dir}", EXIT_ALL_DIVERGED)
+
+
+def _earlier_run_of(folder: Path, name: str) -> bool:
+    """The folder is a `liaison run` result of a scenario named `name`: our marker, a run's timeseries, and a
+    summary.parquet whose provenance names that scenario. Anything else (a study's or compare's folder, another
+    scenario's run, a folder liaison did not write) is kept: replacing it needs --output and --overwrite."""
+    from liaison_cli.storage.ownership import RESULT_MARKER
+    from liaison_cli.storage.parquet import read_metadata
+
+    if not ((folder / RESULT_MARKER).is_file() and (folder / "timeseries.parquet").is_file()):
+        return False
+    try:
+        effective = read_metadata(folder / "summary.parquet").get("scenario_effective") or {}
+    except Exception:  # noqa: BLE001 - unreadable provenance: not provably ours to replace
+        return False
+    return isinstance(effective, dict) and effective.get("name") == name
 
 
 def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:

@@ -217,7 +217,7 @@ def record_directions(k, e, P, truth, nees_k, chol, z, directions, work6, z6, u,
     difference over one step (zero on other blocks; an estimate that lags the truth by d steps has e = -d u,
     and -v'z / v'v estimates d); into along_pair[k, p] for each pair's line of sight, u = +rho_hat on the
     second block's position and -rho_hat on the first's. Each spacecraft's position and velocity covariance
-    blocks (6 numbers each: xx, yy, zz, xy, xz, yz) into covariance[k, s] (analysis.consistency.ric_columns
+    blocks (6 numbers each: xx, yy, zz, xy, xz, yz) into covariance[k, s] (analysis.ric.ric_columns
     turns them into radial / in-track / cross-track sigmas). Only every stride-th epoch is recorded
     (kernel_args.MAX_DIRECTION_SAMPLES). u, v (n,) are scratch."""
     starts, pair_starts, nees_spacecraft, time_shift, along_pair, covariance, stride = directions

@@ -135,9 +135,10 @@ def _rephased(state_lu, node_km, t_s: float, forces: ForceModel) -> np.ndarray:
     """The state of the CRTBP orbit through state_lu nearest (position in LU, velocity in LU/TU) to node_km
     seen in the rotating frame of t_s: the nearest of PHASE_SEARCH_STEP_S samples over STAGE_DAYS (which covers
     a period of every orbit corrected in stages), refined between its neighbours by the parabola through the
-    three squared distances. The refinement makes the phase a continuous function of the corrected end: picked
-    from the samples alone, a last-bit change of the end could pick the next sample, and the 60-day EML1 halo
-    then converged to solutions 130-150 km apart under different BLAS kernels."""
+    three squared distances, so the phase is a continuous function of the corrected end (picked from the
+    samples alone, a last-bit change of the end could pick the next sample). It did not remove the spread of
+    the 60-day EML1 halo between BLAS kernels (136-163 km: docs/reproducibility.md); that comes from the
+    correction's own freedom."""
     target = inertial_to_crtbp(node_km, forces.moon_state(t_s), MU)
     step_tu = PHASE_SEARCH_STEP_S / TU_S
     samples_tu = np.arange(0.0, STAGE_DAYS * 86400.0, PHASE_SEARCH_STEP_S) / TU_S

@@ -1,5 +1,6 @@
 """Side-by-side scenario comparison: RMS errors averaged over a scenario's spacecraft (001 Tables 6-7)."""
 
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -29,17 +30,19 @@ def compare_rows(scenario, summary: pd.DataFrame) -> dict:
 
 
 def consistency_of(ok: pd.DataFrame) -> dict:
-    """The worst spacecraft's error/sigma ratio after the settle time (position and velocity, each the
-    campaign ratio of analysis.metrics), the mean share of epochs with the NEES in its 95 % band, and whether
-    every ratio is within the limit."""
+    """The worst spacecraft's error/sigma ratio after the settle time (position and velocity, each the campaign
+    ratio of analysis.metrics; worst: the farthest from 1 either way), the mean share of epochs with the NEES
+    in its 95 % band, and the verdict of every spacecraft (analysis.consistency)."""
     ratios = {"position": [], "velocity": []}
     for _, group in ok.groupby("spacecraft"):
         for kind, unit in (("position", "m"), ("velocity", "m_s")):
             ratios[kind].append(campaign_error_to_sigma(group[f"rms_{kind}_settled_{unit}"],
                                                         group[f"sigma_{kind}_settled_{unit}"]))
-    # NaN (a spacecraft without settled epochs) wins: max() over NaN would depend on the order.
-    worst = {kind: (float("nan") if any(v != v for v in values) else max(values)) if values else float("nan")
-             for kind, values in ratios.items()}
+    # The worst: farthest from 1 either way (|ln r|), as the verdict is two-sided; NaN wins (max() over NaN would
+    # depend on the order).
+    worst = {kind: (float("nan") if any(v != v for v in values) else max(values, key=lambda r: abs(math.log(r))
+                                                                          if r > 0 else math.inf))
+             if values else float("nan") for kind, values in ratios.items()}
     return {"position_error_to_sigma_settled": worst["position"],
             "velocity_error_to_sigma_settled": worst["velocity"],
             "frac_nees_in_band_settled": float(ok.frac_nees_in_band_settled.mean()) if len(ok) else float("nan"),

@@ -102,7 +102,7 @@ def shares_frame(rows, late=None) -> pd.DataFrame:
 def format_consistency(rows: list[dict], settle_days: float, nees_share: float | None = None,
                        check_runs: int = 0) -> str:
     """Per spacecraft after the settle time: the budget's error RMS, the filter's sigma RMS and their ratio
-    for position and velocity ('!' above the limit), and the check runs' NEES-in-band share when there were
+    for position and velocity ('!' outside [1/1.5, 1.5]: the ratio test of analysis.consistency), and the check runs' NEES-in-band share when there were
     check runs; a closing line names the inconsistent rows."""
     from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 

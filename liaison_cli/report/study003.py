@@ -16,8 +16,8 @@ def _fmt(value: float, scale: float, digits: int) -> str:
 def format_table(summary: pd.DataFrame, grid_keys=(), settle_days: float = 1.0) -> str:
     """Markdown: per grid point (if any), mission, case and spacecraft the 3D RMS of the formal sigma (RSS
     over the axes, and per axis: 003's "3D RMS" read both ways) and of the error, over the 9 days and after
-    the settle time, their ratio and the NEES share in band; '!' marks an error/sigma ratio after the settle
-    time above the consistency limit."""
+    the settle time, their ratio and the NEES share in band; '!' marks a spacecraft that fails the
+    consistency verdict (analysis.consistency)."""
     import math
 
     from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT

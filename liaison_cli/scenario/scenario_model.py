@@ -426,6 +426,10 @@ class Scenario(StrictModel):
                              "radiation pressure); allowed for the CRTBP: moon_gm_bias, moon_gm_sigma")
         if self.ephemeris is not None and self.ephemeris.cr_error_sigma and error.cr_sigma:
             raise ValueError("ephemeris.cr_error_sigma and model_error.cr_sigma are the same setting: give one")
+        if (error.moon_gm_bias or error.moon_gm_sigma) and self.ephemeris is not None \
+                and "moon" not in self.ephemeris.filter_bodies:
+            raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
+                             "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
 
     def cr_error_sigma(self) -> float:
         """The per-run relative sigma of the filter's C_R: model_error.cr_sigma or ephemeris.cr_error_sigma."""

@@ -76,7 +76,8 @@ def _flown(scenario: Scenario, model, spacecraft, state0, times_tu) -> np.ndarra
 
 def _flown_from_nodes(model, node_times_s, nodes_lu, times_s) -> np.ndarray:
     """The truth (m, 6) of a corrected orbit: each epoch propagated from the last node at or before it (the
-    nodes are continuous to 1 mm and 1 um/s: ephemeris_correction's criterion). Flown from its first node
+    nodes are continuous to 1 mm and 1 um/s, 10 cm and 0.1 mm/s where accepted at the rounding floor:
+    ephemeris_correction's criteria). Flown from its first node
     alone, an unstable orbit leaves the corrected one: 004's 60-day EML1 halo receivers were 5-10 km off by
     day 30 and 1.1e5 km by day 54-58, no longer on a halo (measured)."""
     times_s = np.asarray(times_s, dtype=float)

@@ -98,8 +98,16 @@ def test_the_readme_command_runs_twice_and_a_foreign_default_folder_is_kept(tmp_
     assert "replacing results/smoke" in second.stderr and "Traceback" not in second.stderr
     assert json.loads(second.stdout)["runs"] == 2
     assert sorted(p.name for p in (tmp_path / "results").iterdir()) == ["smoke"]  # nothing staged left behind
-    foreign = tmp_path / "results" / "smoke"
+    # Another scenario's run in that folder is not an earlier run of this one: kept, one line.
+    other = tmp_path / "other.yaml"
+    other.write_text((SCENARIOS / "smoke.yaml").read_text().replace("name: smoke", "name: other_smoke", 1))
     import shutil
+
+    shutil.rmtree(tmp_path / "results" / "smoke")
+    assert here("run", other, "--runs", "1", "--output", tmp_path / "results" / "smoke").returncode == 0
+    proc = here("run", SCENARIOS / "smoke.yaml", "--runs", "1")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    foreign = tmp_path / "results" / "smoke"
 
     shutil.rmtree(foreign)
     foreign.mkdir()

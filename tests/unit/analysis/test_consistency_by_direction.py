@@ -93,8 +93,14 @@ def test_the_campaign_ratio_interval_shrinks_with_the_run_count():
         assert out["consistent_settled"] and abs(out["position_error_to_sigma_settled"] - 1) < 0.3
         widths.append(out["position_error_to_sigma_halfwidth"])
     assert widths[0] > widths[1] > widths[2] > 0
-    assert math.isinf(campaign_verdict({"rms_position_settled_m": [1.0], "sigma_position_settled_m": [1.0]})[
-        "position_error_to_sigma_halfwidth"])
+    # One run: no spread to measure, a point test (a ratio of 3 fails, as the run's own verdict says).
+    one = campaign_verdict({"rms_position_settled_m": [3.0], "sigma_position_settled_m": [1.0],
+                            "rms_velocity_settled_m_s": [1.0], "sigma_velocity_settled_m_s": [1.0]})
+    assert one["position_error_to_sigma_halfwidth"] == 0.0 and not one["consistent_settled"]
+    # Runs are paired: a run missing its sigma is left out whole, not matched with another run's.
+    paired = campaign_verdict({"rms_position_settled_m": [1.0, 2.0, 3.0], "sigma_position_settled_m": [1.0, np.nan, 3.0],
+                               "rms_velocity_settled_m_s": [1.0], "sigma_velocity_settled_m_s": [1.0]})
+    assert paired["position_error_to_sigma_settled"] == pytest.approx(1.0)
 
 
 def test_ric_components_are_a_rotation_of_the_3d_figures(monkeypatch):

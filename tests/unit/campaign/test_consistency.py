@@ -1,6 +1,7 @@
 """Consistency is an output (issue 26, item 1): per run and spacecraft, after `filter.settle_days`, the error
 RMS and the filter's sigma RMS, their ratio, the share of epochs whose NEES lies in its 95 % chi-square band
-(and above it), and a flag; `liaison run` prints them per spacecraft and marks a ratio above the limit."""
+(and above it), and the verdict (analysis.consistency); `liaison run` prints them per spacecraft and names
+the test that failed."""
 
 import math
 
@@ -26,7 +27,8 @@ def _campaign_ratio(group, kind, unit):
 
 def test_a_matched_filter_has_error_equal_to_sigma_and_nees_in_band():
     """Initial errors drawn from P0, the truth's models in the filter: the error RMS over 30 runs equals the
-    sigma RMS (measured 0.93-1.00) and 95 % of the epochs' NEES lie in the 95 % band (measured 97 %)."""
+    sigma RMS (measured 0.93-1.00), the whole-state NEES lies in its band at 88-100 % of the epochs (tested) and the
+    campaign verdict holds (per spacecraft 89.9 % in band, which set NEES_REQUIRED_SHARE at 85 %)."""
     scenario = apply_overrides(load_scenario(SCENARIOS / "smoke.yaml")[0], MATCHED)
     table = results_module.summary_table(run_campaign(scenario, runs=30, jobs=2, progress=False))
     for _, group in table.groupby("spacecraft"):
