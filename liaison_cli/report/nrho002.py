@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, campaign_error_to_sigma
 from liaison_cli.errors import LiaisonError, UnreadableFileError
 from liaison_cli.measurements.registry import OBSERVABLES
@@ -120,8 +121,8 @@ def consistency_table(sweep_dir) -> pd.DataFrame:
     spacecraft, as in the DRMS tables) and the epochs after the scenario's settle time (filter.settle_days):
     the error RMS and sigma RMS of position (m) and velocity (m/s) (root of the mean square over the runs),
     their ratios (analysis.metrics.campaign_error_to_sigma), the mean share of epochs whose NEES lies in its
-    95 % band, and `consistent`: both ratios within CONSISTENCY_RATIO_LIMIT. NaN (not consistent) for a sweep
-    written before liaison recorded these columns."""
+    95 % band, and `consistent` / `consistency_failed`: the verdict of analysis.consistency (the NEES test and
+    the two-sided ratio test). NaN (not consistent) for a sweep written before liaison recorded these columns."""
     sweep_dir = Path(sweep_dir)
     runs, meta = _read(sweep_dir)
     classes = _classes(meta)
@@ -147,22 +148,24 @@ def consistency_table(sweep_dir) -> pd.DataFrame:
             row[f"{kind}_error_to_sigma"] = campaign_error_to_sigma(errors, sigmas)
         share = ok.frac_nees_in_band_settled.dropna()
         row["nees_in_band_share"] = float(share.mean()) if len(share) else np.nan
-        row["consistent"] = bool(row["position_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT
-                                 and row["velocity_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT)
+        verdict = campaign_verdict(ok)
+        row["consistent"], row["consistency_failed"] = verdict["consistent_settled"], verdict["consistency_failed"]
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def format_consistency(table: pd.DataFrame) -> str:
     """The consistency table as Markdown, one row per grid cell, case and spacecraft ('+ anchor link' after
-    the case for the mesh reading); '!' marks a ratio above the limit, and a closing line counts the
-    inconsistent rows."""
+    the case for the mesh reading); '!' marks a ratio outside the ratio test's range, and a closing line
+    counts the rows that fail the verdict."""
     def ratio(value):
-        return "-" if value != value else f"{value:.2f}" + (" !" if value > CONSISTENCY_RATIO_LIMIT else "")
+        inside = 1.0 / CONSISTENCY_RATIO_LIMIT <= value <= CONSISTENCY_RATIO_LIMIT
+        return "-" if value != value else f"{value:.2f}" + ("" if inside else " !")
 
     lines = ["Consistency after the settle time (filter.settle_days): error RMS and the batch's sigma RMS of the "
-             "3-D position error over the runs that finished, error/σ of position and velocity (! above "
-             f"{CONSISTENCY_RATIO_LIMIT:g}: inconsistent), share of epochs whose NEES lies in its 95 % band", "",
+             "3-D position error over the runs that finished, error/σ of position and velocity (! outside "
+             f"[{1 / CONSISTENCY_RATIO_LIMIT:.2f}, {CONSISTENCY_RATIO_LIMIT:g}]), share of epochs whose NEES lies in "
+             "its 95 % band", "",
              "| span | interval | case | S/C | runs ok | position error RMS m | σ RMS m | pos err/σ | vel err/σ "
              "| NEES in band |", "|---|---|---|---|---|---|---|---|---|---|"]
     for row in table.itertuples():
@@ -174,8 +177,8 @@ def format_consistency(table: pd.DataFrame) -> str:
                      f"{ratio(row.velocity_error_to_sigma)} | {share} |")
     bad = int((~table.consistent).sum()) if len(table) else 0
     if bad:
-        lines.append(f"\n! {bad} of {len(table)} rows inconsistent: error RMS above {CONSISTENCY_RATIO_LIMIT:g}x the "
-                     "sigma RMS (consistency.parquet: consistent)")
+        lines.append(f"\n! {bad} of {len(table)} rows fail the consistency verdict (analysis.consistency; "
+                     "consistency.parquet: consistent, consistency_failed)")
     return "\n".join(lines) + "\n"
 
 

@@ -255,10 +255,11 @@ def test_sweep_and_tables002_give_both_tables(tmp_path):
     assert "| 1 T | 60 min | autonomous RR | Gateway | 3/3 |" in proc.stdout
 
 
-def test_tables002_consistency_pools_the_runs_that_finished_and_marks_a_ratio_above_the_limit(tmp_path):
+def test_tables002_consistency_pools_the_runs_that_finished_and_marks_both_sides(tmp_path):
     """A hand-made sweep of two runs: Anchor1's settled errors 3 and 4 m against sigma 1 m give
-    sqrt((9 + 16) / 2) = 3.54 (marked '!', not consistent); Gateway's 1 m against 2 m give 0.5. A third run,
-    diverged for one spacecraft, is left out for both (as the DRMS tables leave it out)."""
+    sqrt((9 + 16) / 2) = 3.54 (marked '!', optimistic); Gateway's 1 m against 2 m give 0.5 (marked '!',
+    pessimistic: the verdict is two-sided). A third run, diverged for one spacecraft, is left out for both (as
+    the DRMS tables leave it out)."""
     import json
 
     import pandas as pd
@@ -280,10 +281,13 @@ def test_tables002_consistency_pools_the_runs_that_finished_and_marks_a_ratio_ab
     table = consistency_table(tmp_path).set_index("spacecraft")
     assert table.loc["Anchor1", "position_error_to_sigma"] == pytest.approx(math.sqrt(12.5))
     assert table.loc["Gateway", "velocity_error_to_sigma"] == pytest.approx(0.5)
-    assert list(table.runs_ok) == [2, 2] and list(table.consistent) == [False, True]
+    assert list(table.runs_ok) == [2, 2] and list(table.consistent) == [False, False]
+    assert "optimistic" in table.loc["Anchor1", "consistency_failed"]
+    assert "pessimistic" in table.loc["Gateway", "consistency_failed"]
     text = format_consistency(table.reset_index())
     assert "| 1 T | 60 min | autonomous RR | Anchor1 | 2/3 | 3.536 | 1.000 | 3.54 ! | 3.54 ! | 90 % |" in text
-    assert "1 of 2 rows inconsistent" in text
+    assert "| Gateway | 2/3 | 1.000 | 2.000 | 0.50 ! | 0.50 ! | 90 % |" in text
+    assert "2 of 2 rows fail the consistency verdict" in text
 
 
 @pytest.mark.parametrize("old,new,fragments", [
