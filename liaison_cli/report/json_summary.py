@@ -46,6 +46,21 @@ def _computed_header(command: str) -> dict:
     return {**_header(command), "arithmetic": arithmetic_provenance()}
 
 
+def _verdict(summary: list[dict], name: str) -> dict:
+    """The spacecraft's campaign verdict as the run text prints it (analysis.consistency.campaign_verdict):
+    consistent_settled, consistency_failed and the ratios' interval half-widths (None when not finite)."""
+    from liaison_cli.analysis.consistency import campaign_verdict
+    from liaison_cli.report.run_text import CONSISTENCY_COLUMNS
+
+    if not ok_values(summary, name, "rms_position_settled_m"):
+        return {"consistent_settled": None, "consistency_failed": "no healthy run, or no epoch after the settle time"}
+    out = campaign_verdict({column: ok_values(summary, name, column) for column in CONSISTENCY_COLUMNS})
+    widths = {f"{kind}_error_to_sigma_halfwidth": out[f"{kind}_error_to_sigma_halfwidth"]
+              for kind in ("position", "velocity")}
+    return {"consistent_settled": bool(out["consistent_settled"]), "consistency_failed": out["consistency_failed"],
+            **{key: (value if math.isfinite(value) else None) for key, value in widths.items()}}
+
+
 def run_document(config, scenario_file, problem, summary: list[dict], out_dir) -> dict:
     """`liaison run --json`: the campaign's settings, run counts and per-spacecraft figures."""
     from liaison_cli.report.run_text import campaign_ratio
@@ -62,6 +77,7 @@ def run_document(config, scenario_file, problem, summary: list[dict], out_dir) -
                 figures[column] = mean(values)
         for kind, unit in (("position", "m"), ("velocity", "m_s")):
             figures[f"{kind}_error_to_sigma_settled"] = campaign_ratio(summary, name, kind, unit)
+        figures.update(_verdict(summary, name))
         for column in RUN_BATCH_STATISTICS:
             if any(column in row for row in summary):
                 values = ok_values(summary, name, column)
