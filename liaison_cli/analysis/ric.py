@@ -98,9 +98,12 @@ def _ric_sums(truth, err, blocks, primaries, primary_velocities, rows, n_spacecr
                     best, nearer = d, b
             rel = r - primaries[k, nearer]
             vel = truth[k, 6 * s + 3 : 6 * s + 6] - primary_velocities[k, nearer]
-            axes[0] = rel / np.sqrt(np.sum(rel * rel))
             normal = np.cross(rel, vel)
-            axes[2] = normal / np.sqrt(np.sum(normal * normal))
+            distance, momentum = np.sqrt(np.sum(rel * rel)), np.sqrt(np.sum(normal * normal))
+            if not (distance > 0.0 and momentum > 0.0):  # no frame at this epoch (radial motion): left out
+                continue
+            axes[0] = rel / distance
+            axes[2] = normal / momentum
             axes[1] = np.cross(axes[2], axes[0])
             for half in range(2):
                 e = err[k, 6 * s + 3 * half : 6 * s + 3 * half + 3]

@@ -15,8 +15,8 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.estimator import Estimator
-from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_TRANSMITTER_STATE, STATUS_NAMES, STATUS_OK,
-                                                run_ekf)
+from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
+                                                STATUS_NAMES, STATUS_OK, run_ekf)
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
                                                 SmootherRecord, channels_of, direction_record, dynamics_of)
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
@@ -90,8 +90,10 @@ class FilterArrays:
         kind, start, _ = self.layout.arrays()
         spacecraft = start[kind == BLOCK_SPACECRAFT]
         ends = self.channel_ends
-        linked = {tuple(sorted((int(a), int(b)))) for a, b in zip(ends[:, END_RECEIVER_STATE], ends[:, END_TRANSMITTER_STATE])
-                  if a >= 0 and b >= 0 and a != b}
+        linked = {tuple(sorted((int(a), int(b))))
+                  for first, second in ((END_RECEIVER_STATE, END_TRANSMITTER_STATE),
+                                        (END_SECOND_STATE, END_TRANSMITTER_STATE))  # a TDoA's second path too
+                  for a, b in zip(ends[:, first], ends[:, second]) if a >= 0 and b >= 0 and a != b}
         return spacecraft, np.array(sorted(linked), dtype=np.int64).reshape(-1, 2)
 
     def ekf_settings(self) -> EkfSettings:
