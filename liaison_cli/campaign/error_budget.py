@@ -27,7 +27,8 @@ import numpy as np
 from tqdm import tqdm
 
 from liaison_cli import interrupts
-from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, fraction, nees_run_band
+from liaison_cli.analysis.consistency import verdict
+from liaison_cli.analysis.metrics import fraction, nees_run_band
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.runner import in_task_order, stays_in_process
 from liaison_cli.campaign.worker import draw_run_inputs
@@ -401,8 +402,8 @@ def consistency(budget: Budget, settle_s: float) -> list[dict]:
     """Per spacecraft over the epochs from `settle_s` on: the error RMS the budget predicts (the root of the
     time-mean of its total second moment, every source on) and the filter's sigma RMS (root of the time-mean
     of its trace(P)), of position (m) and velocity (m/s), their ratio (error_to_sigma: analysis.metrics' campaign
-    ratio, for an infinite campaign), and `consistent`: both ratios within [1 / CONSISTENCY_RATIO_LIMIT,
-    CONSISTENCY_RATIO_LIMIT] (the ratio test of analysis.consistency with no interval: LinCov has no sampling
+    ratio, for an infinite campaign), and `consistent`: both ratios within [1/1.5, 1.5] (the ratio test of
+    analysis.consistency.verdict with no interval: LinCov has no sampling
     noise; a budget has no NEES, its check runs do)."""
     settled = budget.times_s >= settle_s
     rows = []
@@ -414,7 +415,7 @@ def consistency(budget: Budget, settle_s: float) -> list[dict]:
             row[f"error_rms_{kind}_{unit}"] = error
             row[f"sigma_rms_{kind}_{unit}"] = sigma
             row[f"{kind}_error_to_sigma"] = error / sigma if sigma > 0 else float("nan")
-        row["consistent"] = all(1.0 / CONSISTENCY_RATIO_LIMIT <= row[f"{kind}_error_to_sigma"] <= CONSISTENCY_RATIO_LIMIT
-                                for kind in ("position", "velocity"))
+        row["consistent"] = verdict({}, {kind: (row[f"{kind}_error_to_sigma"], 0.0)
+                                         for kind in ("position", "velocity")})[0]
         rows.append(row)
     return rows

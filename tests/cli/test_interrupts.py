@@ -225,3 +225,29 @@ for pid in set(Parallel(n_jobs=2)(delayed(os.getpid)() for _ in range(8))) - {os
     shielded, control = worker_flags("shield"), worker_flags("plain")
     assert shielded and all(flag == "1" for flag in shielded), shielded
     assert control and all(flag == "0" for flag in control), control  # without the shield: not ignored
+
+
+def test_a_pool_thread_failing_after_a_stop_prints_nothing(capsys):
+    """After a requested stop, loky's manager thread may fail on a cancelled work item (KeyError); that is the
+    cancellation's doing and must not print a traceback after the command's one line. Other threads still do."""
+    import threading
+
+    from liaison_cli import interrupts
+
+    def fail():
+        raise KeyError(6)
+
+    previous, chained = threading.excepthook, interrupts._quiet_pool_thread.previous
+    try:
+        threading.excepthook = interrupts._quiet_pool_thread
+        interrupts._quiet_pool_thread.previous = threading.__excepthook__
+        interrupts._requested = True
+        for name in ("ExecutorManagerThread", "worker"):
+            thread = threading.Thread(target=fail, name=name)
+            thread.start()
+            thread.join()
+        err = capsys.readouterr().err
+        assert "KeyError" in err and err.count("Traceback") == 1 and "worker" in err  # only the other thread's
+    finally:
+        interrupts._requested = False
+        threading.excepthook, interrupts._quiet_pool_thread.previous = previous, chained
