@@ -16,7 +16,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import jacobian, rk4_state_stm
-from liaison_cli.dynamics.propagation import propagate_state_stm
+from liaison_cli.dynamics.propagation import dop853_state_stm
 from liaison_cli.measurements.registry import OBSERVABLES as REGISTERED
 from liaison_cli.measurements.registry import get_observable, predict_along
 
@@ -60,7 +60,7 @@ class ObservabilityResult:
 
 def stm_from_t0(states0, times_tu, mu=MU):
     """Truth states (m, n_sc, 6) and per-spacecraft Phi(t_k, t0) (m, n_sc, 6, 6)."""
-    pairs = [propagate_state_stm(s0, times_tu, mu) for s0 in states0]
+    pairs = [dop853_state_stm(s0, times_tu, mu) for s0 in states0]
     return np.stack([p[0] for p in pairs], axis=1), np.stack([p[1] for p in pairs], axis=1)
 
 
@@ -143,7 +143,7 @@ def taylor_stm_errors(state0, duration_tu, steps_s, mu=MU, order: int = 2):
     for step_s in steps_s:
         dt = step_s / TU_S
         times = np.arange(0.0, duration_tu + 1e-12, dt)
-        states = propagate_state_stm(state0, times, mu)[0]
+        states = dop853_state_stm(state0, times, mu)[0]
         errors = []
         for k in range(len(times) - 1):
             numeric = rk4_state_stm(states[k], dt, 16, mu)[1]

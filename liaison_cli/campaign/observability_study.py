@@ -12,6 +12,7 @@ from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.errors import ScenarioError
 from liaison_cli.scenario.reference_states import initial_state_lu
+from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.scenario.truth import dynamics_model, link_visibility, measurement_times_s, participant_trajectories
 
 TAYLOR_STEPS_S = (10, 60, 100, 600)
@@ -22,9 +23,11 @@ def check_supported(scenario, source: str) -> None:
     partials with the CRTBP's STM along ballistic arcs (a dated scenario would silently become the CRTBP, a
     manoeuvre would be left out) and takes two-end links (range and range-rate between a receiver and a
     transponder)."""
-    if scenario.dynamics != "crtbp":
-        raise ScenarioError(f"{source}: key 'dynamics' = {scenario.dynamics!r}: observability supports CRTBP "
-                            "scenarios only; allowed: dynamics: crtbp")
+    if not scenario.dynamics_descriptor().observability:
+        allowed = ", ".join(d.name for d in DYNAMICS.values() if d.observability)
+        raise ScenarioError(f"{source}: key 'dynamics' = {scenario.dynamics!r}: observability supports "
+                            f"{allowed.upper()} scenarios only (it maps partials with that model's STM); allowed: "
+                            f"dynamics: {allowed}")
     for i, sc in enumerate(scenario.spacecraft):
         if sc.manoeuvre is not None:
             raise ScenarioError(f"{source}: key 'spacecraft[{i}].manoeuvre': observability maps the information "

@@ -16,6 +16,7 @@ from liaison_cli.analysis.metrics import (
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
+from liaison_cli.estimation.blocks import BLOCK_PARAMETER, FORMATION
 from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.interrupts import caused_by_interrupt
@@ -113,7 +114,9 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
         truth[:, problem.bias_state_start : problem.bias_state_start + problem.n_bias] = bias[None, :]
     # The filter starts its clock and bias states at their a-priori mean, zero.
     x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
-    filter_params = _filter_params(problem, rng)
+    filter_params, cr_factor = _filter_params(problem, rng)
+    for start, value in _true_parameters(problem, cr_factor):
+        truth[:, start] = value
     # Manoeuvres (drawn last): the truth keeps the scenario's Delta-v, the filter starts its a-priori sigma off.
     for start, delta_v, sigma in problem.manoeuvres:
         truth[:, start : start + 3] = delta_v[None, :]
@@ -124,17 +127,28 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
 
 
 def _filter_params(problem: Problem, rng):
-    """The filter's dynamics parameters of this run when scenario.model_error draws per run: C_R off by a factor
-    1 + N(0, cr sigma) (003: 5 %), then the Moon's GM by 1 + N(0, moon_gm_sigma), each drawn only when its
-    sigma is set, and last, so no other draw moves; the fixed errors on top (filter_arrays.biased_filter_params).
-    None when nothing is drawn (the problem's filter parameters hold)."""
+    """(the filter's dynamics parameters of this run, the factor between the filter's C_R and the truth's) when
+    scenario.model_error draws per run: C_R off by a factor 1 + N(0, cr sigma) (003: 5 %), then the Moon's GM
+    by 1 + N(0, moon_gm_sigma), each drawn only when its sigma is set, and last, so no other draw moves; the
+    fixed errors on top (filter_arrays.biased_filter_params). Parameters None when nothing is drawn (the
+    problem's filter parameters hold)."""
     scenario = problem.scenario
     cr_sigma, gm_sigma = scenario.cr_error_sigma(), scenario.model_error.moon_gm_sigma
+    fixed_cr_factor = 1.0 + scenario.model_error.cr_bias
     if cr_sigma == 0.0 and gm_sigma == 0.0:
-        return None
+        return None, fixed_cr_factor
     cr_draw = cr_sigma * rng.standard_normal() if cr_sigma > 0.0 else 0.0
     gm_draw = gm_sigma * rng.standard_normal() if gm_sigma > 0.0 else 0.0
-    return biased_filter_params(scenario, problem.dynamics, cr_draw, gm_draw)
+    return biased_filter_params(scenario, problem.dynamics, cr_draw, gm_draw), fixed_cr_factor * (1.0 + cr_draw)
+
+
+def _true_parameters(problem: Problem, cr_factor: float):
+    """(state offset, true value) of every dynamics-parameter block (filter.estimated_parameters): the C_R
+    correction that brings the filter's C_R (the truth's times cr_factor) back to the truth's, 1 / cr_factor - 1."""
+    true_value = {"cr": 1.0 / cr_factor - 1.0}
+    layout = problem.filter.layout
+    return [(int(start), true_value[block.owner.split(" ", 1)[0]])
+            for block, start in zip(layout.blocks, layout.starts) if block.kind == BLOCK_PARAMETER]
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
@@ -152,6 +166,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
                                       settle_s=problem.scenario.settle_days() * SECONDS_PER_DAY,
                                       nees=history.nees, n_nees=problem.filter.n_nees)
         _add_directions(problem, arrays, history, summary)
+        _add_parameters(problem, inputs, history, summary)
         _add_ric(problem, inputs, history, summary, n_dyn)
         _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
@@ -206,6 +221,33 @@ def _add_directions(problem: Problem, arrays, history, summary) -> None:
         row.update(own)
         row.update(run)
         row["consistent_settled"], row["consistency_failed"] = run_verdict(row)
+
+
+def _add_parameters(problem: Problem, inputs: RunInputs, history, summary) -> None:
+    """The estimated dynamics parameters (filter.estimated_parameters) into their spacecraft's row (a formation's
+    into every row, as the run's): the true
+    value, the error and sigma at the last healthy epoch, and the RMS of the error and of sigma over the
+    settled epochs (dimensionless, as the states)."""
+    layout = problem.filter.layout
+    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
+    row_of = {name: row for name, row in zip(problem.spacecraft, summary)}
+    for block, start in zip(layout.blocks, layout.starts):
+        if block.kind != BLOCK_PARAMETER:
+            continue
+        name, owner = block.owner.split(" ", 1)
+        rows = summary if owner == FORMATION else [row_of[owner]]
+        err, sigma = history.err[:, start], history.sigma[:, start]
+        healthy = np.flatnonzero(np.isfinite(err))
+        last = healthy[-1] if healthy.size else 0
+        settled_err, settled_sigma = err[settled & np.isfinite(err)], sigma[settled & np.isfinite(err)]
+        columns = {
+            f"{name}_true": float(inputs.truth[0, start]),
+            f"{name}_error_final": float(err[last]) if healthy.size else np.nan,
+            f"{name}_sigma_final": float(sigma[last]) if healthy.size else np.nan,
+            f"rms_{name}_error_settled": float(np.sqrt(np.mean(settled_err**2))) if settled_err.size else np.nan,
+            f"sigma_{name}_settled": float(np.sqrt(np.mean(settled_sigma**2))) if settled_err.size else np.nan}
+        for row in rows:
+            row.update(columns)
 
 
 _PRIMARIES: dict = {}

@@ -22,6 +22,7 @@ from liaison_cli.dynamics.constants import DE421_GM_KM3_S2, J2000_JD, SECONDS_PE
 # Our body codes: NAIF barycentre ids 1-9 (planet systems), 10 the Sun, 301 the Moon.
 BODY_MOON = 301
 BODY_SUN = 10
+BODY_EARTH = 399
 SEGMENTS = ((0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (0, 6), (0, 7), (0, 8), (0, 9), (0, 10), (3, 301), (3, 399))
 SEG_EMB = 2  # (0, 3)
 SEG_MOON = 10  # (3, 301)

@@ -18,10 +18,13 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import (
     AU_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM, SOLAR_FLUX_1AU_W_M2, SPEED_OF_LIGHT_M_S, SUN_RADIUS_KM)
-from liaison_cli.dynamics.ephemeris import BODY_MOON, BODY_SUN, geocentric_state
+from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_state
 from liaison_cli.dynamics.rk8 import rk8_combine, rk8_stage_input
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
+# Lengths of the integrated vector: the state and its STM (6 + 36), and with the C_R sensitivity column (+ 6).
+STM_SIZE = 42
+SENSITIVITY_SIZE = 48
 # The shadow's occulters and the Sun's disc, by their short names here.
 R_SUN_KM, R_EARTH_KM, R_MOON_KM = SUN_RADIUS_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM
 
@@ -91,9 +94,13 @@ def _point_mass(out_a, grad, r, r_b, gm, indirect, with_grad):
 
 @njit(cache=True)
 def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, with_stm, out):
-    """dy/dt for y = [r, v] (6,) or [r, v, Phi row-major] (42,), geocentric ICRF km, km/s at TDB t_s.
-    bodies / gms (B,): third bodies (codes of dynamics.ephemeris) and their GM; cr_am: C_R A/m (m^2/kg),
-    0 for no SRP (the Sun must then still be in `bodies` for its gravity)."""
+    """dy/dt for y = [r, v] (6,), [r, v, Phi row-major] (42,) or [r, v, Phi, s] (48,), geocentric ICRF km, km/s
+    at TDB t_s. bodies / gms (B,): third bodies (codes of dynamics.ephemeris) and their GM; cr_am: C_R A/m
+    (m^2/kg), 0 for no SRP (the Sun must then still be in `bodies` for its gravity).
+
+    s (6,) = dx/dlambda, the state's sensitivity to a relative change of C_R (C_R -> C_R (1 + lambda) at
+    lambda = 0): s' = A s + [0; a_srp], since the SRP acceleration is linear in C_R (Tapley, Schutz & Born
+    2004, §4.2.1, the variational equations of a dynamic parameter)."""
     r = y[0:3]
     acc = np.zeros(3)
     grad = np.zeros((3, 3))
@@ -108,10 +115,10 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
             r_sun = r_b
         elif bodies[i] == BODY_MOON:
             r_moon = r_b
+    a_srp = np.zeros(3)
     if cr_am > 0.0:
         if r_moon[0] == 0.0 and r_moon[1] == 0.0 and r_moon[2] == 0.0:  # the Moon's shadow needs its position
             r_moon = geocentric_state(coeffs, start_s, interval_s, n_records, BODY_MOON, t_s)[0:3].copy()
-        a_srp = np.empty(3)
         nu = srp_acceleration(r, r_sun, r_moon, cr_am, a_srp)
         for i in range(3):
             acc[i] += a_srp[i]
@@ -134,14 +141,22 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
                 for l in range(3):
                     acc_ij += grad[i, l] * y[6 + 6 * l + j]
                 out[6 + 6 * (3 + i) + j] = acc_ij
+    if y.shape[0] == SENSITIVITY_SIZE:  # s' = A s + d(acc)/dlambda
+        for i in range(3):
+            out[STM_SIZE + i] = y[STM_SIZE + 3 + i]
+            acc_i = a_srp[i]
+            for l in range(3):
+                acc_i += grad[i, l] * y[STM_SIZE + l]
+            out[STM_SIZE + 3 + i] = acc_i
 
 
 @njit(cache=True)
 def rk8_ephemeris(y, t_s, dt_s, n_steps, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am,
                   a, b, c):
-    """Advance y (6,) or (42,) in place from t_s over dt_s in n_steps RK8 steps (tableau a, b, c)."""
+    """Advance y (6,), (42,) or (48,) (ephemeris_derivative) in place from t_s over dt_s in n_steps RK8 steps
+    (tableau a, b, c)."""
     size = y.shape[0]
-    with_stm = size == 42
+    with_stm = size >= STM_SIZE
     k = np.empty((12, size))
     tmp = np.empty(size)
     h = dt_s / n_steps
@@ -188,13 +203,13 @@ def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rto
     def edge(which, body):
         def event(t, y):
             r_sun = geocentric_state(*args, BODY_SUN, t)[0:3]
-            r_body = np.zeros(3) if body == 399 else geocentric_state(*args, BODY_MOON, t)[0:3]
-            return shadow_edges(y[0:3], r_sun, r_body, R_EARTH_KM if body == 399 else R_MOON_KM)[which]
+            r_body = np.zeros(3) if body == BODY_EARTH else geocentric_state(*args, BODY_MOON, t)[0:3]
+            return shadow_edges(y[0:3], r_sun, r_body, R_EARTH_KM if body == BODY_EARTH else R_MOON_KM)[which]
 
         event.terminal = True
         return event
 
-    events = [edge(w, b) for w in (0, 1) for b in (399, 301)] if cr_am > 0.0 else []
+    events = [edge(w, b) for w in (0, 1) for b in (BODY_EARTH, BODY_MOON)] if cr_am > 0.0 else []
     states = np.empty((times_s.size, 6))
     t, y, done = float(t0_s), np.asarray(x0, dtype=float), 0
     if times_s[0] == t:

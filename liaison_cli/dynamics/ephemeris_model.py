@@ -12,10 +12,11 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
-from liaison_cli.dynamics.ephemeris_dynamics import ephemeris_derivative, rk8_ephemeris
+from liaison_cli.dynamics.ephemeris_dynamics import (SENSITIVITY_SIZE, STM_SIZE, ephemeris_derivative,
+                                                     rk8_ephemeris)
+from liaison_cli.dynamics.registry import DYNAMICS, MODEL_EPHEMERIS  # noqa: F401  (MODEL_EPHEMERIS: its users' import)
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
-MODEL_EPHEMERIS = 1  # its code behind the dynamics interface (dynamics.model)
 SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
 HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
 PARAM_CR_AM = 5
@@ -86,6 +87,26 @@ def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
     return out, phi
 
 
+@njit(cache=True)
+def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps, y):
+    """ephemeris_state_stm_scaled with the filter's C_R A/m times (1 + cr_scale), written into y (48,) =
+    [state (6), Phi row-major (36), gamma (6)], scaled units: gamma = d state / d cr_scale, the column of the
+    transition that couples an estimated C_R state to the spacecraft (estimation.blocks)."""
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    for i in range(SENSITIVITY_SIZE):
+        y[i] = 0.0
+    for i in range(6):
+        y[i] = state[i] * SCALE[i]
+        y[6 + 7 * i] = 1.0
+    rk8_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records, bodies,
+                  gms, gm_earth, cr_am * (1.0 + cr_scale), RK8_A, RK8_B, RK8_C)
+    # The integrated column is d/dlambda at C_R (1 + cr_scale) (1 + lambda): d/dcr_scale is it / (1 + cr_scale).
+    for i in range(6):
+        y[STM_SIZE + i] /= SCALE[i] * (1.0 + cr_scale)
+        y[i] = y[i] / SCALE[i]
+        for j in range(6):
+            y[6 + 6 * i + j] = y[6 + 6 * i + j] * SCALE[j] / SCALE[i]  # ephemeris_state_stm_scaled's rounding
+
 
 @njit(cache=True)
 def ephemeris_accelerations_scaled(params, states, times_tu):
@@ -126,7 +147,15 @@ class EphemerisDynamicsModel:
     """The DynamicsModel of a dated scenario: code, packed parameters, and the adaptive truth."""
 
     name = "ephemeris"
-    rotating_frame = False  # geocentric ICRF (measurements.tdoa)
+
+    @property
+    def descriptor(self):
+        """What the model is and supports (dynamics.registry)."""
+        return DYNAMICS[self.name]
+
+    @property
+    def rotating_frame(self) -> bool:  # geocentric ICRF (measurements.tdoa)
+        return self.descriptor.rotating_frame
 
     def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None):
         """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all)."""

@@ -16,11 +16,16 @@ from numba.extending import overload
 
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states
-from liaison_cli.dynamics.ephemeris_model import MODEL_EPHEMERIS, ephemeris_state_stm_scaled
+from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
 from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
-MODEL_CRTBP = 0
+from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
+from liaison_cli.dynamics.registry import DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
+
+# The propagation vector the filters' scratch holds: state (6), STM (36), and a dynamics parameter's column
+# (6, propagate_parameter_into); the CRTBP's RK4 uses the first STM_SIZE entries.
+PROPAGATION_SIZE = SENSITIVITY_SIZE
 
 # Truth: compiled fixed-step RK4 of at most 10 s. Over 10 days it agrees with DOP853 at rtol 1e-13 to
 # 2.0 mm for the 9,000 km lunar orbiter (DOP853 at the former rtol 1e-12 is itself 2 cm off); see
@@ -45,8 +50,8 @@ def _propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
         raise TypingError("propagate_state_stm: the model code must be a compile-time constant (numba.literally)")
 
     def impl(model, params, state, t_tu, dt_tu, substeps):  # the models are told apart in one place: _into
-        y = np.empty(42)
-        propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, np.empty((5, 42)))
+        y = np.empty(STM_SIZE)
+        propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, np.empty((5, STM_SIZE)))
         return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
     return impl
@@ -76,6 +81,27 @@ def _propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, wo
     raise TypingError(f"unknown dynamics model code {model.literal_value}")
 
 
+def propagate_parameter_into(model, params, parameter, state, t_tu, dt_tu, substeps, y, work):
+    """propagate_state_stm_into with the model's estimable parameter (registry: Dynamics.parameters) set to
+    `parameter`, y (48,) = [state (6), Phi (36), gamma (6)] with gamma = d state / d parameter: the column of
+    the transition that couples a parameter state to its spacecraft. The ephemeris model's parameter is C_R's
+    relative correction (its C_R A/m times 1 + parameter); the CRTBP has none (the scenario refuses one)."""
+    raise NotImplementedError("propagate_parameter_into is compiled code; call it from a numba function")
+
+
+@overload(propagate_parameter_into, inline="always")
+def _propagate_parameter_into(model, params, parameter, state, t_tu, dt_tu, substeps, y, work):
+    if not isinstance(model, types.IntegerLiteral):
+        raise TypingError("propagate_parameter_into: the model code must be a compile-time constant")
+    if model.literal_value == MODEL_EPHEMERIS:
+        return lambda model, params, parameter, state, t_tu, dt_tu, substeps, y, work: ephemeris_state_stm_cr_scaled(
+            params, parameter, state, t_tu, dt_tu, substeps, y)
+
+    def no_parameter(model, params, parameter, state, t_tu, dt_tu, substeps, y, work):
+        raise ValueError("this dynamics model has no estimable parameter")
+    return no_parameter
+
+
 def literal_entry(dispatcher, args, literal_index):
     """The compiled entry point of `dispatcher` for these arguments with args[literal_index] (a model code;
     or a tuple of indices: the model code and a kind set) as compile-time constants: loaded from the on-disk
@@ -92,8 +118,8 @@ def advance_rk8(model, params, y, t_tu, dt_tu, n_steps, k, tmp):
     steps; k (12, len(y)) and tmp (len(y),) are the caller's scratch (no allocation per interval)."""
     if model == MODEL_CRTBP:
         rk8_advance(y, dt_tu, n_steps, params[0], k, tmp)
-    else:
-        y[:] = np.nan
+    else:  # the batch runs with the CRTBP only (its Estimator descriptor); never a silent NaN
+        raise ValueError("advance_rk8: the batch's RK8 integrates the CRTBP only")
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +127,11 @@ class DynamicsModel:
     name: str
     code: int
     params: np.ndarray
+
+    @property
+    def descriptor(self):
+        """What the model is and supports (dynamics.registry)."""
+        return DYNAMICS[self.name]
 
     def truth_states(self, state0, times_tu) -> np.ndarray:
         """High-accuracy truth (m, 6) at times_tu from state0 at times_tu[0]."""
@@ -125,7 +156,9 @@ class DynamicsModel:
         mu = float(self.params[0])
         return np.array([mu * moon_gm_factor / (1.0 + mu * (moon_gm_factor - 1.0)), *self.params[1:]])
 
-    rotating_frame = True  # the states' frame turns at 1 rad/TU about z (measurements.tdoa)
+    @property
+    def rotating_frame(self) -> bool:  # the states' frame turns at 1 rad/TU about z (measurements.tdoa)
+        return self.descriptor.rotating_frame
 
     def trajectory(self, states, times_tu=None):
         """The sampled truth of one spacecraft (the CRTBP is autonomous: times_tu is not needed)."""

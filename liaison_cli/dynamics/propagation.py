@@ -34,7 +34,7 @@ def propagate_states(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
     return sol.y.T.copy()
 
 
-def propagate_state_stm(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
+def dop853_state_stm(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
     """State and STM Phi(t, t0) at times_tu (m,), times_tu[0] = t0: returns ((m, 6), (m, 6, 6))."""
     from scipy.integrate import solve_ivp
 

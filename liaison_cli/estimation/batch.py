@@ -32,7 +32,8 @@ from numba import njit
 
 from liaison_cli.dynamics.model import advance_rk8
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
-from liaison_cli.estimation.filter_loop import channel_states
+from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
+                                                channel_states)
 from liaison_cli.measurements.registry import predict, residual
 
 JACOBIAN_EVERY = 0
@@ -91,7 +92,8 @@ def _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g
     ends = channel_ends[c]
     x_r, x_t, x_s = channel_states(traj[k], known_states[k], ends)
     value = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_r, g_t, g_s)
-    for end, g in ((ends[0], g_r), (ends[2], g_t), (ends[4], g_s)):
+    for end, g in ((ends[END_RECEIVER_STATE], g_r), (ends[END_TRANSMITTER_STATE], g_t),
+                   (ends[END_SECOND_STATE], g_s)):
         if end < 0:
             continue
         b = block_of_start[end]
@@ -224,7 +226,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     Returns (BatchSolution, traj (m, n), phi (m, B, 6, 6), residuals (m, C), spread (m, C)): the converged
     trajectory over all m epochs, Phi(t_k, t_0) of the last STM pass, and the post-fit residuals with their
     predicted spread (estimation.batch.postfit_residuals)."""
-    block_kind, block_start, _ = layout
+    block_kind, block_start = layout.kind, layout.start
     params, dt_tu, _, t0_tu = dynamics
     n = x_apriori.shape[0]
     m = y_obs.shape[0]

@@ -5,6 +5,11 @@
 - constant (1 or 3): a range bias, a manoeuvre's Delta-v (3) or any other constant parameter; identity
   transition. A Delta-v block acts once, at its burn epoch: filter_loop.apply_burns adds it to its
   spacecraft's velocity (state and covariance, x <- J x, P <- J P J^T).
+- parameter (1): a dynamics model's parameter (dynamics.registry.DynamicsParameter, e.g. C_R) of one
+  spacecraft (owner 'cr L1A') or of every spacecraft (owner 'cr formation': the dated model has one C_R A/m
+  for all); constant, but it moves its spacecraft: the transition couples them by the column
+  gamma = d x_spacecraft / d parameter (dynamics.model.propagate_parameter_into), so Phi is block-diagonal
+  plus those columns (ekf.predict_covariance_into). It has no process noise.
 Process noise is a fixed (n, n) block-diagonal Q built block by block by the problem setup. Consider
 blocks (zero gain, Schmidt-Kalman) come last, so the estimated states are a prefix of the state.
 """
@@ -16,7 +21,18 @@ import numpy as np
 BLOCK_SPACECRAFT = 0
 BLOCK_CLOCK = 1
 BLOCK_CONSTANT = 2
-BLOCK_SIZES = {BLOCK_SPACECRAFT: (6,), BLOCK_CLOCK: (2, 3), BLOCK_CONSTANT: (1, 3)}
+BLOCK_PARAMETER = 3
+BLOCK_SIZES = {BLOCK_SPACECRAFT: (6,), BLOCK_CLOCK: (2, 3), BLOCK_CONSTANT: (1, 3), BLOCK_PARAMETER: (1,)}
+# The owner names of blocks that belong to something other than a participant: f"{ROLE} {name}".
+ROLE_MANOEUVRE = "dv"
+ROLE_LINK_BIAS = "bias"
+FORMATION = "formation"  # a parameter block shared by every spacecraft block
+
+
+def owner_name(role: str, name) -> str:
+    """The owner of a role's block: 'dv L1A' (a manoeuvre's Delta-v), 'bias 0' (link 0's range bias), 'cr L1A'
+    or 'cr formation' (a dynamics parameter of one spacecraft or of all)."""
+    return f"{role} {name}"
 
 
 @dataclass(frozen=True)
@@ -49,9 +65,17 @@ class StateLayout:
         return int(sum(b.size for b in self.blocks))
 
     def arrays(self):
-        """(kind (B,), start (B,), size (B,)) for the compiled loop."""
-        return (np.array([b.kind for b in self.blocks], dtype=np.int64), self.starts,
-                np.array([b.size for b in self.blocks], dtype=np.int64))
+        """(kind (B,), start (B,), size (B,), parameter (B,)) for the compiled loop: parameter is, for a
+        spacecraft block, the start of its dynamics-parameter block (-1: none), and -1 for every other block."""
+        starts = self.starts
+        parameter = np.full(len(self.blocks), -1, dtype=np.int64)
+        for b, block in enumerate(self.blocks):
+            if block.kind == BLOCK_PARAMETER:
+                owner = block.owner.split(" ", 1)[1]
+                parameter[[i for i, o in enumerate(self.blocks)
+                           if o.kind == BLOCK_SPACECRAFT and owner in (o.owner, FORMATION)]] = starts[b]
+        return (np.array([b.kind for b in self.blocks], dtype=np.int64), starts,
+                np.array([b.size for b in self.blocks], dtype=np.int64), parameter)
 
     @property
     def n_estimated(self) -> int:

@@ -7,6 +7,8 @@ R, which is algebraically the batch update (Eq. 21-23) and needs no matrix inver
 import numpy as np
 from numba import njit
 
+from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_PARAMETER, BLOCK_SPACECRAFT
+
 
 @njit(cache=True)
 def predict_covariance_blocks(P, Phi, Q, out, block_kind, block_start, block_size):
@@ -21,16 +23,21 @@ def predict_covariance_into(P, Phi, Q, out, tmp, block_kind, block_start, block_
     scratch.
 
     P, Phi, Q, out: (n, n); block_kind / block_start / block_size (B,): the state layout (see
-    estimation.blocks). Only Phi's diagonal blocks are read; constant blocks (kind 2) have identity
-    transition and skip their products. Each pair of blocks is done on its own,
-    P_bar[a, b] = Phi_a P[a, b] Phi_b^T + Q[a, b]: no dense n x n product and no temporaries beyond one
-    block. Symmetric by construction (upper triangle mirrored).
+    estimation.blocks). Phi's diagonal blocks are read, and the coupling columns of parameter blocks;
+    constant and parameter blocks have identity transition and skip their products. Each pair of blocks is
+    done on its own, P_bar[a, b] = Phi_a P[a, b] Phi_b^T + Q[a, b]: no dense n x n product and no temporaries
+    beyond one block. Symmetric by construction (upper triangle mirrored).
+
+    A dynamics parameter p couples its spacecraft s: Phi = Phi_bd + G with G = gamma at (rows s, column p).
+    Since row p of Phi_bd is the identity's, Phi = (I + G) Phi_bd, and with no process noise on p
+    (Q[p, :] = 0, filter_arrays), Phi P Phi^T + Q = (I + G) (Phi_bd P Phi_bd^T + Q) (I + G)^T:
+    the block products, then _couple_parameters' rank-one row and column updates.
     """
     n_blocks = block_kind.shape[0]
     # The leading spacecraft blocks sit at 6 a: offsets the compiler can see are non-negative multiples
     # of 6 make this hot path ~1.5x faster than offsets read from block_start.
     n_sc = 0
-    while n_sc < n_blocks and block_kind[n_sc] == 0 and block_start[n_sc] == 6 * n_sc:
+    while n_sc < n_blocks and block_kind[n_sc] == BLOCK_SPACECRAFT and block_start[n_sc] == 6 * n_sc:
         n_sc += 1
     for a in range(n_sc):
         ra = 6 * a
@@ -53,9 +60,9 @@ def predict_covariance_into(P, Phi, Q, out, tmp, block_kind, block_start, block_
     if n_sc == n_blocks:
         return out
     for a in range(n_blocks):
-        ra, na, const_a = block_start[a], block_size[a], block_kind[a] == 2
+        ra, na, const_a = block_start[a], block_size[a], _identity_transition(block_kind[a])
         for b in range(max(a, n_sc), n_blocks):
-            rb, nb, const_b = block_start[b], block_size[b], block_kind[b] == 2
+            rb, nb, const_b = block_start[b], block_size[b], _identity_transition(block_kind[b])
             for i in range(na):  # tmp = Phi_a P[a, b]
                 for j in range(nb):
                     if const_a:
@@ -76,7 +83,37 @@ def predict_covariance_into(P, Phi, Q, out, tmp, block_kind, block_start, block_
                             acc += tmp[i, k] * Phi[rb + j, rb + k]
                     out[ra + i, rb + j] = acc
                     out[rb + j, ra + i] = acc
+    _couple_parameters(out, Phi, block_kind, block_start)
     return out
+
+
+@njit(cache=True, inline="always")
+def _identity_transition(kind):
+    return kind == BLOCK_CONSTANT or kind == BLOCK_PARAMETER
+
+
+@njit(cache=True, inline="always")
+def _couple_parameters(M, Phi, block_kind, block_start):
+    """M <- (I + G) M (I + G)^T in place for every parameter block p and spacecraft block s whose coupling
+    column gamma = Phi[s : s + 6, p] is non-zero (predict_covariance_into): rows s += gamma M[p, :], then
+    columns s += M[:, p] gamma^T; row and column p are left as they are by the first and read by the second."""
+    n = M.shape[0]
+    for q in range(block_kind.shape[0]):
+        if block_kind[q] != BLOCK_PARAMETER:
+            continue
+        p = block_start[q]
+        for b in range(block_kind.shape[0]):
+            s = block_start[b]
+            if block_kind[b] != BLOCK_SPACECRAFT or (Phi[s, p] == 0.0 and Phi[s + 3, p] == 0.0):
+                continue
+            for i in range(6):
+                g = Phi[s + i, p]
+                for j in range(n):
+                    M[s + i, j] += g * M[p, j]
+            for i in range(6):
+                g = Phi[s + i, p]
+                for j in range(n):
+                    M[j, s + i] += M[j, p] * g
 
 
 @njit(cache=True)

@@ -21,7 +21,8 @@ class Estimator:
     considered biases (filter.bias: consider), the residual gate (filter.residual_gate_sigma), the error
     budget (estimation.lincov mirrors its gain, so campaign.error_budget can split its error), a start from an
     initial batch solution (filter.initial_batch_hours, estimation.initial_batch), process noise (the SNC that
-    `liaison tune` chooses; a batch has none).
+    `liaison tune` chooses; a batch has none), dynamics-parameter states (filter.estimated_parameters: a
+    model's parameter such as C_R carried per spacecraft, estimation.blocks.BLOCK_PARAMETER).
     settings_section: the scenario section of its own settings, given exactly when it is chosen (None: the
     filter section only)."""
 
@@ -39,3 +40,4 @@ class Estimator:
     error_budget: bool = False
     initial_batch: bool = False
     process_noise: bool = False
+    dynamics_parameters: bool = False

@@ -87,7 +87,7 @@ class FilterArrays:
     def direction_starts(self) -> tuple[np.ndarray, np.ndarray]:
         """(spacecraft block offsets (S,), offsets of each pair of estimated spacecraft a channel links (L, 2),
         sorted): where filter_loop.record_directions looks."""
-        kind, start, _ = self.layout.arrays()
+        kind, start = self.layout.arrays()[:2]
         spacecraft = start[kind == BLOCK_SPACECRAFT]
         ends = self.channel_ends
         linked = {tuple(sorted((int(a), int(b))))
@@ -219,7 +219,7 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     estimate inside its span, its prediction after); NEES is each window's epoch-state NEES, to first order
     the same at every epoch of its piece (e_k = Phi e0, P_k = Phi P Phi^T)."""
     settings = arrays.batch
-    kind, start, _ = arrays.layout.arrays()
+    kind, start = arrays.layout.arrays()[:2]
     m, n = truth.shape
     err, sigma = np.full((m, n), np.nan), np.full((m, n), np.nan)
     nees = np.full(m, np.nan)
@@ -300,7 +300,7 @@ def _prediction_rms(errors_ahead, kind, start):
 EKF = Estimator(
     name="ekf", summary="the extended Kalman filter", run=_ekf, carries_clocks=True, carries_biases=True,
     carries_manoeuvres=True, dynamics=("crtbp", "ephemeris"), smoother=True, consider=True, residual_gate=True,
-    error_budget=True, initial_batch=True, process_noise=True)
+    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True)
 # The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
 # apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
 BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",

@@ -11,8 +11,9 @@ import numba
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.model import propagate_state_stm_into
-from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_SPACECRAFT
+from liaison_cli.dynamics.model import (PROPAGATION_SIZE, STM_SIZE, propagate_parameter_into,
+                                       propagate_state_stm_into)
+from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_PARAMETER, BLOCK_SPACECRAFT
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
 from liaison_cli.measurements.registry import predict_for, residual
 
@@ -105,14 +106,23 @@ def apply_burn_rows(M, burns, k):
 
 
 @njit(cache=True, inline="always")
-def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params, t_tu, dt_tu,
-                 substeps, y, work):
-    """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11). y (42,) and
-    work (5, 42): scratch for the state + STM propagation."""
+def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params, t_tu,
+                dt_tu, substeps, y, work):
+    """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11), the identity on
+    parameter blocks and, for a spacecraft with a dynamics parameter (block_parameter >= 0), the column
+    gamma = d x_spacecraft / d parameter that couples them (estimation.blocks). y (PROPAGATION_SIZE,) and
+    work (5, STM_SIZE): scratch for the state + STM propagation."""
     for b in range(block_kind.shape[0]):
         a, size = block_start[b], block_size[b]
         if block_kind[b] == BLOCK_SPACECRAFT:
-            propagate_state_stm_into(model, model_params, x_hat[a : a + 6], t_tu, dt_tu, substeps, y, work)
+            p = block_parameter[b]
+            if p >= 0:  # flown with its own parameter's value; the coupling column goes into Phi
+                propagate_parameter_into(model, model_params, x_hat[p], x_hat[a : a + 6], t_tu, dt_tu, substeps,
+                                         y, work)
+                for i in range(6):
+                    Phi[a + i, p] = y[STM_SIZE + i]
+            else:
+                propagate_state_stm_into(model, model_params, x_hat[a : a + 6], t_tu, dt_tu, substeps, y, work)
             # Element loops, not slice assignment: numba compiles a shape-mismatch error path (string
             # formatting, seconds of compile time) for every array-to-slice assignment.
             for i in range(6):
@@ -134,6 +144,8 @@ def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, m
         else:
             for i in range(size):
                 x_bar[a + i] = x_hat[a + i]  # constant parameters
+            if block_kind[b] == BLOCK_PARAMETER:
+                Phi[a, a] = 1.0  # its row of the coupled transition (ekf.predict_covariance_into reads it)
 
 
 @njit(cache=True, inline="always")
@@ -278,7 +290,7 @@ def _whitened_along(u, chol, z, v):
 @njit(cache=True, inline="always")
 def position_beyond_bound(e, layout, divergence_position_lu):
     """True if a spacecraft block's position error |e[a : a + 3]| (e (n,)) exceeds divergence_position_lu."""
-    block_kind, block_start, _ = layout
+    block_kind, block_start = layout.kind, layout.start
     for b in range(block_kind.shape[0]):
         if block_kind[b] == BLOCK_SPACECRAFT:
             a = block_start[b]
@@ -291,11 +303,11 @@ def position_beyond_bound(e, layout, divergence_position_lu):
 def _loop_buffers(n, n_nees):
     """The loop's scratch, allocated once per run (in the loop, allocation had cost as much as the arithmetic):
     x_bar, dx, dx_spare, e, H, h, K (n,); P_spare, Phi (n, n); the three ends' partials (6,); the STM
-    propagation's y (42,) and work (5, 42); the covariance step's (6, 6); the NEES's (L (n_nees, n_nees),
+    propagation's y (PROPAGATION_SIZE,) and work (5, STM_SIZE); the covariance step's (6, 6); the NEES's (L (n_nees, n_nees),
     z (n_nees,)) and the direction record's (work6 (6, 6), z6 (6,), u, v (n,))."""
     return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.zeros(n), np.empty(n), np.empty(n),
-            np.empty((n, n)), np.zeros((n, n)), np.empty(6), np.empty(6), np.empty(6), np.empty(42),
-            np.empty((5, 42)), np.empty((6, 6)), np.empty((n_nees, n_nees)), np.empty(n_nees),
+            np.empty((n, n)), np.zeros((n, n)), np.empty(6), np.empty(6), np.empty(6), np.empty(PROPAGATION_SIZE),
+            np.empty((5, STM_SIZE)), np.empty((6, 6)), np.empty((n_nees, n_nees)), np.empty(n_nees),
             np.empty((6, 6)), np.empty(6), np.empty(n), np.empty(n))
 
 
@@ -329,7 +341,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
-    block_kind, block_start, block_size = layout
+    block_kind, block_start, block_size, block_parameter = layout
     model_params, dt_tu, substeps, t0_tu = dynamics
     n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
     store_states, store_matrices = record
@@ -349,7 +361,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, model, model_params,
+        time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params,
                     t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:

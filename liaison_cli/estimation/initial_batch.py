@@ -29,6 +29,7 @@ from numba import njit
 
 from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.batch import equilibrated_solve
+from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import channel_states, scatter_partials, time_update
 from liaison_cli.measurements.registry import kinds_mask, predict_for, residual
@@ -65,7 +66,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
     numba.literally(model)
     numba.literally(kinds)
     channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
-    block_kind, block_start, block_size = layout
+    block_kind, block_start, block_size, block_parameter = layout
     model_params, dt_tu, substeps, t0_tu = dynamics
     w, n = traj.shape
     n_channels = channel_kind.shape[0]
@@ -75,8 +76,8 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
     q_acc = np.zeros((n, n))
     q_tmp = np.empty((n, n))
     phi_step = np.eye(n)
-    y_stm = np.empty(42)
-    work_stm = np.empty((5, 42))
+    y_stm = np.empty(PROPAGATION_SIZE)
+    work_stm = np.empty((5, STM_SIZE))
     H = np.zeros(n)
     h = np.zeros(n)
     g_receiver = np.empty(6)
@@ -88,8 +89,8 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
         for j in range(n):
             phi[0, i, j] = 1.0 if i == j else 0.0
     for k in range(1, w):
-        time_update(traj[k - 1], traj[k], phi_step, block_kind, block_start, block_size, model, model_params,
-                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+        time_update(traj[k - 1], traj[k], phi_step, block_kind, block_start, block_size, block_parameter, model,
+                    model_params, t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
         _propagate_products(phi_step, phi[k - 1], phi[k], q_acc, q_tmp, Q)
         for c in range(n_channels):
             y_meas = y_obs[k, c]
@@ -172,7 +173,7 @@ def solve_initial_batch(arrays, x_apriori, y_obs) -> InitialBatchResult:
     one's solution, so Gauss-Newton never linearises a long arc about the a priori (the nonlinearity grows
     with the arc). A window whose solve fails ends the search with that failure."""
     settings = arrays.initial_batch
-    block_kind, block_start, _ = arrays.layout.arrays()
+    block_kind, block_start = arrays.layout.arrays()[:2]
     positions = [np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == BLOCK_SPACECRAFT]
     x_start, result = x_apriori, None
     for w in window_lengths(settings):
@@ -203,7 +204,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     n = x_start.shape[0]
     traj, phi = np.empty((w, n)), np.empty((w, n, n))
     info_apriori = np.linalg.inv(arrays.P0)
-    block_kind, block_start, _ = arrays.layout.arrays()
+    block_kind, block_start = arrays.layout.arrays()[:2]
     position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == BLOCK_SPACECRAFT])
     args = [arrays.model, kinds_mask(arrays.channel_kind), x_start, np.ascontiguousarray(y_obs[:w]),
             np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),

@@ -4,7 +4,8 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
 - Channels: the measurement channels' tables, C channels, M modifiers each: kind (C,) registry codes, ends
   (C, 6) see filter_loop.END_*, flags (C,), mod_index / mod_coeff (C, M) additive modifiers
   value += coeff * x[index] (-1: none), sigma (C,) 1-sigma in filter units;
-- BlockLayout: the state's blocks, kind / start / size (B,) (estimation.blocks);
+- BlockLayout: the state's blocks, kind / start / size (B,) and parameter (B,): a spacecraft block's
+  dynamics-parameter block start, -1 for none (estimation.blocks);
 - Dynamics: the model's parameter vector, the measurement interval dt_tu, the filter's propagation
   substeps per interval and t0_tu, the time of epoch 0 from the model's origin (the model code itself is a
   compile-time constant and goes first, on its own);
@@ -22,7 +23,7 @@ from collections import namedtuple
 import numpy as np
 
 Channels = namedtuple("Channels", ["kind", "ends", "flags", "mod_index", "mod_coeff", "sigma"])
-BlockLayout = namedtuple("BlockLayout", ["kind", "start", "size"])
+BlockLayout = namedtuple("BlockLayout", ["kind", "start", "size", "parameter"])
 Dynamics = namedtuple("Dynamics", ["params", "dt_tu", "substeps", "t0_tu"])
 EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_position_lu", "underweight", "gate_sigma",
                                          "gate_after"])

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 from numba import njit
 
+from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_SPACECRAFT
 from liaison_cli.estimation.ekf import predict_covariance_blocks, predict_covariance_into, update_scalar_into
 from liaison_cli.estimation.filter_loop import (
@@ -109,7 +110,7 @@ def _dynamics_mismatch(truth_k, x_bar, d_dyn_extra, Phi, layout):
     """d_dyn (n,) = x_k - f_filter(x_{k-1}) + the stated drifts on the spacecraft blocks, only the stated
     drifts d_dyn_extra (n,) on clocks and constants; Phi (n, n) gets the identity on constant blocks, which
     time_update leaves out."""
-    block_kind, block_start, block_size = layout
+    block_kind, block_start, block_size, _ = layout
     d_dyn = truth_k - x_bar + d_dyn_extra
     for b in range(block_kind.shape[0]):
         if block_kind[b] != BLOCK_SPACECRAFT:  # clocks and constants: only the stated drifts
@@ -184,7 +185,7 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
     """
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
-    block_kind, block_start, block_size = layout
+    block_kind, block_start, block_size, block_parameter = layout
     params, dt_tu, substeps, t0_tu = dynamics
     D_initial, Q_true, S0, d_dyn_extra, channel_bias_link = truth_errors
     m, n = truth.shape
@@ -198,7 +199,7 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
     P_diag, D_diag, S_out = np.empty((m, n)), np.empty((m, N_RANDOM_PARTS, n)), np.empty((m, n, n_links))
     mu_meas_out, mu_dyn_out = np.empty((m, n)), np.empty((m, n))
     x_bar, Phi, P_spare, scratch = np.empty(n), np.zeros((n, n)), np.empty((n, n)), np.empty((n, n))
-    y_stm, work_stm, work_block = np.empty(42), np.empty((5, 42)), np.empty((6, 6))
+    y_stm, work_stm, work_block = np.empty(PROPAGATION_SIZE), np.empty((5, STM_SIZE)), np.empty((6, 6))
     # dx: the filter's correction on noise-free data along the truth, stays zero; then dx_spare, H, h, K, g_*.
     vectors = (np.zeros(n), np.zeros(n), np.zeros(n), np.empty(n), np.empty(n), np.empty(6), np.empty(6),
                np.empty(6))
@@ -206,7 +207,7 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
         if k > 0:
             linearisation = truth[k - 1].copy()
             _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k - 1)
-            time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, model, params,
+            time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, params,
                         t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
             d_dyn = _dynamics_mismatch(truth[k], x_bar, d_dyn_extra, Phi, layout)
             P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,

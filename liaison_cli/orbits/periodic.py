@@ -18,7 +18,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import LU_KM, MOON_RADIUS_KM, MU
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant
-from liaison_cli.dynamics.propagation import propagate_state_stm
+from liaison_cli.dynamics.propagation import dop853_state_stm
 
 RTOL = 1e-13
 ATOL = 1e-14
@@ -43,7 +43,7 @@ def residual_and_jacobian(X, planar: bool, mu: float = MU):
     """F (k,) and DF (k, k+1) for free variables X (k+1,), k = 2 planar / 3 spatial."""
     free, constrained = (_PLANAR_FREE, _PLANAR_CONSTRAINED) if planar else (_SPATIAL_FREE, _SPATIAL_CONSTRAINED)
     half_period = X[-1]
-    states, stms = propagate_state_stm(state_from(X, planar), np.array([0.0, half_period]), mu, RTOL, ATOL)
+    states, stms = dop853_state_stm(state_from(X, planar), np.array([0.0, half_period]), mu, RTOL, ATOL)
     end, phi = states[-1], stms[-1]
     rate = derivative(end, mu)
     F = end[list(constrained)]
@@ -138,7 +138,7 @@ def describe(X, planar: bool, mu: float = MU, samples: int = 400) -> PeriodicOrb
     state0 = state_from(X, planar)
     period = 2.0 * X[-1]
     times = np.linspace(0.0, period, samples + 1)
-    states, stms = propagate_state_stm(state0, times, mu, RTOL, ATOL)
+    states, stms = dop853_state_stm(state0, times, mu, RTOL, ATOL)
     eigenvalues = np.abs(np.linalg.eigvals(stms[-1]))
     lam = float(np.max(eigenvalues))
     moon_km = np.linalg.norm(states[:, :3] - np.array([1.0 - mu, 0.0, 0.0]), axis=1) * LU_KM

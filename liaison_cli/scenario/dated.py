@@ -22,7 +22,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import AU_KM_S2, EARTH_ROTATION_RATE_RAD_S, SECONDS_PER_DAY
 from liaison_cli.dynamics.earth_rotation import itrf_to_gcrf_many, stations_gcrf
-from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
+from liaison_cli.dynamics.ephemeris import BODY_EARTH, GM_KM3_S2, load_window
 from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
 from liaison_cli.errors import OrbitCorrectionError
@@ -68,7 +68,7 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
     bodies = np.array(THIRD_BODIES, dtype=np.int64)
     gms = np.array([GM_KM3_S2[b] for b in THIRD_BODIES])
     filter_bodies = [BODY_CODES[name] for name in spec.filter_bodies]
-    return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[399], spec.cr * spec.area_to_mass_m2_kg, epoch_s,
+    return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[BODY_EARTH], spec.cr * spec.area_to_mass_m2_kg, epoch_s,
                                   filter_bodies)
 
 

@@ -1,10 +1,11 @@
 """Scenario estimation settings: the filter section, the batch estimator's, clock synchronisation, how each
 run's initial error is drawn, and the Monte Carlo runs and seed."""
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
+from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
 from liaison_cli.scenario.schema_rules import at_least, equals, given, not_given, schema_rules, when
 from liaison_cli.scenario.spec_base import StrictModel, one_process_noise_convention
@@ -109,6 +110,12 @@ class FilterSpec(StrictModel):
         "window's end is below this (or the window has reached initial_batch_max_hours) (km)")
     initial_batch_max_iterations: int = Field(
         30, ge=1, le=1000, description="Gauss-Newton iterations per batch window at most (count)")
+    estimated_parameters: dict[str, Annotated[float, Field(gt=0, le=1)]] = Field(
+        default_factory=dict, description="dynamics-model parameters the filter carries as states, one per "
+        "estimated spacecraft, each with its a-priori 1-sigma: {cr: 0.1} estimates a relative correction to "
+        "each spacecraft's C_R (dynamics: ephemeris; the filter flies C_R (1 + state), a priori 0 +- 0.1). The "
+        "names a dynamics model offers are listed in docs/model.md (dimensionless)",
+        json_schema_extra={"propertyNames": {"enum": sorted({p.name for d in DYNAMICS.values() for p in d.parameters})}})
 
     @model_validator(mode="after")
     def _batch_window_order(self):

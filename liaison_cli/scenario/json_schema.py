@@ -33,6 +33,8 @@ LOADER_ONLY_RULES = (
     "inside DE421 (1899-07-29 to 2053-10-09) and, with ground stations or a geostationary spacecraft, inside "
     "the IERS Earth orientation table (from 1973-01-02); a departure mission's epoch is within 3 h after its "
     "injection; only the observables that model supports; measurement.light_time: true only with tdoa / fdoa",
+    "estimated parameters: filter.estimated_parameters names parameters of the scenario's dynamics model (cr: "
+    "dynamics: ephemeris), with the ekf and without filter.initial_batch_hours",
     "numbers are finite (no .inf or .nan)",
 )
 

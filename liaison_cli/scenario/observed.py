@@ -82,7 +82,7 @@ def observed_measurements(scenario, channels, times_s, model) -> ObservedMeasure
     from liaison_cli.exchange.tdm import read_tdm
 
     path = spec.tdm
-    dated = scenario.dynamics == "ephemeris"
+    dated = scenario.dynamics_descriptor().dated
     epoch_s = model.epoch_tdb_s if dated else 0.0
     names = set(scenario.participant_names())
     signatures = {}

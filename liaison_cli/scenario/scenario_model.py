@@ -7,6 +7,7 @@ from typing import Literal
 from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.dynamics.registry import DYNAMICS, Dynamics
 from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimators_that, get_estimator
 from liaison_cli.measurements.registry import OBSERVABLES
@@ -15,6 +16,7 @@ from liaison_cli.scenario.estimation_settings import (
     BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec)
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
 from liaison_cli.scenario.links import LinkSpec, MeasurementSpec, TopologySpec, expand_topology
+from liaison_cli.scenario.dynamics_rules import check_dynamics, check_estimated_parameters, check_model_error
 from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.participants import (
     DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
@@ -62,8 +64,8 @@ class Scenario(StrictModel):
         "first measures (003: Goldstone, Madrid, Canberra). Stations not listed rank after the listed ones, in "
         "ground_stations order (a partial list orders the first few; every station still obeys the rule)",
         json_schema_extra=UNIQUE)
-    dynamics: Literal["crtbp", "ephemeris"] = Field("crtbp", description="crtbp: the Earth-Moon CRTBP, undated; "
-                                                    "ephemeris: DE421 point masses + SRP from ephemeris.epoch_utc")
+    dynamics: Literal[tuple(DYNAMICS)] = Field("crtbp", description="; ".join(
+        f"{d.name}: {d.summary}" for d in DYNAMICS.values()))
     ephemeris: EphemerisSpec | None = Field(None, description="dynamics: ephemeris: the epoch and SRP")
     estimator: Literal[tuple(ESTIMATORS)] = Field(DEFAULT_ESTIMATOR, description="; ".join(
         f"{e.name}: {e.summary}" for e in ESTIMATORS.values()))
@@ -122,8 +124,9 @@ class Scenario(StrictModel):
         self._check_smoother()
         self._check_initial_batch()
         self._check_clock_sync()
-        self._check_dynamics()
-        self._check_model_error()
+        check_dynamics(self)
+        check_model_error(self)
+        check_estimated_parameters(self)
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
@@ -175,6 +178,10 @@ class Scenario(StrictModel):
         moving = [sc.name for sc in self.spacecraft if sc.manoeuvre is not None]
         if moving:
             raise ValueError(f"filter.smoother = 'rts' with a manoeuvre ({moving[0]!r}): not supported")
+
+    def dynamics_descriptor(self) -> Dynamics:
+        """The chosen dynamics model's descriptor: what it is and supports (dynamics.registry)."""
+        return DYNAMICS[self.dynamics]
 
     def estimator_descriptor(self) -> Estimator:
         """The chosen estimator's descriptor: what it carries and supports (estimation.estimator)."""
@@ -329,86 +336,6 @@ class Scenario(StrictModel):
         if len(set(self.station_priority)) != len(self.station_priority):
             raise ValueError(f"station_priority lists a station twice: {self.station_priority}")
 
-    def _check_dynamics(self):
-        if self.dynamics == "crtbp":
-            for i, st in enumerate(self.ground_stations):
-                if st.site is not None:
-                    raise ValueError(f"ground_stations[{i}].site = {st.site!r} needs dynamics: ephemeris (CRTBP "
-                                     "stations take a longitude from the Earth-Moon line, not a true one)")
-            if self.ephemeris is not None:
-                raise ValueError("an 'ephemeris' section needs dynamics: ephemeris")
-            for i, sc in enumerate(self.spacecraft):
-                if sc.orbit in DATED_ONLY_ORBITS:
-                    raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r} needs dynamics: ephemeris")
-            return
-        if self.ephemeris is None:
-            raise ValueError("key 'dynamics' = 'ephemeris' needs an 'ephemeris' section with its epoch_utc")
-        from liaison_cli.dynamics.ephemeris import de421_span_s
-        from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
-
-        try:
-            start = utc_to_tdb_seconds(self.ephemeris.epoch())
-        except ValueError as exc:
-            raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r}: {exc}") from None
-        lo, hi = de421_span_s()
-        if start < lo or start + self.duration_days * SECONDS_PER_DAY > hi:
-            raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} plus {self.duration_days:g} d is "
-                             "outside DE421 (1899-07-29 to 2053-10-09)")
-        self._check_earth_orientation()
-        if self.dynamics not in self.estimator_descriptor().dynamics:
-            runners = " / ".join(name for name, e in ESTIMATORS.items() if self.dynamics in e.dynamics)
-            raise ValueError(f"dynamics: {self.dynamics} runs the {runners} today (estimator: {runners})")
-        timed = [o for link in self.links for o in link.observables if not OBSERVABLES[o].light_time_from_states]
-        if self.measurement.light_time and timed:
-            raise ValueError(f"dynamics: ephemeris takes measurement.light_time: true for tdoa / fdoa only; "
-                             f"{timed[0]!r} is instantaneous there (measurement.light_time: false)")
-        for i, link in enumerate(self.links):
-            unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s", "s")
-                           or OBSERVABLES[o].needs_receiver_clock or OBSERVABLES[o].needs_both_clocks]
-            if unsupported:
-                raise ValueError(f"links[{i}]: dynamics: ephemeris takes range, range-rate, tdoa and fdoa links today; got "
-                                 f"{', '.join(unsupported)}")
-        self._check_departures()
-        for i, sc in enumerate(self.spacecraft):
-            if sc.orbit == KEPLERIAN_ORBIT:
-                raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog or "
-                                 f"family orbit (corrected into the dated model), {', '.join(DATED_ONLY_ORBITS)}")
-
-    def _check_earth_orientation(self):
-        """Ground stations and geostationary spacecraft turn with the Earth: their epochs need the IERS table
-        (dynamics.iers_eop), which begins on 1973-01-02; later epochs past its end run by a stated rule."""
-        turning = self.ground_stations or any(sc.orbit == GEOSTATIONARY_ORBIT for sc in self.spacecraft)
-        if not turning or self.ephemeris.epoch().year > 1973:  # reading the table costs 0.25 s: only near its start
-            return
-        from liaison_cli.dynamics.iers_eop import first_day
-
-        if self.ephemeris.epoch() < first_day():
-            raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} is before the IERS Earth orientation "
-                             f"table ({first_day():%Y-%m-%d}), which ground stations and geostationary spacecraft "
-                             "need; allowed: an epoch from then on")
-
-    def _check_departures(self):
-        from datetime import timedelta
-
-        from liaison_cli.orbits.departure_missions import DEPARTURE_MISSIONS
-
-        for i, sc in enumerate(self.spacecraft):
-            if sc.departure is None or sc.departure.mission is None:
-                continue
-            mission = DEPARTURE_MISSIONS[sc.departure.mission]
-            injection = mission.start_utc_datetime() - timedelta(seconds=mission.time_from_periapsis_s())
-            if self.ephemeris.epoch() < injection:
-                raise ValueError(f"spacecraft[{i}].departure.mission = {sc.departure.mission!r}: the scenario epoch "
-                                 f"{self.ephemeris.epoch_utc} is before its injection "
-                                 f"({injection.strftime('%Y-%m-%dT%H:%M:%S')} UTC)")
-            last = injection + timedelta(seconds=MAX_TIME_FROM_PERIAPSIS_S)
-            if self.ephemeris.epoch() > last:
-                raise ValueError(f"ephemeris.epoch_utc = {self.ephemeris.epoch_utc!r} is "
-                                 f"{(self.ephemeris.epoch() - injection).total_seconds() / 3600:.5g} h after the "
-                                 f"injection of spacecraft[{i}].departure.mission = {sc.departure.mission!r}; allowed: "
-                                 f"{injection.strftime('%Y-%m-%dT%H:%M:%S')} to {last.strftime('%Y-%m-%dT%H:%M:%S')} "
-                                 "UTC (the two-body departure hyperbola holds for 3 h after periapsis)")
-
     def _check_clock_sync(self):
         if self.clock_sync is None:
             return
@@ -418,18 +345,6 @@ class Scenario(StrictModel):
                              f"measurement intervals ({self.measurement.interval_s:g} s)")
         if not any(OBSERVABLES[o].clock_offset_channel >= 0 for link in self.links for o in link.observables):
             raise ValueError("clock_sync needs a link that measures clock offsets (observable dual_one_way_derived)")
-
-    def _check_model_error(self):
-        error = self.model_error
-        if self.dynamics != "ephemeris" and (error.cr_bias or error.cr_sigma):
-            raise ValueError("model_error.cr_bias / cr_sigma need dynamics: ephemeris (the CRTBP has no solar "
-                             "radiation pressure); allowed for the CRTBP: moon_gm_bias, moon_gm_sigma")
-        if self.ephemeris is not None and self.ephemeris.cr_error_sigma and error.cr_sigma:
-            raise ValueError("ephemeris.cr_error_sigma and model_error.cr_sigma are the same setting: give one")
-        if (error.moon_gm_bias or error.moon_gm_sigma) and self.ephemeris is not None \
-                and "moon" not in self.ephemeris.filter_bodies:
-            raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
-                             "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
 
     def cr_error_sigma(self) -> float:
         """The per-run relative sigma of the filter's C_R: model_error.cr_sigma or ephemeris.cr_error_sigma."""

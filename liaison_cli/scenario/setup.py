@@ -12,7 +12,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import M_PER_LU, SPEED_OF_LIGHT_M_S
 from liaison_cli.dynamics.model import DynamicsModel
-from liaison_cli.estimation.blocks import BLOCK_CONSTANT
+from liaison_cli.estimation.blocks import BLOCK_CONSTANT, ROLE_LINK_BIAS, owner_name
 from liaison_cli.estimation.estimators import FilterArrays
 from liaison_cli.scenario.filter_arrays import (
     Channel, ClockTruth, clock_truths, estimator_setup, initial_error_sigma, state_layout)
@@ -117,7 +117,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         sigma_m=scenario.noise.resolved_sigma_m(),
         bias_lu=scenario.noise.resolved_bias_m() / M_PER_LU,
         bias_sigma_lu=scenario.noise.bias_sigma_m / M_PER_LU,
-        bias_state_start=estimator.layout.start_of(BLOCK_CONSTANT, "bias 0"),
+        bias_state_start=estimator.layout.start_of(BLOCK_CONSTANT, owner_name(ROLE_LINK_BIAS, 0)),
         clocks=clock_truths(scenario, estimator.channels, estimator.layout),
         initial_error_sigma=initial_error_sigma(scenario),
         dynamics=model,

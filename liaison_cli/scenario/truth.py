@@ -94,34 +94,9 @@ def _flown_from_nodes(model, node_times_s, nodes_lu, times_s) -> np.ndarray:
 
 def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
+    if scenario.dynamics_descriptor().dated:
+        return _dated_trajectories(scenario, model, times_s)
     times_tu = times_s / TU_S
-    if scenario.dynamics == "ephemeris":
-        from liaison_cli.scenario.dated import (
-            DatedStationTrajectory,
-            corrected_nodes_lu,
-            dated_initial_state_lu,
-            is_corrected,
-        )
-
-        out = {}
-        for sc in scenario.spacecraft:
-            if sc.longitude_deg is not None:  # station-kept geostationary: a point fixed to the rotating Earth
-                out[sc.name] = DatedStationTrajectory(0.0, sc.longitude_deg, GEOSTATIONARY_ALTITUDE_M,
-                                                      scenario.ephemeris.epoch(), times_s)
-            elif sc.orbit_file is not None and sc.orbit_file.kind == "oem":  # the truth follows the file
-                from liaison_cli.scenario.orbit_files import oem_truth_lu
-
-                out[sc.name] = model.trajectory(oem_truth_lu(sc, model.epoch_tdb_s, times_s), times_tu)
-            elif is_corrected(sc) and sc.manoeuvre is None:  # flown segment by segment from its corrected nodes
-                out[sc.name] = model.trajectory(_flown_from_nodes(model, *corrected_nodes_lu(sc, scenario, model),
-                                                                  times_s), times_tu)
-            else:
-                out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
-                                                       times_tu), times_tu)
-        for st in scenario.ground_stations:
-            out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
-                                                  scenario.ephemeris.epoch(), times_s)
-        return out
     out = {sc.name: model.trajectory(_flown(scenario, model, sc, initial_state_lu(sc), times_tu))
            for sc in scenario.spacecraft}
     for st in scenario.ground_stations:
@@ -129,13 +104,51 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     return out
 
 
-def dynamics_model(scenario: Scenario):
-    """The scenario's dynamics: the Earth-Moon CRTBP, or the dated DE421 + SRP model."""
-    if scenario.dynamics == "ephemeris":
-        from liaison_cli.scenario.dated import dated_model
+def _dated_trajectories(scenario: Scenario, model, times_s):
+    """_trajectories of a dated model: stations and geostationary spacecraft turn with the Earth, imported
+    orbits follow their file, corrected orbits are flown from their nodes."""
+    from liaison_cli.scenario.dated import (
+        DatedStationTrajectory,
+        corrected_nodes_lu,
+        dated_initial_state_lu,
+        is_corrected,
+    )
 
-        return dated_model(scenario)
-    return crtbp_model(MU)
+    times_tu = times_s / TU_S
+    out = {}
+    for sc in scenario.spacecraft:
+        if sc.longitude_deg is not None:  # station-kept geostationary: a point fixed to the rotating Earth
+            out[sc.name] = DatedStationTrajectory(0.0, sc.longitude_deg, GEOSTATIONARY_ALTITUDE_M,
+                                                  scenario.ephemeris.epoch(), times_s)
+        elif sc.orbit_file is not None and sc.orbit_file.kind == "oem":  # the truth follows the file
+            from liaison_cli.scenario.orbit_files import oem_truth_lu
+
+            out[sc.name] = model.trajectory(oem_truth_lu(sc, model.epoch_tdb_s, times_s), times_tu)
+        elif is_corrected(sc) and sc.manoeuvre is None:  # flown segment by segment from its corrected nodes
+            out[sc.name] = model.trajectory(_flown_from_nodes(model, *corrected_nodes_lu(sc, scenario, model),
+                                                              times_s), times_tu)
+        else:
+            out[sc.name] = model.trajectory(_flown(scenario, model, sc, dated_initial_state_lu(sc, scenario, model),
+                                                   times_tu), times_tu)
+    for st in scenario.ground_stations:
+        out[st.name] = DatedStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m,
+                                              scenario.ephemeris.epoch(), times_s)
+    return out
+
+
+def _dated_model(scenario: Scenario):
+    from liaison_cli.scenario.dated import dated_model
+
+    return dated_model(scenario)
+
+
+# Each dynamics model's builder from a scenario (its descriptor: dynamics.registry).
+MODEL_BUILDERS = {"crtbp": lambda scenario: crtbp_model(MU), "ephemeris": _dated_model}
+
+
+def dynamics_model(scenario: Scenario):
+    """The scenario's dynamics model (the Earth-Moon CRTBP, or the dated DE421 + SRP model), by its builder."""
+    return MODEL_BUILDERS[scenario.dynamics](scenario)
 
 
 def apply_station_priority(scenario: Scenario, visibility: list) -> list:

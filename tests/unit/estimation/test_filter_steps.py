@@ -17,7 +17,7 @@ from liaison_cli.estimation.lincov import _dynamics_mismatch
 
 # One spacecraft (6), a two-state clock, a range bias: n = 9.
 LAYOUT = BlockLayout(np.array([BLOCK_SPACECRAFT, BLOCK_CLOCK, BLOCK_CONSTANT]), np.array([0, 6, 8]),
-                     np.array([6, 2, 1]))
+                     np.array([6, 2, 1]), np.array([-1, -1, -1]))
 
 
 def _spd(n, seed=0):

@@ -162,6 +162,8 @@ BROKEN = [
     (CASSINI, [("spacecraft.1.departure.mission", "voyager")], "unknown mission"),
     (TDOA, [("ground_stations.0.site", "arecibo")], "unknown site"),
     (SMOKE, [("monte_carlo.sed", 1)], "unknown key 'sed'"),
+    (DATED, [("filter.estimated_parameters", {"gm": 0.1})], "has no such parameter; allowed: cr"),
+    (DATED, [("filter.estimated_parameters", {"cr": 0.0})], "greater than 0"),
 ]
 
 

@@ -1,0 +1,72 @@
+"""The dynamics descriptor: each dynamics model described once, as estimators (estimation.estimator) and
+observables (measurements.observable) are, so the scenario's rules, its problem setup and the exports ask the
+descriptor (are epochs dates? is the frame rotating? which parameters can the filter estimate?) instead of
+comparing model names.
+
+A model's numbers live beside it: its compiled propagators behind the model code (dynamics.model, one
+`propagate_*` per job), its Python side (`DynamicsModel`, `EphemerisDynamicsModel`: truth, trajectories,
+the filter's parameters). Adding a dynamics model is a descriptor here, a code in dynamics.model and a builder
+in scenario.truth; adding an estimable parameter is a `DynamicsParameter` here and its column in the model's
+compiled propagator (dynamics.model.propagate_parameter_into).
+"""
+
+from dataclasses import dataclass
+
+MODEL_CRTBP = 0  # the codes behind the dynamics interface (dynamics.model)
+MODEL_EPHEMERIS = 1
+
+
+@dataclass(frozen=True)
+class DynamicsParameter:
+    """A parameter of a model that the filter can carry as a state (estimation.blocks.BLOCK_PARAMETER), one
+    per estimated spacecraft: name (the scenario's key under filter.estimated_parameters), summary, unit of
+    its state, and the model_error key whose drawn sigma is its natural a priori."""
+
+    name: str
+    summary: str
+    unit: str
+    model_error_key: str
+
+
+@dataclass(frozen=True)
+class Dynamics:
+    """name: the scenario's `dynamics` value; code: the compile-time model code of the compiled propagators;
+    summary: one phrase for the schema. dated: epochs are dates (TDB), so stations turn with the Earth, dated
+    orbits and CCSDS dates apply; rotating_frame: the states' frame turns (measurements on a rotating frame,
+    exports in it); filter_propagator / truth_propagator: how each side integrates, in words;
+    parameters: what the filter may estimate of the model; observability: analysis.observability can map its
+    partials with this model's STM (the CRTBP's adaptive DOP853)."""
+
+    name: str
+    code: int
+    summary: str
+    dated: bool
+    rotating_frame: bool
+    filter_propagator: str
+    truth_propagator: str
+    parameters: tuple[DynamicsParameter, ...] = ()
+    observability: bool = False
+
+    def parameter(self, name: str) -> DynamicsParameter | None:
+        return next((p for p in self.parameters if p.name == name), None)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+
+CR = DynamicsParameter(
+    "cr", "the solar-radiation-pressure coefficient's relative correction: the filter flies C_R (1 + state)",
+    "dimensionless", "cr_sigma")
+
+CRTBP = Dynamics(
+    "crtbp", MODEL_CRTBP, "the Earth-Moon CRTBP, undated", dated=False, rotating_frame=True,
+    filter_propagator="fixed-step RK4 on state + STM (filter.rk4_substeps per interval)",
+    truth_propagator="fixed-step RK4 of at most 10 s", observability=True)
+
+EPHEMERIS = Dynamics(
+    "ephemeris", MODEL_EPHEMERIS, "DE421 point masses + SRP from ephemeris.epoch_utc", dated=True,
+    rotating_frame=False, filter_propagator="fixed-step RK8 on state + STM (+ the C_R column when estimated)",
+    truth_propagator="adaptive DOP853 restarted at every shadow edge", parameters=(CR,))
+
+DYNAMICS = {d.name: d for d in (CRTBP, EPHEMERIS)}

@@ -1,0 +1,143 @@
+"""The scenario's rules about its dynamics, written once and grouped here: what the dynamics model
+(dynamics.registry) and the ephemeris section allow, the model_error section against the model, and the
+parameters the filter may estimate (filter.estimated_parameters), each asked of the model's descriptor.
+Scenario._consistent calls check_dynamics, check_model_error and check_estimated_parameters; each raises
+ValueError with one line naming the key, its value and what is allowed."""
+
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.estimation.estimators import ESTIMATORS
+from liaison_cli.measurements.registry import OBSERVABLES
+from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
+from liaison_cli.scenario.participants import DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT
+
+
+def check_dynamics(scenario) -> None:
+    """What the scenario's dynamics model allows (its descriptor says whether its epochs are dates), and an
+    estimator that runs it."""
+    if scenario.dynamics not in scenario.estimator_descriptor().dynamics:
+        runners = " / ".join(name for name, e in ESTIMATORS.items() if scenario.dynamics in e.dynamics)
+        raise ValueError(f"dynamics: {scenario.dynamics} runs the {runners} today (estimator: {runners})")
+    if scenario.dynamics_descriptor().dated:
+        _check_dated(scenario)
+    else:
+        _check_undated(scenario)
+
+
+def _check_undated(scenario):
+    """CRTBP: no true Earth sites, no ephemeris section, no dated orbits."""
+    for i, st in enumerate(scenario.ground_stations):
+        if st.site is not None:
+            raise ValueError(f"ground_stations[{i}].site = {st.site!r} needs dynamics: ephemeris (CRTBP "
+                             "stations take a longitude from the Earth-Moon line, not a true one)")
+    if scenario.ephemeris is not None:
+        raise ValueError("an 'ephemeris' section needs dynamics: ephemeris")
+    for i, sc in enumerate(scenario.spacecraft):
+        if sc.orbit in DATED_ONLY_ORBITS:
+            raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r} needs dynamics: ephemeris")
+
+
+def _check_dated(scenario):
+    """The dated model: its epoch inside DE421 (and the IERS table where the Earth turns), an estimator that
+    runs it, the observables and orbits it takes."""
+    if scenario.ephemeris is None:
+        raise ValueError("key 'dynamics' = 'ephemeris' needs an 'ephemeris' section with its epoch_utc")
+    from liaison_cli.dynamics.ephemeris import de421_span_s
+    from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
+
+    try:
+        start = utc_to_tdb_seconds(scenario.ephemeris.epoch())
+    except ValueError as exc:
+        raise ValueError(f"ephemeris.epoch_utc = {scenario.ephemeris.epoch_utc!r}: {exc}") from None
+    lo, hi = de421_span_s()
+    if start < lo or start + scenario.duration_days * SECONDS_PER_DAY > hi:
+        raise ValueError(f"ephemeris.epoch_utc = {scenario.ephemeris.epoch_utc!r} plus {scenario.duration_days:g} d is "
+                         "outside DE421 (1899-07-29 to 2053-10-09)")
+    _check_earth_orientation(scenario)
+    timed = [o for link in scenario.links for o in link.observables if not OBSERVABLES[o].light_time_from_states]
+    if scenario.measurement.light_time and timed:
+        raise ValueError(f"dynamics: ephemeris takes measurement.light_time: true for tdoa / fdoa only; "
+                         f"{timed[0]!r} is instantaneous there (measurement.light_time: false)")
+    for i, link in enumerate(scenario.links):
+        unsupported = [o for o in link.observables if OBSERVABLES[o].channels[0].unit not in ("m", "m/s", "s")
+                       or OBSERVABLES[o].needs_receiver_clock or OBSERVABLES[o].needs_both_clocks]
+        if unsupported:
+            raise ValueError(f"links[{i}]: dynamics: ephemeris takes range, range-rate, tdoa and fdoa links today; got "
+                             f"{', '.join(unsupported)}")
+    _check_departures(scenario)
+    for i, sc in enumerate(scenario.spacecraft):
+        if sc.orbit == KEPLERIAN_ORBIT:
+            raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog or "
+                             f"family orbit (corrected into the dated model), {', '.join(DATED_ONLY_ORBITS)}")
+
+def _check_earth_orientation(scenario):
+    """Ground stations and geostationary spacecraft turn with the Earth: their epochs need the IERS table
+    (dynamics.iers_eop), which begins on 1973-01-02; later epochs past its end run by a stated rule."""
+    turning = scenario.ground_stations or any(sc.orbit == GEOSTATIONARY_ORBIT for sc in scenario.spacecraft)
+    if not turning or scenario.ephemeris.epoch().year > 1973:  # reading the table costs 0.25 s: only near its start
+        return
+    from liaison_cli.dynamics.iers_eop import first_day
+
+    if scenario.ephemeris.epoch() < first_day():
+        raise ValueError(f"ephemeris.epoch_utc = {scenario.ephemeris.epoch_utc!r} is before the IERS Earth orientation "
+                         f"table ({first_day():%Y-%m-%d}), which ground stations and geostationary spacecraft "
+                         "need; allowed: an epoch from then on")
+
+def _check_departures(scenario):
+    from datetime import timedelta
+
+    from liaison_cli.orbits.departure_missions import DEPARTURE_MISSIONS
+
+    for i, sc in enumerate(scenario.spacecraft):
+        if sc.departure is None or sc.departure.mission is None:
+            continue
+        mission = DEPARTURE_MISSIONS[sc.departure.mission]
+        injection = mission.start_utc_datetime() - timedelta(seconds=mission.time_from_periapsis_s())
+        if scenario.ephemeris.epoch() < injection:
+            raise ValueError(f"spacecraft[{i}].departure.mission = {sc.departure.mission!r}: the scenario epoch "
+                             f"{scenario.ephemeris.epoch_utc} is before its injection "
+                             f"({injection.strftime('%Y-%m-%dT%H:%M:%S')} UTC)")
+        last = injection + timedelta(seconds=MAX_TIME_FROM_PERIAPSIS_S)
+        if scenario.ephemeris.epoch() > last:
+            raise ValueError(f"ephemeris.epoch_utc = {scenario.ephemeris.epoch_utc!r} is "
+                             f"{(scenario.ephemeris.epoch() - injection).total_seconds() / 3600:.5g} h after the "
+                             f"injection of spacecraft[{i}].departure.mission = {sc.departure.mission!r}; allowed: "
+                             f"{injection.strftime('%Y-%m-%dT%H:%M:%S')} to {last.strftime('%Y-%m-%dT%H:%M:%S')} "
+                             "UTC (the two-body departure hyperbola holds for 3 h after periapsis)")
+
+
+def check_model_error(scenario) -> None:
+    """model_error's C_R errors need a model with a C_R (its descriptor's parameters); one spelling of the C_R
+    sigma; a lunar GM error needs the filter's Moon."""
+    error = scenario.model_error
+    if scenario.dynamics_descriptor().parameter("cr") is None and (error.cr_bias or error.cr_sigma):
+        raise ValueError("model_error.cr_bias / cr_sigma need dynamics: ephemeris (the CRTBP has no solar "
+                         "radiation pressure); allowed for the CRTBP: moon_gm_bias, moon_gm_sigma")
+    if scenario.ephemeris is not None and scenario.ephemeris.cr_error_sigma and error.cr_sigma:
+        raise ValueError("ephemeris.cr_error_sigma and model_error.cr_sigma are the same setting: give one")
+    if (error.moon_gm_bias or error.moon_gm_sigma) and scenario.ephemeris is not None \
+            and "moon" not in scenario.ephemeris.filter_bodies:
+        raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
+                         "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
+
+
+def check_estimated_parameters(scenario) -> None:
+    """filter.estimated_parameters: each name a parameter of the scenario's dynamics model (its descriptor's
+    list), by an estimator that carries dynamics parameters, without an initial batch (whose solve keeps the
+    spacecraft states only)."""
+    wanted = scenario.filter.estimated_parameters
+    if not wanted:
+        return
+    dynamics = scenario.dynamics_descriptor()
+    for name in wanted:
+        if dynamics.parameter(name) is None:
+            allowed = ", ".join(dynamics.parameter_names) or "none"
+            raise ValueError(f"filter.estimated_parameters.{name}: dynamics: {dynamics.name} has no such parameter; "
+                             f"allowed: {allowed}")
+    estimator = scenario.estimator_descriptor()
+    if not estimator.dynamics_parameters:
+        runners = ", ".join(e.name for e in ESTIMATORS.values() if e.dynamics_parameters)
+        raise ValueError(f"filter.estimated_parameters: estimator {estimator.name} does not estimate dynamics "
+                         f"parameters; allowed: estimator {runners}")
+    if scenario.filter.initial_batch_hours is not None:
+        raise ValueError("filter.estimated_parameters with filter.initial_batch_hours: the initial batch solves "
+                         "for the spacecraft states only; allowed: one of the two")
