@@ -210,6 +210,13 @@ def rk4_states(state0, times_tu, max_step_tu, mu):
     """Sample one trajectory (6,) -> (m, 6) at times_tu (times_tu[0] = epoch of state0) by fixed RK4 steps
     of at most max_step_tu between consecutive samples (the compiled truth propagator: no Python in the
     loop, no scipy import)."""
+    return rk4_states_forced(state0, times_tu, max_step_tu, mu, np.zeros(3))
+
+
+@njit(cache=True)
+def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
+    """rk4_states with a constant extra acceleration (3,) on the rotating axes, LU/TU^2: the truth's
+    unmodelled force (scenario model_error.truth_acceleration_m_s2). Zero adds nothing: x + 0.0 is x."""
     m = times_tu.shape[0]
     out = np.empty((m, 6))
     y = state0.copy()
@@ -221,19 +228,26 @@ def rk4_states(state0, times_tu, max_step_tu, mu):
         substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
         h = span / substeps
         for _ in range(substeps):
-            k1 = derivative(y, mu)
+            k1 = _forced(derivative(y, mu), acceleration_lu_tu2)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            k2 = derivative(tmp, mu)
+            k2 = _forced(derivative(tmp, mu), acceleration_lu_tu2)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            k3 = derivative(tmp, mu)
+            k3 = _forced(derivative(tmp, mu), acceleration_lu_tu2)
             for i in range(6):
                 tmp[i] = y[i] + h * k3[i]
-            k4 = derivative(tmp, mu)
+            k4 = _forced(derivative(tmp, mu), acceleration_lu_tu2)
             for i in range(6):
                 y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         for i in range(6):  # element loops compile faster than slice assignment (no shape-error path)
             out[j, i] = y[i]
     return out
+
+
+@njit(cache=True, inline="always")
+def _forced(rate, acceleration):
+    for i in range(3):
+        rate[3 + i] += acceleration[i]
+    return rate
 

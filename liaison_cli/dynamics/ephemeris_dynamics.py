@@ -184,21 +184,28 @@ def shadow_edges(r_sat, r_sun, r_body, radius_body):
     return c - (a + b), c - abs(a - b)
 
 
-def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9):
+def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
+                    acceleration_km_s2=None):
     """Truth states (m, 6) at times_s by scipy's adaptive DOP853 on the compiled derivative, restarted at
     every shadow edge (penumbra and umbra of the Earth and the Moon, located as events): the conical
     shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at 864 s: 1.6 m after
     9 days; DOP853 without the restarts: 0.6 m). Tolerances rtol 1e-12, atol 1e-9 km; after 9 days with one
-    eclipse this truth is within 2.3 cm of itself at rtol 1e-13 (tests/unit/dynamics/test_ephemeris.py)."""
+    eclipse this truth is within 2.3 cm of itself at rtol 1e-13 (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant
+    extra acceleration on the ICRF axes (the truth's unmodelled force; None: none)."""
     from scipy.integrate import solve_ivp
 
     times_s = np.asarray(times_s, dtype=float)
     out = np.empty(6)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
 
+    forced = acceleration_km_s2 is not None and np.any(np.asarray(acceleration_km_s2) != 0.0)
+
     def rhs(t, y):
         ephemeris_derivative(t, y, *args, bodies, gms, gm_earth, cr_am, False, out)
-        return out.copy()
+        rate = out.copy()
+        if forced:
+            rate[3:] += acceleration_km_s2
+        return rate
 
     def edge(which, body):
         def event(t, y):

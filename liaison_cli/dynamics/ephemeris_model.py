@@ -163,6 +163,7 @@ class EphemerisDynamicsModel:
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
         self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)
+        self.truth_acceleration_km_s2 = np.zeros(3)  # the truth's unmodelled force (scenario.truth)
         keep = np.isin(self.bodies, self.bodies if filter_bodies is None else filter_bodies)
         self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s)
 
@@ -187,7 +188,7 @@ class EphemerisDynamicsModel:
 
         times_s = self.epoch_tdb_s + np.asarray(times_tu, dtype=float) * TU_S
         km = propagate_truth(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies, self.gms,
-                             self.gm_earth, self.cr_am)
+                             self.gm_earth, self.cr_am, acceleration_km_s2=self.truth_acceleration_km_s2)
         return km / SCALE
 
     def trajectory(self, states, times_tu):

@@ -7,15 +7,17 @@ code 0 (params = [mu]). A dated ephemeris model plugs in as a new code here and 
 frame's trajectories.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit, typeof, types
 from numba.core.errors import TypingError
 from numba.extending import overload
 
-from liaison_cli.dynamics.constants import TU_S
-from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states
+from liaison_cli.dynamics.constants import M_PER_LU, TU_S
+
+M_S2_PER_LU_TU2 = M_PER_LU / TU_S**2  # acceleration units
+from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
 from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
@@ -127,6 +129,9 @@ class DynamicsModel:
     name: str
     code: int
     params: np.ndarray
+    # The truth's constant unmodelled acceleration on the rotating axes (LU/TU^2): model_error's; the filter
+    # never sees it.
+    truth_acceleration_lu_tu2: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def descriptor(self):
@@ -135,8 +140,8 @@ class DynamicsModel:
 
     def truth_states(self, state0, times_tu) -> np.ndarray:
         """High-accuracy truth (m, 6) at times_tu from state0 at times_tu[0]."""
-        return rk4_states(np.asarray(state0, dtype=float), np.asarray(times_tu, dtype=float),
-                          TRUTH_MAX_STEP_S / TU_S, self.params[0])
+        return rk4_states_forced(np.asarray(state0, dtype=float), np.asarray(times_tu, dtype=float),
+                                 TRUTH_MAX_STEP_S / TU_S, self.params[0], self.truth_acceleration_lu_tu2)
 
     def body_positions_lu(self, times_s) -> dict:
         """Occulting bodies' centres for measurements.visibility.not_occulted: the CRTBP's are fixed (its
@@ -169,5 +174,7 @@ class DynamicsModel:
         return step_counts(positions_lu, dt_tu, self.params[0])
 
 
-def crtbp_model(mu: float) -> DynamicsModel:
-    return DynamicsModel("crtbp", MODEL_CRTBP, np.array([mu]))
+def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0)) -> DynamicsModel:
+    """The CRTBP of mass ratio mu; its truth also feels truth_acceleration_m_s2 (3,) on the rotating axes."""
+    return DynamicsModel("crtbp", MODEL_CRTBP, np.array([mu]),
+                         np.asarray(truth_acceleration_m_s2, dtype=float) / M_S2_PER_LU_TU2)

@@ -118,6 +118,16 @@ def check_model_error(scenario) -> None:
             and "moon" not in scenario.ephemeris.filter_bodies:
         raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
                          "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
+    if any(error.truth_acceleration_m_s2) and scenario.dynamics_descriptor().dated:
+        from liaison_cli.scenario.dated import is_corrected
+
+        corrected = [i for i, sc in enumerate(scenario.spacecraft)
+                     if is_corrected(sc) and sc.longitude_deg is None and sc.manoeuvre is None]
+        if corrected:
+            raise ValueError(f"model_error.truth_acceleration_m_s2 with spacecraft[{corrected[0]}] on a corrected "
+                             "orbit: its truth is flown from the corrected nodes, which would undo the acceleration "
+                             "at every node; allowed: dynamics: crtbp, or dated spacecraft with a state_km, an "
+                             "orbit file or a departure")
 
 
 def check_estimated_parameters(scenario) -> None:

@@ -9,10 +9,13 @@ drawn factor stays positive):
   spelling of `cr_sigma` (one of the two);
 - the Moon's GM, for every dynamics model: in the CRTBP the mass ratio mu = GM_moon / (GM_earth + GM_moon)
   becomes mu (1 + f) / (1 + mu f); in the dated model the lunar point mass of the filter's model scales.
-Not offered yet: an unmodelled acceleration in the truth, a clock-drift model error, C_R as an estimated state.
+- an unmodelled constant acceleration in the truth (`truth_acceleration_m_s2`, the same in every run: the truth
+  is propagated once per scenario), felt by every spacecraft on the dynamics model's axes.
+A clock-drift model error is the truth's deterministic drift the filter does not model: a clock's `mu1` (s/s)
+and `mu2_per_s`. C_R can also be estimated (filter.estimated_parameters).
 """
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from liaison_cli.scenario.spec_base import StrictModel
 
@@ -30,3 +33,15 @@ class ModelErrorSpec(StrictModel):
                                 "(dimensionless)")
     moon_gm_sigma: float = Field(0.0, ge=0, le=0.2, description="the filter's lunar GM is also off by a factor "
                                  "1 + N(0, moon_gm_sigma) drawn per run (dimensionless)")
+    truth_acceleration_m_s2: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="a constant acceleration every spacecraft's truth feels and the filter does "
+        "not model, on the dynamics model's axes (crtbp: the rotating frame, x from the Earth to the Moon, z along "
+        "the orbit normal; ephemeris: ICRF); each component at most 1e-5 (m/s^2)")
+
+    @field_validator("truth_acceleration_m_s2")
+    @classmethod
+    def _bounded(cls, value):
+        if any(not abs(a) <= 1e-5 for a in value):
+            raise ValueError(f"{list(value)}: each component at most 1e-5 m/s^2 in size (SRP on a 0.01 m^2/kg "
+                             "cannonball is ~7e-8)")
+        return value

@@ -42,6 +42,7 @@ def trajectory_key(scenario: Scenario) -> str:
         "ephemeris": scenario.ephemeris and scenario.ephemeris.model_dump(),
         "state_km": [sc.state_km for sc in scenario.spacecraft],
         "orbit_file": [sc.orbit_file and sc.orbit_file.model_dump() for sc in scenario.spacecraft],
+        "truth_acceleration_m_s2": list(scenario.model_error.truth_acceleration_m_s2),
     }
     return json.dumps(fields, sort_keys=True)
 
@@ -139,11 +140,14 @@ def _dated_trajectories(scenario: Scenario, model, times_s):
 def _dated_model(scenario: Scenario):
     from liaison_cli.scenario.dated import dated_model
 
-    return dated_model(scenario)
+    model = dated_model(scenario)
+    model.truth_acceleration_km_s2 = np.asarray(scenario.model_error.truth_acceleration_m_s2, dtype=float) * 1e-3
+    return model
 
 
 # Each dynamics model's builder from a scenario (its descriptor: dynamics.registry).
-MODEL_BUILDERS = {"crtbp": lambda scenario: crtbp_model(MU), "ephemeris": _dated_model}
+MODEL_BUILDERS = {"crtbp": lambda scenario: crtbp_model(MU, scenario.model_error.truth_acceleration_m_s2),
+                  "ephemeris": _dated_model}
 
 
 def dynamics_model(scenario: Scenario):

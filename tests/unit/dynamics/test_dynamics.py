@@ -132,3 +132,23 @@ def test_hot_loop_rhs_equals_an_independent_rhs(name):
     assert np.allclose(out[6:], plain[6:], rtol=1e-12, atol=1e-12)
     assert np.allclose(out[:6], derivative(STATES[name], MU), rtol=1e-14, atol=1e-16)
     assert np.allclose(out[6:].reshape(6, 6), jacobian(STATES[name], MU) @ phi, rtol=1e-12, atol=1e-12)
+
+
+def test_the_truths_unmodelled_acceleration_moves_it_by_half_a_t_squared():
+    """model_error.truth_acceleration_m_s2 in the CRTBP truth: over t = 1,000 s a push a = 1e-6 m/s^2 along a
+    rotating axis moves the EML2 halo by a t^2 / 2 = 0.5 m along it, and the Coriolis term -2 w x v turns it by
+    w a t^3 / 3 = 0.89 mm (w = 1 rad/TU) toward -y for a push along x, +x for one along y; the gravity
+    gradient's part is below 1e-5 m here (measured 3e-6). Zero leaves the truth unchanged to the bit."""
+    from liaison_cli.dynamics.constants import M_PER_LU, TU_S
+    from liaison_cli.dynamics.model import crtbp_model
+
+    times_tu = np.array([0.0, 500.0, 1000.0]) / TU_S
+    plain = crtbp_model(MU).truth_states(STATES["eml2_halo"], times_tu)
+    assert np.array_equal(crtbp_model(MU, (0.0, 0.0, 0.0)).truth_states(STATES["eml2_halo"], times_tu), plain)
+    for axis in range(3):
+        push = np.zeros(3)
+        push[axis] = 1e-6
+        moved = (crtbp_model(MU, push).truth_states(STATES["eml2_halo"], times_tu)[-1, :3] - plain[-1, :3]) * M_PER_LU
+        coriolis = 1.0 / TU_S * 1e-6 * 1000.0**3 / 3.0
+        expected = 0.5 * push / 1e-6 + coriolis * np.array([push[1], -push[0], 0.0]) / 1e-6
+        assert np.max(np.abs(moved - expected)) < 1e-5
