@@ -41,3 +41,4 @@ class Estimator:
     initial_batch: bool = False
     process_noise: bool = False
     dynamics_parameters: bool = False
+    residuals: str = "innovations"  # what its residuals table holds: pre-fit innovations, or post-fit residuals

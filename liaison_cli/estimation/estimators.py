@@ -304,7 +304,7 @@ EKF = Estimator(
 # The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
 # apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
 BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",
-                  carries_biases=True)
+                  carries_biases=True, residuals="post-fit residuals")
 ESTIMATORS: dict[str, Estimator] = {estimator.name: estimator for estimator in (EKF, BATCH)}
 DEFAULT_ESTIMATOR = EKF.name
 

@@ -60,7 +60,7 @@ def draw_budget(budget, path: Path, title: str) -> Path:
         grouped.setdefault(part_of(name), np.zeros_like(values))
         grouped[part_of(name)] = grouped[part_of(name)] + values
     for i, name in enumerate(budget.spacecraft):
-        for row, (unit, scale) in enumerate((("m", 1.0), ("mm/s", 1e3))):
+        for row, (unit, scale) in enumerate((("m²", 1.0), ("(mm/s)²", 1e3))):
             ax = axes[row, i]
             layers = [(src, np.clip(values[:, i, row], 0.0, None) * scale**2) for src, values in grouped.items()
                       if np.any(np.abs(values[:, i, row]) > 1e-4 * np.max(budget.total[:, i, row]))]
@@ -74,13 +74,14 @@ def draw_budget(budget, path: Path, title: str) -> Path:
             top = float(np.max(budget.total[late, i, row])) * scale**2 if late.any() else None
             if top:
                 ax.set_ylim(0.0, 1.5 * top)
-            ax.set_ylabel(f"{'position' if row == 0 else 'velocity'} error² ({unit}²)")
+            ax.set_ylabel(f"{'position' if row == 0 else 'velocity'} error² ({unit})")
             ax.set_title(f"{name}: {'position' if row == 0 else 'velocity'}", fontsize=10)
             ax.grid(True, alpha=0.3)
         axes[1, i].set_xlabel("days")
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=9, frameon=False)
-    fig.suptitle(title)
+    fig.suptitle(f"{title}\n(linear axes keep the areas proportional; the first day's transient runs above the top, "
+                 "cut at 1.5 x the largest total after day 1)", fontsize=10)
     fig.tight_layout(rect=(0, 0.05, 1, 1))
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=120)

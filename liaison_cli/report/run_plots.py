@@ -6,7 +6,8 @@
 - innovations: per link and observable, the innovations divided by their predicted standard deviation,
   with the +-3 lines and the residual gate's rejections marked;
 - clocks (with clock states): per clock, phase and frequency errors with the highlighted run's +-3 sigma;
-- bias (with range biases estimated or considered): per link and run, estimate - truth with +-3 sigma bars.
+- bias (with range biases estimated or considered): per link and run, estimate - truth with +-3 sigma bars;
+- ric and directions: the consistency figures of report.consistency_plots.
 
 Faint lines and points are rasterised inside the SVG so that it stays small for many runs."""
 
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.report.consistency_plots import draw_directions, draw_ric
 from liaison_cli.report.run_result import RunResult
 
 FAINT = {"color": "0.55", "alpha": 0.35, "linewidth": 0.7, "rasterized": True}
@@ -32,7 +34,8 @@ def draw_run(result: RunResult, out_dir, highlight: int) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
     for stem, draw in (("errors", _draw_errors), ("nees", _draw_nees), ("innovations", _draw_innovations),
-                       ("clocks", _draw_clocks), ("bias", _draw_bias)):
+                       ("clocks", _draw_clocks), ("bias", _draw_bias), ("ric", draw_ric),
+                       ("directions", draw_directions)):
         fig = draw(result, highlight)
         if fig is not None:
             paths += _save(fig, out_dir / stem)
@@ -137,7 +140,7 @@ def _draw_nees(result: RunResult, highlight: int):
 def _draw_innovations(result: RunResult, highlight: int):
     import matplotlib.pyplot as plt
 
-    table = result.residuals
+    table, left_out = _channels_the_estimator_reads(result)
     if table.empty:
         return None
     channels = list(table.groupby(["link", "observable"], sort=False).groups)
@@ -173,8 +176,30 @@ def _draw_innovations(result: RunResult, highlight: int):
         ax.set_xlabel("time (days)")
     runs = table.run.nunique()
     shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
-    fig.suptitle(f"{result.name}: normalised innovations, {_runs_phrase(runs, highlight)}{shown}; ±3 lines")
+    note = f"\n({', '.join(left_out)}: read by clock_sync, not by the {result.estimator}; not drawn)" if left_out else ""
+    from liaison_cli.estimation.estimators import ESTIMATORS
+
+    estimator = ESTIMATORS.get(result.estimator)
+    kind = estimator.residuals if estimator is not None else "innovations"
+    fig.suptitle(f"{result.name}: normalised {kind}, {_runs_phrase(runs, highlight)}{shown}; ±3 lines{note}")
     return fig
+
+
+def _channels_the_estimator_reads(result: RunResult):
+    """(the residual rows of the channels the estimator updates with, the observables left out): an estimator
+    without clock states (the batch) does not use clock-offset channels; clock_sync does, so their residuals
+    are raw clock offsets, hundreds of their sigma, not innovations."""
+    from liaison_cli.estimation.estimators import ESTIMATORS
+    from liaison_cli.measurements.registry import OBSERVABLES
+
+    table = result.residuals
+    estimator = ESTIMATORS.get(result.estimator)
+    if table.empty or estimator is None or estimator.carries_clocks:
+        return table, []
+    clock_offsets = {o.channels[o.clock_offset_channel].label for o in OBSERVABLES.values()
+                     if o.clock_offset_channel >= 0}
+    dropped = table.observable.isin(clock_offsets)
+    return table[~dropped], sorted(set(table.observable[dropped]))
 
 
 def _draw_clocks(result: RunResult, highlight: int):

@@ -24,6 +24,7 @@ class RunResult:
     residuals: pd.DataFrame         # per run, epoch, link and observable: innovation and its std
     clocks: pd.DataFrame            # per run, epoch and clock: phase and frequency errors and sigmas
     bias: pd.DataFrame              # per run and link: true range bias, estimate, sigma, treatment
+    estimator: str = "ekf"          # the scenario's estimator (summary metadata)
 
 
 def load_run_result(folder) -> RunResult:
@@ -38,7 +39,8 @@ def load_run_result(folder) -> RunResult:
     for name in OPTIONAL_TABLES:
         path = folder / f"{name}.parquet"
         tables[name] = _read(path) if path.is_file() else pd.DataFrame()
-    return RunResult(folder=folder, name=_scenario_name(folder), **tables)
+    name, estimator = _scenario_facts(folder)
+    return RunResult(folder=folder, name=name, estimator=estimator, **tables)
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -50,13 +52,17 @@ def _read(path: Path) -> pd.DataFrame:
                                   "scenario to rebuild it") from None
 
 
-def _scenario_name(folder: Path) -> str:
+def _scenario_facts(folder: Path) -> tuple[str, str]:
+    """(the scenario's name, its estimator) from the summary's metadata; the folder's name and the EKF when the
+    metadata cannot say (they only title the figures and choose which channels the innovations draw)."""
     from liaison_cli.storage import read_metadata
 
     try:
-        return str(read_metadata(folder / "summary.parquet").get("scenario_name", folder.name))
-    except Exception:  # noqa: BLE001 - the name only titles the figures; the folder's name will do
-        return folder.name
+        meta = read_metadata(folder / "summary.parquet")
+        estimator = (meta.get("scenario_effective") or {}).get("estimator", "ekf")
+        return str(meta.get("scenario_name", folder.name)), str(estimator)
+    except Exception:  # noqa: BLE001 - see the docstring
+        return folder.name, "ekf"
 
 
 def highlighted_run(result: RunResult, requested: int | None) -> int:

@@ -22,6 +22,7 @@ from liaison_cli.estimation.process_noise import psd_process_noise, spacecraft_p
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD
+from liaison_cli.scenario.links import link_label
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.scenario.truth import burn_step, link_observables
 
@@ -77,7 +78,7 @@ def _channels(scenario: Scenario) -> list[Channel]:
     for index, link in enumerate(scenario.links):
         for observable in link_observables(link):
             for position, kind in enumerate(observable.channels):
-                out.append(Channel(index, f"{link.receiver}->{link.transponder}", observable.name, kind.code,
+                out.append(Channel(index, link_label(link), observable.name, kind.code,
                                    kind.label, kind.unit, kind.scale_si, observable.takes_range_bias,
                                    observable.channel_clock_coefficients(position),
                                    position == observable.clock_offset_channel))

@@ -117,3 +117,10 @@ class MeasurementSpec(StrictModel):
 
     interval_s: float = Field(gt=0, description="time between measurement epochs, from t0 (s)")
     light_time: bool = Field(True, description="simulate the truth with light time (false: instantaneous)")
+
+
+def link_label(link) -> str:
+    """How outputs name a link: 'receiver->transponder', and for a three-end link (TDoA, FDoA) both receivers,
+    'receiver/second_receiver->transponder'."""
+    receivers = link.receiver if link.second_receiver is None else f"{link.receiver}/{link.second_receiver}"
+    return f"{receivers}->{link.transponder}"

@@ -14,6 +14,7 @@ from liaison_cli.dynamics.constants import M_PER_LU, SPEED_OF_LIGHT_M_S
 from liaison_cli.dynamics.model import DynamicsModel
 from liaison_cli.estimation.blocks import BLOCK_CONSTANT, ROLE_LINK_BIAS, owner_name
 from liaison_cli.estimation.estimators import FilterArrays
+from liaison_cli.scenario.links import link_label
 from liaison_cli.scenario.filter_arrays import (
     Channel, ClockTruth, clock_truths, estimator_setup, initial_error_sigma, state_layout)
 from liaison_cli.scenario.observed import observed_measurements
@@ -106,7 +107,7 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
     return Problem(
         scenario=scenario,
         spacecraft=tuple(names),
-        link_labels=tuple(f"{link.receiver}->{link.transponder}" for link in scenario.links),
+        link_labels=tuple(link_label(link) for link in scenario.links),
         link_ends=tuple((sc_index.get(link.receiver, -1), sc_index.get(link.transponder, -1))
                         for link in scenario.links),
         times_s=times_s,

@@ -13,13 +13,13 @@ from liaison_cli.cli import app
 
 from tests.conftest import REPO, SCENARIOS
 TEMPLATES = REPO / "liaison_cli" / "scenario" / "templates"
-ALWAYS = {"errors", "nees", "innovations"}
-CASES = {  # result: (scenario, runs, figures beyond ALWAYS)
-    "ekf_crtbp": (SCENARIOS / "smoke.yaml", 2, set()),
+ALWAYS = {"errors", "nees", "innovations", "ric"}
+CASES = {  # result: (scenario, runs, figures beyond ALWAYS); the EKF's consistency record draws its directions
+    "ekf_crtbp": (SCENARIOS / "smoke.yaml", 2, {"directions"}),
     "batch": (TEMPLATES / "nrho-batch.yaml", 2, set()),
-    "dated": (TEMPLATES / "dated-dsn.yaml", 2, set()),
-    "clock": (SCENARIOS / "clock_one_way_eml2_lunar.yaml", 2, {"clocks"}),
-    "bias": (SCENARIOS / "bias_eml2_lunar.yaml", 2, {"bias"}),
+    "dated": (TEMPLATES / "dated-dsn.yaml", 2, {"directions"}),
+    "clock": (SCENARIOS / "clock_one_way_eml2_lunar.yaml", 2, {"clocks", "directions"}),
+    "bias": (SCENARIOS / "bias_eml2_lunar.yaml", 2, {"bias", "directions"}),
 }
 
 
