@@ -162,17 +162,11 @@ def test_ephemeris_model_behind_the_dynamics_interface(msl_window):
     """MODEL_EPHEMERIS through dynamics.model.propagate_state_stm (compiled with the model code as a constant):
     the same state as the RK8 in km, in the estimators' scaled units, and an STM that matches central
     differences in those units."""
-    import numba
-
     from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
     from liaison_cli.dynamics.ephemeris_model import pack_params
-    from liaison_cli.dynamics.model import MODEL_EPHEMERIS, propagate_state_stm
+    from liaison_cli.dynamics.model import MODEL_EPHEMERIS
 
-    @numba.njit
-    def step(model, params, state, t_tu, dt_tu, n):
-        numba.literally(model)
-        return propagate_state_stm(model, params, state, t_tu, dt_tu, n)
-
+    step = _state_stm_step()
     t0, window, x0 = msl_window
     gms = np.array([GM_KM3_S2[int(b)] for b in THIRD_BODIES])
     params = pack_params(window, THIRD_BODIES, gms, GM_KM3_S2[399], 0.015, t0)
@@ -199,8 +193,7 @@ def test_cr_column_matches_central_differences(msl_window):
 
     from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
     from liaison_cli.dynamics.ephemeris_model import pack_params
-    from liaison_cli.dynamics.model import (MODEL_EPHEMERIS, PROPAGATION_SIZE, propagate_parameter_into,
-                                            propagate_state_stm)
+    from liaison_cli.dynamics.model import MODEL_EPHEMERIS, PROPAGATION_SIZE, propagate_parameter_into
 
     @numba.njit
     def step(model, params, cr_scale, state, t_tu, dt_tu, n):
@@ -209,11 +202,7 @@ def test_cr_column_matches_central_differences(msl_window):
         propagate_parameter_into(model, params, cr_scale, state, t_tu, dt_tu, n, y, np.empty((5, 42)))
         return y
 
-    @numba.njit
-    def plain(model, params, state, t_tu, dt_tu, n):
-        numba.literally(model)
-        return propagate_state_stm(model, params, state, t_tu, dt_tu, n)
-
+    plain = _state_stm_step()
     t0, window, x0 = msl_window
     gms = np.array([GM_KM3_S2[int(b)] for b in THIRD_BODIES])
     x0_lu = x0 / np.array([LU_KM] * 3 + [VU_KM_S] * 3)
@@ -233,3 +222,17 @@ def test_cr_column_matches_central_differences(msl_window):
         end_lu, phi = plain(MODEL_EPHEMERIS, scaled, x0_lu, 0.0, dt_tu, 100)
         assert np.array_equal(y[:6], end_lu)
         assert np.array_equal(y[6:42].reshape(6, 6), phi)
+
+
+def _state_stm_step():
+    """dynamics.model.propagate_state_stm behind a compiled caller that makes the model code a constant."""
+    import numba
+
+    from liaison_cli.dynamics.model import propagate_state_stm
+
+    @numba.njit
+    def step(model, params, state, t_tu, dt_tu, n):
+        numba.literally(model)
+        return propagate_state_stm(model, params, state, t_tu, dt_tu, n)
+
+    return step
