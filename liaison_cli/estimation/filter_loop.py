@@ -68,6 +68,28 @@ def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
             H[ends[END_SECOND_STATE] + i] += g_second[i]
 
 
+@njit(cache=True, inline="always")
+def measurement_row(kinds, channels, c, x, known_k, H, g_receiver, g_transmitter, g_second):
+    """Channel c's model at the states x (n,) (known ends from known_k (K, 6)): returns (its value with the
+    modifiers added one by one, its value without them) and writes its row of partials into H (n,), the ends'
+    partials (g_* (6,), scratch; measurements.registry.predict_for) scattered to their state offsets plus each
+    modifier's coefficient at its state (bias and clock modifiers: value += coeff * x[index]). The one
+    measurement row of the EKF, the initial batch and LinCov (which compares the value without modifiers with
+    its data)."""
+    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, _ = channels
+    ends = channel_ends[c]
+    x_r, x_t, x_s = channel_states(x, known_k, ends)
+    value = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter, g_second)
+    scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
+    modified = value
+    for j in range(channel_mod_index.shape[1]):
+        index = channel_mod_index[c, j]
+        if index >= 0:
+            modified += channel_mod_coeff[c, j] * x[index]
+            H[index] += channel_mod_coeff[c, j]
+    return modified, value
+
+
 @njit(cache=True)
 def apply_burns(x, P, burns, k):
     """Impulsive manoeuvres after epoch k: each burn row (Delta-v block start, spacecraft block start, epoch
@@ -345,8 +367,8 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     model_params, dt_tu, substeps, t0_tu = dynamics
     n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
     store_states, store_matrices = record
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
-    (m, n), n_channels, n_mods = truth.shape, sigma.shape[0], channel_mod_index.shape[1]
+    channel_kind, sigma = channels.kind, channels.sigma
+    (m, n), n_channels = truth.shape, sigma.shape[0]
     err, sig, nees, innovations, innov_std, rejected = run_outputs(m, n, n_channels)
     accepted = 0  # measurements the filter has updated with, all channels (the gate's warm-up count)
     x_hat, P = x0_hat.copy(), P0.copy()  # P and P_spare swap roles at each covariance step (none in place)
@@ -367,22 +389,15 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)
         # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24), not in
-        # place (the spares take the names). Written out here: as a helper taking the channel tables, 2 % slower.
+        # place (the spares take the names).
         for i in range(n):
             dx[i] = 0.0
         for c in range(n_channels):
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            ends = channel_ends[c]
-            x_r, x_t, x_s = channel_states(x_bar, known_states[k], ends)
-            predicted = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter,
-                                    g_second)
-            scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
-            for j in range(n_mods):  # bias and clock modifiers: linear in their states
-                if channel_mod_index[c, j] >= 0:
-                    predicted += channel_mod_coeff[c, j] * x_bar[channel_mod_index[c, j]]
-                    H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
+            predicted = measurement_row(kinds, channels, c, x_bar, known_states[k], H, g_receiver, g_transmitter,
+                                        g_second)[0]
             y = residual(channel_kind[c], y_meas, predicted)
             R = sigma[c] ** 2
             innovation, S = prefit_into(dx, P, y, H, R, h)

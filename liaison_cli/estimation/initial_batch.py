@@ -16,7 +16,7 @@ accumulated over the window (Q_k = Phi_k Q_(k-1) Phi_k' + Q), so the EKF starts 
 own process noise; the EKF then takes the measurements after epoch e. The window's own history (error, sigma)
 is the batch solution mapped along its reference: a smoothed estimate, as the batch estimator reports its span.
 
-Same propagator and measurement models as the EKF (time_update, predict_for), so the hand-over is to the
+Same propagator and measurement row as the EKF (time_update, measurement_row), so the hand-over is to the
 filter's own dynamics at the same epoch. Clock blocks are propagated by their own transition; constant blocks
 (biases, Delta-v) are carried. A manoeuvre inside the window is refused by the scenario (no burn here).
 """
@@ -31,8 +31,8 @@ from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.batch import equilibrated_solve
 from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
-from liaison_cli.estimation.filter_loop import channel_states, scatter_partials, time_update
-from liaison_cli.measurements.registry import kinds_mask, predict_for, residual
+from liaison_cli.estimation.filter_loop import measurement_row, time_update
+from liaison_cli.measurements.registry import kinds_mask, residual
 
 INITIAL_BATCH_OK = "ok"
 MODEL_ARG, KINDS_ARG = 0, 1  # reference_and_normal_equations' compile-time arguments, first
@@ -65,12 +65,11 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
     channels, layout, dynamics: estimation.kernel_args (dynamics.t0_tu is the window's first epoch)."""
     numba.literally(model)
     numba.literally(kinds)
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
+    channel_kind, sigma = channels.kind, channels.sigma
     block_kind, block_start, block_size, block_parameter = layout
     model_params, dt_tu, substeps, t0_tu = dynamics
     w, n = traj.shape
     n_channels = channel_kind.shape[0]
-    n_mods = channel_mod_index.shape[1]
     lam = np.zeros((n, n))
     rhs = np.zeros(n)
     q_acc = np.zeros((n, n))
@@ -96,16 +95,8 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            ends = channel_ends[c]
-            x_r, x_t, x_s = channel_states(traj[k], known_states[k], ends)
-            predicted = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver,
-                                    g_transmitter, g_second)
-            scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
-            for j in range(n_mods):
-                index = channel_mod_index[c, j]
-                if index >= 0:
-                    predicted += channel_mod_coeff[c, j] * traj[k, index]
-                    H[index] += channel_mod_coeff[c, j]
+            predicted = measurement_row(kinds, channels, c, traj[k], known_states[k], H, g_receiver, g_transmitter,
+                                        g_second)[0]
             r = residual(channel_kind[c], y_meas, predicted)
             weight = 1.0 / (sigma[c] * sigma[c])
             weighted_ss += r * r * weight

@@ -35,7 +35,7 @@ from liaison_cli.estimation.filter_loop import (
     apply_burn_rows,
     apply_burns,
     channel_states,
-    scatter_partials,
+    measurement_row,
     time_update,
 )
 from liaison_cli.measurements.registry import predict_for
@@ -128,19 +128,13 @@ def _update_along_truth(kinds, k, truth, y_true, known_states, channels, n_gain,
     update_scalar_into on a zero residual, dx staying zero) and, with its gain K from the P before it, every
     error part (_update_parts; mu_dyn <- mu_dyn - K H mu_dyn). vectors: dx, dx_spare, H, h, K (n,) and the
     ends' partials (6,) x 3, scratch. Returns (P, P_spare): the updated covariance and the spare."""
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, sigma = channels
+    channel_kind, sigma = channels.kind, channels.sigma
     dx, dx_spare, H, h, K, g_r, g_t, g_s = vectors
     n = P.shape[0]
     for c in range(channel_kind.shape[0]):
         if not np.isfinite(y_true[k, c]):
             continue
-        ends = channel_ends[c]
-        predicted = _model_on_truth(kinds, truth[k], known_states[k], ends, channel_kind[c], channel_flags[c], g_r,
-                                    g_t, g_s)
-        scatter_partials(H, ends, g_r, g_t, g_s)
-        for j in range(channel_mod_index.shape[1]):
-            if channel_mod_index[c, j] >= 0:
-                H[channel_mod_index[c, j]] += channel_mod_coeff[c, j]
+        predicted = measurement_row(kinds, channels, c, truth[k], known_states[k], H, g_r, g_t, g_s)[1]
         R = sigma[c] ** 2
         update_scalar_into(dx, P, 0.0, H, R, n_gain, underweight, dx_spare, P_spare, h, K)
         P, P_spare = P_spare, P

@@ -24,7 +24,7 @@ class RunResult:
     residuals: pd.DataFrame         # per run, epoch, link and observable: innovation and its std
     clocks: pd.DataFrame            # per run, epoch and clock: phase and frequency errors and sigmas
     bias: pd.DataFrame              # per run and link: true range bias, estimate, sigma, treatment
-    estimator: str = "ekf"          # the scenario's estimator (summary metadata)
+    estimator: str = ""             # the scenario's estimator (summary metadata)
 
 
 def load_run_result(folder) -> RunResult:
@@ -55,14 +55,15 @@ def _read(path: Path) -> pd.DataFrame:
 def _scenario_facts(folder: Path) -> tuple[str, str]:
     """(the scenario's name, its estimator) from the summary's metadata; the folder's name and the EKF when the
     metadata cannot say (they only title the figures and choose which channels the innovations draw)."""
+    from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR
     from liaison_cli.storage import read_metadata
 
     try:
         meta = read_metadata(folder / "summary.parquet")
-        estimator = (meta.get("scenario_effective") or {}).get("estimator", "ekf")
+        estimator = (meta.get("scenario_effective") or {}).get("estimator", DEFAULT_ESTIMATOR)
         return str(meta.get("scenario_name", folder.name)), str(estimator)
     except Exception:  # noqa: BLE001 - see the docstring
-        return folder.name, "ekf"
+        return folder.name, DEFAULT_ESTIMATOR
 
 
 def highlighted_run(result: RunResult, requested: int | None) -> int:
