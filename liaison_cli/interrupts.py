@@ -10,13 +10,17 @@ that compiled code swallowed whole still stops the command before a result is sw
 
 Pool worker processes receive the terminal's SIGINT too; they must leave the stop to the main process,
 which cancels the pool, so that no worker prints a traceback. `shield_pool_workers` makes joblib's (loky's)
-workers start with SIGINT ignored (an ignored signal stays ignored across exec, and Python then installs
-no handler of its own); `ignore_in_worker_process` covers a worker started some other way.
+workers start with SIGINT blocked (a blocked signal stays blocked across fork and exec: a Ctrl-C reaching a
+starting worker waits, unhandled), and `ignore_in_worker_process`, the first thing a worker's task does, turns
+that into ignored (dropping what waited). Blocked, not ignored, in the launching thread: a SIGINT ignored there
+would be dropped for the whole process, and a Ctrl-C pressed while the pool starts was lost (issue 35, fault 7:
+the command ran to its end, exit 0, and replaced the earlier result).
 """
 
 import signal
 import sys
 import threading
+from contextlib import contextmanager
 
 _requested = False
 _written: list = []  # result folders this command has swapped in (storage.staged_output)
@@ -86,6 +90,17 @@ def ignore_from_now_on() -> None:
     exec("None")  # noqa: S102 - a constant: resets that interpreter flag, see above
 
 
+def record_from_now_on() -> list | None:
+    """After the command has finished (its line printed, its result written): a Ctrl-C during the wind-down (the
+    pool's shutdown, the exit handlers) is noted in the returned list instead of raised, so the caller can still
+    say so in one line. None when SIGINT is not this CLI's to handle (ignored by a shell, another handler)."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is not _on_sigint:
+        return None
+    caught: list = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    return caught
+
+
 def result_written(path) -> None:
     """storage: a complete result is now at `path` (an interrupt after this must not say nothing was written)."""
     _written.append(str(path))
@@ -115,21 +130,37 @@ def caused_by_interrupt(exc: BaseException) -> bool:
 
 
 def ignore_in_worker_process() -> None:
-    """In a pool's worker process (not the CLI's own), ignore SIGINT: the main process stops the pool."""
+    """In a pool's worker process (not the CLI's own), ignore SIGINT: the main process stops the pool. A worker
+    that `shield_pool_workers` started with SIGINT blocked drops the Ctrl-C that waited, then unblocks it."""
     import multiprocessing
 
     if multiprocessing.parent_process() is not None and threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+@contextmanager
+def sigint_held():
+    """SIGINT blocked in this thread for the block, then unblocked: a Ctrl-C meanwhile waits (or goes at once to
+    another thread of this process, whose handler hands it to the main thread) and is delivered after the block,
+    never dropped. A thread or process started inside the block inherits the mask: SIGINT stays blocked there
+    (a pool's workers and the threads that start them leave the stop to this process)."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 _SHIELDED = False
 
 
 def shield_pool_workers() -> bool:
-    """Make loky (joblib's process pool) start its workers with SIGINT ignored: its process launcher is
-    wrapped so that, for the few milliseconds of the fork + exec, SIGINT is ignored in this process (the
-    child inherits that), then restored. True when the launcher was found and wrapped (tested, so a joblib
-    that moves it is noticed); False leaves loky as it is."""
+    """Make loky (joblib's process pool) start its workers with SIGINT blocked: its process launcher is
+    wrapped so that, for the few milliseconds of the fork + exec, SIGINT is blocked in the launching thread
+    (the child inherits its mask), then unblocked. A Ctrl-C meanwhile is delivered to this process when the
+    mask is restored (or at once to another of its threads), never dropped. True when the launcher was found
+    and wrapped (tested, so a joblib that moves it is noticed); False leaves loky as it is."""
     global _SHIELDED
     if _SHIELDED:
         return True
@@ -141,15 +172,10 @@ def shield_pool_workers() -> bool:
     if original is None:
         return False
 
-    def fork_exec_ignoring_sigint(*args, **kwargs):
-        if threading.current_thread() is not threading.main_thread():
+    def fork_exec_sigint_blocked(*args, **kwargs):
+        with sigint_held():
             return original(*args, **kwargs)
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-        try:
-            return original(*args, **kwargs)
-        finally:
-            signal.signal(signal.SIGINT, previous)
 
-    launcher.fork_exec = fork_exec_ignoring_sigint
+    launcher.fork_exec = fork_exec_sigint_blocked
     _SHIELDED = True
     return True

@@ -12,13 +12,14 @@ buffer); callers key results by task id, so numbers never depend on the order.
 """
 
 import itertools
+import logging
 import os
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 
 from liaison_cli.errors import LiaisonError
-from liaison_cli.interrupts import shield_pool_workers
+from liaison_cli.interrupts import shield_pool_workers, sigint_held
 
 BACKENDS = ("joblib", "dask")
 # Batches submitted and not yet consumed, per worker: enough that no worker waits for the next batch while the
@@ -140,8 +141,10 @@ def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = 
 
 def _windowed(submit: Callable, wait_first: Callable, batches: Iterator, window: int, in_flight_limit: int,
               ordered: bool) -> Iterator:
-    """Yield the futures of `submit(key, tasks)` for every batch once done (in completion or batch order),
-    keeping at most `window` submitted and not yet yielded, and at most `in_flight_limit` not yet done."""
+    """Yield (future, last) for the future of `submit(key, tasks)` of every batch once done (in completion or
+    batch order), keeping at most `window` submitted and not yet yielded, and at most `in_flight_limit` not yet
+    done. `last`: no batch is left after this one (known when the batches ran out before it was yielded: the
+    next one is read as the last outstanding one is yielded, when the window has room for it)."""
     queued = enumerate(batches)
     outstanding: dict = {}  # batch index -> future, submitted and not yet yielded
     exhausted = False
@@ -160,7 +163,13 @@ def _windowed(submit: Callable, wait_first: Callable, batches: Iterator, window:
         if not ready:
             wait_first([future for future in outstanding.values() if not future.done()])
         for index in ready:
-            yield outstanding.pop(index)
+            future = outstanding.pop(index)
+            if not outstanding and not exhausted and window > 1:
+                item = next(queued, None)
+                exhausted = item is None
+                if not exhausted:
+                    outstanding[item[0]] = submit(*item[1])
+            yield future, exhausted and not outstanding
 
 
 def _ready(outstanding: dict, ordered: bool) -> list:
@@ -198,7 +207,7 @@ def _local_processes(fn, shared, batches, jobs, window, ordered):
                         lambda running: wait(running, return_when=FIRST_COMPLETED), batches, window, 2 * jobs, ordered)
     finished = False
     try:
-        for future in futures:
+        for future, _ in futures:
             yield future.result()
         finished = True
     finally:
@@ -207,17 +216,40 @@ def _local_processes(fn, shared, batches, jobs, window, ordered):
 
 
 def _dask_client(jobs: int, where: Backend):
+    """A client of the scheduler at `where`, or of a new LocalCluster (returned too, to be closed with it).
+
+    The LocalCluster is started with SIGINT blocked in this thread: its event-loop thread, and through it the
+    worker processes it spawns, inherit the mask, so a Ctrl-C reaches this process only (as joblib's shielded
+    workers). Before, each worker took the terminal's SIGINT too and died mid-task: the sweep's futures were
+    cancelled and the command ended in a FuturesCancelledError traceback, exit 1 (issue 35, fault 8). A Ctrl-C
+    during the start is delivered when the block ends; the cluster just started is then closed."""
+    from multiprocessing import resource_tracker
+
     from distributed import Client, LocalCluster
 
+    opened = None
     try:
         if where.scheduler:
             probe_scheduler(where.scheduler, where.connect_timeout_s)
             return Client(where.scheduler, timeout=f"{where.connect_timeout_s}s"), None
-        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
-        return Client(cluster), cluster
+        # multiprocessing's resource tracker, started by the first worker's spawn, unblocks SIGINT in the thread
+        # that starts it (the cluster's event loop): started here first, outside the block, it is not started there.
+        resource_tracker.ensure_running()
+        # silence_logs: the workers' and scheduler's log lines go to this terminal; after a stop they report the
+        # cancellation (warnings, heartbeat tracebacks) below the command's one line. Task errors come back
+        # through the futures, not the logs.
+        with sigint_held():
+            cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=logging.CRITICAL)
+            opened = Client(cluster), cluster
+        return opened
     except (OSError, TimeoutError) as exc:
         raise BackendUnavailableError(f"--scheduler {where.scheduler!r}: cannot connect "
                                       f"({type(exc).__name__}: {exc})") from None
+    except BaseException:
+        if opened is not None:
+            _close(*opened)
+        raise
 
 
 _SESSIONS: dict = {}  # (backend, jobs) -> (client, cluster) of an open `session` block, once first used
@@ -261,6 +293,7 @@ def _dask(fn, shared, batches, jobs, where, window, ordered):
     client = opened[0]
 
     def generate():
+        to_close = [opened] if owned else []  # this fan-out's own client and cluster (not a session's): closed once
         try:
             # A cluster reached by address may have more workers than --jobs: keep every one of them busy.
             limit = window or WINDOW_PER_WORKER * max(jobs, sum(client.nthreads().values()))
@@ -268,11 +301,14 @@ def _dask(fn, shared, batches, jobs, where, window, ordered):
             futures = _windowed(lambda key, tasks: client.submit(fn, scattered[key], tasks, pure=False),
                                 lambda running: wait(running, return_when="FIRST_COMPLETED"), batches, limit, limit,
                                 ordered)
-            for future in futures:
-                yield future.result()
+            for future, last in futures:
+                result = future.result()
                 future.release()
+                if last and to_close:  # closing takes a second: done before the caller's last check for a Ctrl-C
+                    _close(*to_close.pop())  # (a sweep's, between batches), not after it, where one was lost
+                yield result
         finally:
-            if owned:
-                _close(*opened)
+            if to_close:
+                _close(*to_close.pop())
 
     return generate()

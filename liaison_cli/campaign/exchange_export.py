@@ -23,7 +23,7 @@ from liaison_cli.errors import ExchangeFileError, UnreadableFileError
 from liaison_cli.exchange import library
 from liaison_cli.exchange.frames import CRTBP_CENTRE, CRTBP_FRAME
 from liaison_cli.exchange.oem import Ephemeris, oem_message
-from liaison_cli.exchange.tdm import Track, tdm_message
+from liaison_cli.exchange.tdm import Track, range_convention, tdm_message
 from liaison_cli.exchange.timetags import met_tags, tdb_tags
 from liaison_cli.scenario.observed import channel_track
 from liaison_cli.scenario.schema import Scenario, validate_scenario
@@ -169,8 +169,9 @@ def tracks(recomputed: RecomputedRun) -> tuple[list[Track], list[str]]:
         if not len(seen):
             continue
         values = recomputed.y_obs[seen, c] * channel.scale_si * factor
+        comments = (f"liaison {channel.label} on {channel.link_label}", *range_convention(keyword, paths))
         out.append(Track(participants, paths, keyword, time_system, [tags[k] for k in seen],
-                         problem.times_s[seen], values, (f"liaison {channel.label} on {channel.link_label}",)))
+                         problem.times_s[seen], values, comments))
     return out, skipped
 
 
@@ -191,6 +192,7 @@ def export_run(result_dir, run: int, formats: tuple, out_dir) -> dict:
     track_list, skipped = tracks(recomputed)
     comments = [f"liaison scenario {scenario.name}, run {run}, seed {scenario.monte_carlo.seed}"]
     comments += [f"not written (no TDM keyword): {s}" for s in skipped]
+    comments += sorted({line for track in track_list for line in range_convention(track.keyword, track.paths)})
     if track_list:
         messages["measurements.tdm"] = tdm_message(track_list, created, comments)
     written = []

@@ -29,6 +29,10 @@ def check_supported(scenario, source: str) -> None:
                             f"{allowed.upper()} scenarios only (it maps partials with that model's STM); allowed: "
                             f"dynamics: {allowed}")
     for i, sc in enumerate(scenario.spacecraft):
+        if sc.orbit_file is not None:
+            raise ScenarioError(f"{source}: key 'spacecraft[{i}].orbit' = {{{sc.orbit_file.kind}: ...}}: observability "
+                                "propagates each spacecraft from its initial state with the CRTBP's STM; allowed: "
+                                "catalog, family or Keplerian orbits")
         if sc.manoeuvre is not None:
             raise ScenarioError(f"{source}: key 'spacecraft[{i}].manoeuvre': observability maps the information "
                                 "along ballistic arcs; allowed: spacecraft without a manoeuvre")

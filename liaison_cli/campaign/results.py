@@ -14,10 +14,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from liaison_cli import __version__
-from liaison_cli.analysis.metrics import nees_band
+from liaison_cli.analysis.metrics import chi2_quantile, nees_band
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.runner import CampaignResult, iter_outcomes
 from liaison_cli.campaign.worker import RunOutcome
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.scenario.setup import Problem, prepare_problem
@@ -131,6 +132,36 @@ def _residuals_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Co
     }
 
 
+# The two-sided 95 % band of one scalar's NIS, chi-square with 1 degree of freedom: (0.00098, 5.02).
+NIS_BAND = (chi2_quantile(0.025, 1), chi2_quantile(0.975, 1))
+
+
+def _link_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
+    """One row per measurement channel of one run: its normalised innovation squared (NIS = innovation^2 /
+    innovation_std^2, 1 on average and inside NIS_BAND 95 % of the time for a consistent filter) over the
+    epochs after the settle time; the per-link view of consistency beside the NEES by direction."""
+    if outcome.innovation_m is None:
+        return None
+    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
+    with np.errstate(invalid="ignore", divide="ignore"):
+        nis = (outcome.innovation_m / outcome.innovation_std_m)[settled] ** 2
+    finite = np.isfinite(nis)
+    count = finite.sum(axis=0)
+    inside = ((nis >= NIS_BAND[0]) & (nis <= NIS_BAND[1]) & finite).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(count > 0, np.where(finite, nis, 0.0).sum(axis=0) / np.maximum(count, 1), np.nan)
+        share = np.where(count > 0, inside / np.maximum(count, 1), np.nan)
+    channels = problem.channel_labels
+    return {
+        "run": np.full(len(channels), outcome.run, dtype=np.int32),
+        "link": np.array([c[0] for c in channels], dtype=object),
+        "observable": np.array([c[1] for c in channels], dtype=object),
+        "innovations_settled": count.astype(np.int32),
+        "mean_nis_settled": mean.astype(float_dtype),
+        "frac_nis_in_band_settled": share.astype(float_dtype),
+    }
+
+
 def _rejected(outcome: RunOutcome, m: int, n_channels: int) -> np.ndarray:
     """The rejected flags of epochs 1.. as a column (all False for an outcome without them)."""
     if outcome.rejected is None:
@@ -175,7 +206,7 @@ def _clock_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Column
 # Columns whose values repeat from row to row (dictionary-encoded in the streamed files).
 REPEATING_COLUMNS = ("run", "t_s", "spacecraft", "link", "observable", "unit", "clock", "status", "treatment")
 PER_RUN_TABLES = {"timeseries": _timeseries_columns, "residuals": _residuals_columns, "bias": _bias_columns,
-                  "clocks": _clock_columns}
+                  "clocks": _clock_columns, "links": _link_columns}
 
 
 def _concat(parts) -> "pd.DataFrame":
@@ -278,7 +309,7 @@ def write_outcomes(problem: Problem, outcomes, n_runs: int, out_dir, scenario_te
 
 
 def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> list[dict]:
-    """Write summary / timeseries / residuals / consistency / bias / clocks Parquet and the scenario text of
+    """Write summary / timeseries / residuals / links / consistency / bias / clocks Parquet and the scenario text of
     a campaign held in memory. Returns the summary rows."""
     return write_outcomes(result.problem, result.outcomes, len(result.outcomes), out_dir, scenario_text,
                           float_dtype)

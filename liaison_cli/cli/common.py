@@ -4,6 +4,8 @@ that fans runs out (--jobs, --backend, --scheduler, --scheduler-timeout: `fan_ou
 
 import functools
 import logging
+from collections.abc import Callable
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -24,6 +26,14 @@ def _interrupted_message() -> str:
         return (f"interrupted after the result was written: {', '.join(written)} is complete; only the printed "
                 "summary was cut short")
     return INTERRUPTED_MESSAGE
+
+
+def finished_message() -> str:
+    """The line for a Ctrl-C that came after the command had finished (cli.main, while the process winds down)."""
+    written = interrupts.written()
+    if written:
+        return f"interrupted after the result was written: {', '.join(written)} is complete, and so is the output above"
+    return "interrupted after the command had finished: its output above is complete"
 
 
 def fail(message: str, code: int) -> None:
@@ -80,8 +90,12 @@ def check_runs(runs, option: str = "--runs") -> None:
     _announce_compilation()
 
 
-COMPILE_NOTICE = ("liaison: compiling the numeric core for this machine (first run after installing or "
-                  "upgrading: about 15 seconds; cached afterwards)")
+# One constant line (tests match it whole). Its figures are measured, by benchmarks/first_runs.py
+# (results/reference/first_runs.md): a first run's wall time from an empty cache, which is mostly compiling.
+COMPILE_NOTICE = ("liaison: compiling the numeric core for this scenario's estimator, dynamics and observables, "
+                  "once per machine and combination, then cached (a first run took 20-40 s on an idle 2-core "
+                  "machine, 35-90 s on a busy one); `liaison warm-up` compiles all the shipped scenarios' and "
+                  "templates' ahead")
 
 
 @functools.cache  # one listener per process, however many commands run in it
@@ -111,6 +125,32 @@ def plain_name(name: str) -> bool:
     import re
 
     return bool(re.fullmatch(r"[A-Za-z0-9_+\-][A-Za-z0-9_+.\-]*", name)) and ".." not in name
+
+
+def check_file_output(path: Path, overwrite: bool, option: str, what: str, ours: Callable[[Path], bool]) -> None:
+    """A file a command writes whole (`schema --output`, `tune --table` and its Parquet), checked before any work:
+    the rule of result folders (storage.ownership) for one file. A missing file is written; an existing one is
+    replaced when `ours` proves it this command's earlier output (by its content, never its name: a rerun), or
+    with --overwrite; a directory or a special file never. Anything else: one line, exit 2."""
+    from liaison_cli.errors import OutputExistsError
+
+    if path.is_dir() or (path.exists() and not path.is_file()):
+        raise OutputExistsError(f"{path} ({option}): {'a directory' if path.is_dir() else 'not a regular file'}; "
+                                f"allowed: a file path for {what}")
+    if not (path.exists() or path.is_symlink()) or overwrite or ours(path):
+        return
+    raise OutputExistsError(f"{path} ({option}): a file liaison did not write as {what} already exists; pass "
+                            "--overwrite to replace it or choose another path")
+
+
+def file_starts_with(path: Path, texts: tuple[str, ...], limit_bytes: int = 4096) -> bool:
+    """The file's first `limit_bytes` hold each of `texts` (an ownership check reads no more, whatever the file)."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(limit_bytes).decode("utf-8", errors="replace")
+    except OSError:
+        return False
+    return all(text in head for text in texts)
 
 
 def refuse_repeated_labels(labelled: list, what: str) -> None:

@@ -7,8 +7,10 @@ import sys
 import typer
 
 from liaison_cli import __version__, interrupts
+from liaison_cli.cli.group import LiaisonGroup
 
 app = typer.Typer(
+    cls=LiaisonGroup,  # flags shown without a value; -v after the command too (cli/group.py)
     add_completion=True,
     no_args_is_help=True,
     help="LiAISON Monte Carlo campaigns: crosslink-only orbit determination in cislunar space.",

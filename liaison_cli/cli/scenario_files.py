@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import echo_json, json_option, user_errors
+from liaison_cli.cli.common import check_file_output, echo_json, file_starts_with, json_option, user_errors
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 
@@ -20,9 +20,13 @@ def version():
 @app.command()
 @user_errors
 def schema(
-    output: Path = typer.Option(None, "--output", help="write it to this file (atomically) instead of printing"),
+    output: Path = typer.Option(None, "--output", help="write it to this file (atomically) instead of printing; "
+                                "an earlier schema file there is replaced, any other file only with --overwrite"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing file given by --output"),
 ):
-    """Print the scenario JSON Schema (every key's description, unit and allowed values) for editors."""
+    """Print the scenario JSON Schema (every key's description, unit and allowed values) for editors.
+
+    Example: liaison schema --output scenarios/liaison-scenario.schema.json"""
     from liaison_cli.scenario.json_schema import scenario_json_schema_text
 
     text = scenario_json_schema_text()
@@ -31,10 +35,16 @@ def schema(
         return
     from liaison_cli.storage import write_text_atomic
 
-    if output.is_dir():
-        raise LiaisonError(f"{output}: a directory; allowed: a file path for the schema")
+    check_file_output(output, overwrite, "--output", "the scenario schema", _schema_file)
     write_text_atomic(text, output)
     typer.echo(f"wrote {output}")
+
+
+def _schema_file(path: Path) -> bool:
+    """An earlier `liaison schema --output`: its opening names liaison's schema id."""
+    from liaison_cli.scenario.json_schema import SCHEMA_ID
+
+    return file_starts_with(path, (f'"$id": "{SCHEMA_ID}"',))
 
 
 @app.command()

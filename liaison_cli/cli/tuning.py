@@ -6,8 +6,9 @@ from pathlib import Path
 import typer
 
 from liaison_cli import __version__
-from liaison_cli.cli.common import (QuietOption, backend_option, check_runs, fan_out, jobs_option, scheduler_option,
-                                    scheduler_timeout_option, user_errors)
+from liaison_cli.cli.common import (QuietOption, backend_option, check_file_output, check_runs, fan_out,
+                                    file_starts_with, jobs_option, scheduler_option, scheduler_timeout_option,
+                                    user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
 from liaison_cli.errors import LiaisonError
@@ -28,7 +29,9 @@ def tune(
     scheduler_timeout: float = scheduler_timeout_option(),
     work: Path = typer.Option(Path("results/tune"), "--work", help="folder of the rungs' sweeps (resumed, reused)"),
     table: Path = typer.Option(Path("results/tune/consistency.md"), "--table",
-                               help="the Markdown table to write; the Parquet goes beside it (.parquet)"),
+                               help="the Markdown table to write; the Parquet goes beside it (.parquet); an earlier "
+                                    "tune table there is replaced, any other file only with --overwrite"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace existing files given by --table"),
     quiet: QuietOption = False,
 ):
     """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder.
@@ -46,6 +49,8 @@ def tune(
     check_grid_size([("ladder", list(rungs))], len(scenarios), runs)
     if table.suffix != ".md" or table.is_dir():
         raise LiaisonError(f"--table {table}: allowed: a Markdown file path ending in .md (the Parquet goes beside it)")
+    check_file_output(table, overwrite, "--table", "a tune table", _tune_markdown)
+    check_file_output(table.with_suffix(".parquet"), overwrite, "beside --table", "a tune table", _tune_parquet)
     loaded = _load_study(scenarios)
     cases = [TuningCase(name, scenario, text, str(path)) for path, (name, scenario, text) in zip(scenarios, loaded)]
     frame = run_tuning(cases, rungs, runs, work, jobs, progress=not quiet and sys.stderr.isatty(),
@@ -65,3 +70,22 @@ def tune(
     write_parquet_atomic(frame, table.with_suffix(".parquet"), meta)
     write_text_atomic(markdown, table)
     typer.echo(f"wrote {table} and {table.with_suffix('.parquet')}")
+
+
+_WRITTEN_BY = "Written by `liaison tune "  # the Markdown table's third line (report.tuning.format_table)
+
+
+def _tune_markdown(path: Path) -> bool:
+    """An earlier tune table: its opening says `liaison tune` wrote it."""
+    return file_starts_with(path, (_WRITTEN_BY,))
+
+
+def _tune_parquet(path: Path) -> bool:
+    """An earlier tune table's Parquet: liaison's provenance metadata naming the `liaison tune` command."""
+    from liaison_cli.storage import read_metadata
+
+    try:
+        command = read_metadata(path).get("command")
+    except Exception:  # noqa: BLE001 - not readable as a liaison table: not evidence of ours
+        return False
+    return isinstance(command, str) and command.startswith("liaison tune ")

@@ -5,6 +5,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
+
 ICRF_NAMES = ("ICRF", "GCRF")
 EME2000 = "EME2000"
 DATED_FRAMES = (*ICRF_NAMES, EME2000)
@@ -13,6 +15,7 @@ EARTH_CENTRES = ("EARTH",)
 # units km and km/s (one LU = 384,400 km); not a SANA frame, so the files say so in COMMENT lines.
 CRTBP_FRAME = "EARTH_MOON_ROTATING"
 CRTBP_CENTRE = "EARTH-MOON BARYCENTER"
+CRTBP_KM_PER_SCALED = np.array([LU_KM] * 3 + [VU_KM_S] * 3)  # a scaled CRTBP state (LU, VU) -> km, km/s
 
 
 @lru_cache(maxsize=1)

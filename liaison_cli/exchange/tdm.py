@@ -14,6 +14,20 @@ from liaison_cli.exchange.timetags import READABLE_TIME_SYSTEMS, tags_to_seconds
 # The data keywords liaison writes and reads, with their TDM units.
 KEYWORD_UNITS = {"RANGE": "km", "DOPPLER_INSTANTANEOUS": "km/s", "DOR": "s", "CLOCK_BIAS": "s"}
 MAX_PARTICIPANTS = 5
+# What a RANGE value means, said in the segment's COMMENT lines: TDM leaves a range in km open to a one-way or a
+# round-trip distance, and liaison's two-way range is the one-way equivalent (issue 35).
+RANGE_TWO_WAY_COMMENT = ("RANGE convention: the one-way equivalent of the two-way measurement, half the round-trip "
+                         "light path along PATH (km); the round trip is twice it")
+RANGE_ONE_WAY_COMMENT = ("RANGE convention: a one-way pseudorange along PATH (km): the light path plus the clocks' "
+                         "offset, as measured")
+
+
+def range_convention(keyword: str, paths: tuple) -> tuple:
+    """The COMMENT lines that state a track's range convention (none for a keyword other than RANGE)."""
+    if keyword != "RANGE":
+        return ()
+    round_trip = any(len(path) > 2 and path[0] == path[-1] for path in paths)
+    return (RANGE_TWO_WAY_COMMENT if round_trip else RANGE_ONE_WAY_COMMENT,)
 
 
 @dataclass(frozen=True, eq=False)

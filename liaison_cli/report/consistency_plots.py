@@ -5,8 +5,9 @@
   sigma RMS over the healthy runs, side by side, so an axis whose error outgrows its sigma stands out (the
   batch has no sigma along these axes: its bars are the errors only);
 - directions: each healthy run's NEES after the settle time split as the run text splits it (whole state,
-  each spacecraft's own 6 states, the common time shift, the linked pair's line of sight), each divided by
-  what a consistent filter gives (its state count, 6, 1, 1), on a log axis around 1.
+  each spacecraft's own 6 states, the common time shift, the linked pair's line of sight), and each
+  measurement channel's mean NIS (links.parquet), each divided by what a consistent filter gives (its state
+  count, 6, 1, 1, 1), on a log axis around 1.
 
 Both use the same settled epochs and the same statistics as the run text and the verdict (analysis.consistency),
 and say so in their titles."""
@@ -70,6 +71,11 @@ def _direction_ratios(result: RunResult):
     if runs.along_link_nees_settled.notna().any():
         pairs = ", ".join(sorted({p for p in runs.along_link_pair if p}))
         out.append((f"line of sight {pairs} (÷ 1)", runs.along_link_nees_settled))
+    links = result.links
+    if links is not None and not links.empty:
+        healthy = links[links.run.isin(set(runs.run))]
+        for (link, observable), rows in healthy.groupby(["link", "observable"], sort=False):
+            out.append((f"NIS {link} {observable} (÷ 1)", rows.mean_nis_settled))
     return [(label, np.asarray(values, dtype=float)) for label, values in out]
 
 
@@ -92,8 +98,8 @@ def draw_directions(result: RunResult, highlight: int):
     ax.set_xscale("log")
     ax.invert_yaxis()  # the whole state on top, as in the run text
     ax.set_yticks(range(len(ratios)), [label for label, _ in ratios], fontsize=8)
-    ax.set_xlabel("mean NEES component after the settle time / its consistent value (1; right: optimistic)")
+    ax.set_xlabel("mean NEES component or NIS / its consistent value (1; right of it: optimistic)")
     ax.grid(True, which="both", axis="x", alpha=0.3)
-    ax.set_title(f"{result.name}: NEES by direction per healthy run (dots; red: their mean), as the run text "
-                 "splits it (analysis.consistency)", fontsize=10)
+    ax.set_title(f"{result.name}: NEES by direction and NIS by channel after the settle time, a dot per healthy "
+                 "run (red: their mean)", fontsize=10)
     return fig

@@ -11,7 +11,7 @@ from liaison_cli.errors import LiaisonError, UnreadableFileError
 # Written by every `liaison run` (campaign.results.write_outcomes); clocks and bias are empty (no columns)
 # when the scenario has no clock states or range biases.
 REQUIRED_TABLES = ("summary", "timeseries", "consistency", "residuals")
-OPTIONAL_TABLES = ("clocks", "bias")
+OPTIONAL_TABLES = ("clocks", "bias", "links")
 
 
 @dataclass
@@ -24,6 +24,7 @@ class RunResult:
     residuals: pd.DataFrame         # per run, epoch, link and observable: innovation and its std
     clocks: pd.DataFrame            # per run, epoch and clock: phase and frequency errors and sigmas
     bias: pd.DataFrame              # per run and link: true range bias, estimate, sigma, treatment
+    links: pd.DataFrame = None      # per run and channel: NIS after the settle time (older results: empty)
     estimator: str = ""             # the scenario's estimator (summary metadata)
 
 

@@ -1,12 +1,15 @@
 """A dated spacecraft's truth from an OEM, or its initial state from an OPM (scenario key orbit: {oem: FILE} /
 {opm: FILE}): the file's states in geocentric ICRF (from ICRF, GCRF or EME2000; Earth-centred), on the
-scenario's TDB grid, in the estimators' scaled units. Every problem is one line naming the file."""
+scenario's TDB grid, in the estimators' scaled units. A CRTBP spacecraft's truth from an OEM in liaison's
+rotating frame with MET tags (its own export read back: crtbp_oem_truth_lu). Every problem is one line naming
+the file."""
 
 import numpy as np
 
 from liaison_cli.dynamics.ephemeris_model import SCALE
 from liaison_cli.errors import ExchangeFileError
-from liaison_cli.exchange.frames import DATED_FRAMES, EARTH_CENTRES, to_icrf
+from liaison_cli.exchange.frames import (CRTBP_CENTRE, CRTBP_FRAME, CRTBP_KM_PER_SCALED, DATED_FRAMES, EARTH_CENTRES,
+                                         to_icrf)
 from liaison_cli.exchange.interpolation import METHODS, interpolate_states
 
 DATED_TIME_SYSTEMS = ("TDB", "TT", "UTC")
@@ -66,14 +69,14 @@ def _finite_states(path, states_km) -> None:
         raise ExchangeFileError(f"{path}: a state is at the centre (position 0 km); allowed: a position off it")
 
 
-@_one_line("oem")
-def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndarray:
-    """(m, 6) scaled geocentric ICRF states at epoch_tdb_s + times_s, interpolated in the spacecraft's OEM."""
+def _oem_states_km(spacecraft, check_frame, at_s: np.ndarray):
+    """(m, 6) states (km, km/s) of the spacecraft's OEM at the file's own seconds `at_s` (TDB s past J2000, or MET
+    s), interpolated as the file says, and its frame; check_frame(path, centre, frame, time system) first."""
     from liaison_cli.exchange.oem import read_oem
 
     path = spacecraft.orbit_file.oem
     ephemeris = _pick(path, read_oem(path), spacecraft)
-    _check_frame(path, ephemeris.centre, ephemeris.frame, ephemeris.time_system)
+    check_frame(path, ephemeris.centre, ephemeris.frame, ephemeris.time_system)
     _finite_states(path, ephemeris.states_km)
     if ephemeris.interpolation == "LAGRANGE" and not 1 <= ephemeris.degree <= 20:
         raise ExchangeFileError(f"{path}: INTERPOLATION_DEGREE = {ephemeris.degree}; allowed: 1 to 20")
@@ -84,7 +87,6 @@ def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndar
     if len(ephemeris.seconds) < needed:
         raise ExchangeFileError(f"{path}: {len(ephemeris.seconds)} state lines, {ephemeris.interpolation} of "
                                 f"degree {ephemeris.degree} needs {needed}")
-    at_s = epoch_tdb_s + np.asarray(times_s, dtype=float)
     first, last = ephemeris.seconds[0], ephemeris.seconds[-1]
     if at_s[0] < first - EPOCH_TOLERANCE_S or at_s[-1] > last + EPOCH_TOLERANCE_S:
         raise ExchangeFileError(
@@ -94,7 +96,34 @@ def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndar
     at_s = np.clip(at_s, first, last)
     states = interpolate_states(ephemeris.seconds, ephemeris.states_km, at_s, ephemeris.interpolation,
                                 ephemeris.degree)
-    return to_icrf(states, ephemeris.frame.upper()) / SCALE
+    return states, ephemeris.frame.upper()
+
+
+@_one_line("oem")
+def oem_truth_lu(spacecraft, epoch_tdb_s: float, times_s: np.ndarray) -> np.ndarray:
+    """(m, 6) scaled geocentric ICRF states at epoch_tdb_s + times_s, interpolated in the spacecraft's OEM."""
+    states, frame = _oem_states_km(spacecraft, _check_frame, epoch_tdb_s + np.asarray(times_s, dtype=float))
+    return to_icrf(states, frame) / SCALE
+
+
+def _check_crtbp_frame(path, centre: str, frame: str, time_system: str) -> None:
+    """A CRTBP scenario reads liaison's own CRTBP export: the rotating frame, MET tags (t0 = 0000-001T00:00:00)."""
+    for key, value, allowed in (("REF_FRAME", frame.upper(), CRTBP_FRAME), ("CENTER_NAME", centre.upper(),
+                                                                           CRTBP_CENTRE),
+                                ("TIME_SYSTEM", time_system, "MET")):
+        if value != allowed:
+            raise ExchangeFileError(f"{path}: {key} = {value}: not supported in a CRTBP scenario (dynamics: crtbp); "
+                                    f"allowed: {allowed} (REF_FRAME {CRTBP_FRAME}, CENTER_NAME {CRTBP_CENTRE}, "
+                                    "TIME_SYSTEM MET: a CRTBP export of liaison); a dated OEM needs dynamics: "
+                                    "ephemeris")
+
+
+@_one_line("oem")
+def crtbp_oem_truth_lu(spacecraft, times_s: np.ndarray) -> np.ndarray:
+    """(m, 6) states in the CRTBP's scaled rotating frame (LU, VU) at MET times_s, interpolated in the
+    spacecraft's OEM: liaison's export of a CRTBP run read back (docs/exchange.md)."""
+    states, _ = _oem_states_km(spacecraft, _check_crtbp_frame, np.asarray(times_s, dtype=float))
+    return states / CRTBP_KM_PER_SCALED
 
 
 @_one_line("opm")

@@ -27,7 +27,10 @@ KEPLERIAN_ORBIT = "lunar_keplerian"
 ICRF_STATE_ORBIT = "icrf_state"
 DEPARTURE_ORBIT = "departure"
 GEOSTATIONARY_ORBIT = "geostationary"
-DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT, GEOSTATIONARY_ORBIT, *ORBIT_FILE_KINDS)
+DATED_ONLY_ORBITS = (ICRF_STATE_ORBIT, DEPARTURE_ORBIT, GEOSTATIONARY_ORBIT, "opm")
+# Orbits given whole rather than by a periodic reference: no `phase` to advance. An OEM is read by both dynamics
+# (a CRTBP scenario reads liaison's own CRTBP export: scenario.orbit_files); an OPM needs a date.
+UNPHASED_ORBITS = (KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS, "oem")
 
 
 class KeplerianElements(StrictModel):
@@ -185,7 +188,7 @@ class SpacecraftSpec(StrictModel):
         when(equals("orbit", GEOSTATIONARY_ORBIT), equals("role", "known")),
         when(equals("orbit", *family_names()), one_of(given("period_days"), given("amplitude_km")),
              all_of(not_given("period_days"), not_given("amplitude_km"))),
-        when(equals("orbit", KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS), {"properties": {"phase": {"const": 0}}}),
+        when(equals("orbit", *UNPHASED_ORBITS), {"properties": {"phase": {"const": 0}}}),
         when(equals("role", "known"), all_of(not_given("clock"), not_given("manoeuvre"))),
         when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2"))))
 
@@ -196,9 +199,10 @@ class SpacecraftSpec(StrictModel):
     orbit: str = Field(description="a catalog orbit; an orbit family (with period_days or amplitude_km); "
                        f"{KEPLERIAN_ORBIT} (with elements); with dynamics: ephemeris also {ICRF_STATE_ORBIT} "
                        f"(with state_km), {DEPARTURE_ORBIT} (with departure), {GEOSTATIONARY_ORBIT} (with "
-                       "longitude_deg), {oem: FILE} or {opm: FILE}",
+                       "longitude_deg) or {opm: FILE}; {oem: FILE} (dated: ICRF, GCRF or EME2000; CRTBP: liaison's "
+                       "rotating-frame export with MET tags)",
                        json_schema_extra=lambda schema: orbit_json_schema(schema, [
-                           *catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS]))
+                           *catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS, "oem"]))
     elements: KeplerianElements | None = Field(None, description=f"orbit: {KEPLERIAN_ORBIT}: its elements")
     period_days: float | None = Field(None, gt=0, description="orbit: <family>: the member of this period (days)")
     amplitude_km: float | None = Field(None, gt=0, description="orbit: <family>: the member of this amplitude, Az "
@@ -231,8 +235,8 @@ class SpacecraftSpec(StrictModel):
                          "its period (e.g. 0.5: the second of a pair half a period apart) (periods)")
     longitude_deg: float | None = Field(None, ge=-180.0, le=360.0, description=f"orbit: {GEOSTATIONARY_ORBIT}: the "
                                         "station-kept longitude, east (004: 130 W = -130) (deg)")
-    orbit_file: OrbitFileSpec | None = Field(None, description="orbit: {oem: FILE} or {opm: FILE} (dynamics: "
-                                             "ephemeris), read into this key (docs/exchange.md)")
+    orbit_file: OrbitFileSpec | None = Field(None, description="orbit: {oem: FILE} (either dynamics) or {opm: FILE} "
+                                             "(dynamics: ephemeris), read into this key (docs/exchange.md)")
 
     @model_validator(mode="before")
     @classmethod
@@ -246,7 +250,7 @@ class SpacecraftSpec(StrictModel):
     @field_validator("orbit")
     @classmethod
     def _known_orbit(cls, value):
-        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS]
+        allowed = [*catalog_names(), KEPLERIAN_ORBIT, *family_names(), *DATED_ONLY_ORBITS, "oem"]
         if value not in allowed:
             raise ValueError(f"unknown orbit {value!r}; allowed: {', '.join(allowed)}")
         return value
@@ -277,7 +281,7 @@ class SpacecraftSpec(StrictModel):
         if self.orbit == GEOSTATIONARY_ORBIT and self.role != "known":
             raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} is station-kept, not flown by the filter's dynamics: "
                              "give it role: known")
-        if self.phase and (self.orbit == KEPLERIAN_ORBIT or self.orbit in DATED_ONLY_ORBITS):
+        if self.phase and self.orbit in UNPHASED_ORBITS:
             raise ValueError(f"'phase' advances a periodic orbit (catalog or family), not orbit {self.orbit!r}")
         if self.state_km is not None and len(self.state_km) != 6:
             raise ValueError(f"'state_km' needs 6 numbers (x, y, z km, vx, vy, vz km/s), got {len(self.state_km)}")

@@ -8,7 +8,7 @@ from liaison_cli.dynamics.constants import MU
 from liaison_cli.dynamics.crtbp import rk4_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
-from liaison_cli.scenario.schema import KEPLERIAN_ORBIT
+from liaison_cli.scenario.participants import KEPLERIAN_ORBIT
 
 
 def initial_state_lu(spec) -> np.ndarray:

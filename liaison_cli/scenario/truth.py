@@ -98,8 +98,14 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
     if scenario.dynamics_descriptor().dated:
         return _dated_trajectories(scenario, model, times_s)
     times_tu = times_s / TU_S
-    out = {sc.name: model.trajectory(_flown(scenario, model, sc, initial_state_lu(sc), times_tu))
-           for sc in scenario.spacecraft}
+    out = {}
+    for sc in scenario.spacecraft:
+        if sc.orbit_file is not None and sc.orbit_file.kind == "oem":  # the truth follows the file (a CRTBP export)
+            from liaison_cli.scenario.orbit_files import crtbp_oem_truth_lu
+
+            out[sc.name] = model.trajectory(crtbp_oem_truth_lu(sc, times_s))
+        else:
+            out[sc.name] = model.trajectory(_flown(scenario, model, sc, initial_state_lu(sc), times_tu))
     for st in scenario.ground_stations:
         out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
     return out
