@@ -31,7 +31,7 @@ from liaison_cli.analysis.consistency import verdict
 from liaison_cli.analysis.metrics import fraction, nees_run_band
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.runner import in_task_order, stays_in_process
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.worker import draw_run_inputs, true_parameters
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.dynamics.model import literal_entry
@@ -79,6 +79,8 @@ def _filter_truth(problem: Problem) -> np.ndarray:
     truth[:, : problem.truth.shape[1]] = problem.truth
     for start, delta_v, _ in problem.manoeuvres:  # the true Delta-v, as the burn's linearisation point
         truth[:, start : start + 3] = delta_v[None, :]
+    for start, value in _parameter_truths(problem):  # the filter's parameter corrections, as its linearisation
+        truth[:, start] = value
     return truth
 
 
@@ -222,7 +224,20 @@ def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> 
         y += bias_channel
     if problem.n_bias:  # bias states start at 0 in the filter, whatever the truth
         x0[problem.bias_state_start : problem.bias_state_start + problem.n_bias] = 0.0
+    # A dynamics-parameter state: the check's filter flies problem.filter's parameters (model_error's fixed
+    # errors, no per-run draw, which only the budget's "cr" part carries), so its truth is the correction back
+    # from those, and the filter starts it at its a-priori mean, 0.
+    truth = truth.copy()
+    for start, value in _parameter_truths(problem):
+        truth[:, start] = value
+        x0[start] = 0.0
     return x0, y, truth
+
+
+def _parameter_truths(problem: Problem):
+    """(state offset, true value) of each dynamics-parameter state for a filter with model_error's fixed errors
+    only (worker.true_parameters at the fixed C_R factor)."""
+    return true_parameters(problem, 1.0 + problem.scenario.model_error.cr_bias)
 
 
 @dataclass(frozen=True, eq=False)

@@ -139,13 +139,16 @@ NIS_BAND = (chi2_quantile(0.025, 1), chi2_quantile(0.975, 1))
 def _link_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
     """One row per measurement channel of one run: its normalised innovation squared (NIS = innovation^2 /
     innovation_std^2, 1 on average and inside NIS_BAND 95 % of the time for a consistent filter) over the
-    epochs after the settle time; the per-link view of consistency beside the NEES by direction."""
+    epochs after the settle time, leaving out the measurements the residual gate refused; the per-link view of
+    consistency beside the NEES by direction."""
     if outcome.innovation_m is None:
         return None
     settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
     with np.errstate(invalid="ignore", divide="ignore"):
         nis = (outcome.innovation_m / outcome.innovation_std_m)[settled] ** 2
     finite = np.isfinite(nis)
+    if outcome.rejected is not None:  # the gate's refused measurements did not update the filter: not its NIS
+        finite &= ~outcome.rejected[settled]
     count = finite.sum(axis=0)
     inside = ((nis >= NIS_BAND[0]) & (nis <= NIS_BAND[1]) & finite).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):

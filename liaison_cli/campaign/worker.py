@@ -115,7 +115,7 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     # The filter starts its clock and bias states at their a-priori mean, zero.
     x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
     filter_params, cr_factor = _filter_params(problem, rng)
-    for start, value in _true_parameters(problem, cr_factor):
+    for start, value in true_parameters(problem, cr_factor):
         truth[:, start] = value
     # Manoeuvres (drawn last): the truth keeps the scenario's Delta-v, the filter starts its a-priori sigma off.
     for start, delta_v, sigma in problem.manoeuvres:
@@ -142,7 +142,7 @@ def _filter_params(problem: Problem, rng):
     return biased_filter_params(scenario, problem.dynamics, cr_draw, gm_draw), fixed_cr_factor * (1.0 + cr_draw)
 
 
-def _true_parameters(problem: Problem, cr_factor: float):
+def true_parameters(problem: Problem, cr_factor: float):
     """(state offset, true value) of every dynamics-parameter block (filter.estimated_parameters): the C_R
     correction that brings the filter's C_R (the truth's times cr_factor) back to the truth's, 1 / cr_factor - 1."""
     true_value = {"cr": 1.0 / cr_factor - 1.0}

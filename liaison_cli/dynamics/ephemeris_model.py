@@ -93,6 +93,10 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
     [state (6), Phi row-major (36), gamma (6)], scaled units: gamma = d state / d cr_scale, the column of the
     transition that couples an estimated C_R state to the spacecraft (estimation.blocks)."""
     coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    if not 1.0 + cr_scale > 0.0:  # a non-positive C_R: no physics to fly; NaN makes the run fail its health check
+        for i in range(SENSITIVITY_SIZE):
+            y[i] = np.nan
+        return
     for i in range(SENSITIVITY_SIZE):
         y[i] = 0.0
     for i in range(6):

@@ -15,15 +15,14 @@ from numba.core.errors import TypingError
 from numba.extending import overload
 
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
-
-M_S2_PER_LU_TU2 = M_PER_LU / TU_S**2  # acceleration units
 from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states_forced
+from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
+from liaison_cli.dynamics.registry import DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
 from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
-from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
-from liaison_cli.dynamics.registry import DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
+M_S2_PER_LU_TU2 = M_PER_LU / TU_S**2  # acceleration units
 
 # The propagation vector the filters' scratch holds: state (6), STM (36), and a dynamics parameter's column
 # (6, propagate_parameter_into); the CRTBP's RK4 uses the first STM_SIZE entries.

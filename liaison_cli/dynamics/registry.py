@@ -18,14 +18,12 @@ MODEL_EPHEMERIS = 1
 
 @dataclass(frozen=True)
 class DynamicsParameter:
-    """A parameter of a model that the filter can carry as a state (estimation.blocks.BLOCK_PARAMETER), one
-    per estimated spacecraft: name (the scenario's key under filter.estimated_parameters), summary, unit of
-    its state, and the model_error key whose drawn sigma is its natural a priori."""
+    """A parameter of a model that the filter can carry as a state (estimation.blocks.BLOCK_PARAMETER): name
+    (the scenario's key under filter.estimated_parameters) and summary. The dated model has one C_R A/m for
+    every spacecraft, so its C_R state is one for the formation (scenario.filter_arrays.state_layout)."""
 
     name: str
     summary: str
-    unit: str
-    model_error_key: str
 
 
 @dataclass(frozen=True)
@@ -56,8 +54,7 @@ class Dynamics:
 
 
 CR = DynamicsParameter(
-    "cr", "the solar-radiation-pressure coefficient's relative correction: the filter flies C_R (1 + state)",
-    "dimensionless", "cr_sigma")
+    "cr", "the solar-radiation-pressure coefficient's relative correction: the filter flies C_R (1 + state)")
 
 CRTBP = Dynamics(
     "crtbp", MODEL_CRTBP, "the Earth-Moon CRTBP, undated", dated=False, rotating_frame=True,

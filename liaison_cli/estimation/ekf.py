@@ -95,8 +95,9 @@ def _identity_transition(kind):
 @njit(cache=True, inline="always")
 def _couple_parameters(M, Phi, block_kind, block_start):
     """M <- (I + G) M (I + G)^T in place for every parameter block p and spacecraft block s whose coupling
-    column gamma = Phi[s : s + 6, p] is non-zero (predict_covariance_into): rows s += gamma M[p, :], then
-    columns s += M[:, p] gamma^T; row and column p are left as they are by the first and read by the second."""
+    column gamma = Phi[s : s + 6, p] is non-zero (predict_covariance_into): first rows s += gamma M[p, :]
+    (row p itself is not in s, so it is read unchanged), then columns s += M[:, p] gamma^T, reading column p as
+    the row step left it (its entries in rows s now include gamma M[p, p]), which is (I + G) M's."""
     n = M.shape[0]
     for q in range(block_kind.shape[0]):
         if block_kind[q] != BLOCK_PARAMETER:

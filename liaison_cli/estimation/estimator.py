@@ -22,7 +22,7 @@ class Estimator:
     budget (estimation.lincov mirrors its gain, so campaign.error_budget can split its error), a start from an
     initial batch solution (filter.initial_batch_hours, estimation.initial_batch), process noise (the SNC that
     `liaison tune` chooses; a batch has none), dynamics-parameter states (filter.estimated_parameters: a
-    model's parameter such as C_R carried per spacecraft, estimation.blocks.BLOCK_PARAMETER).
+    model's parameter such as C_R carried as a state, estimation.blocks.BLOCK_PARAMETER).
     settings_section: the scenario section of its own settings, given exactly when it is chosen (None: the
     filter section only)."""
 

@@ -27,9 +27,8 @@ import numba
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.model import literal_entry
+from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE, literal_entry
 from liaison_cli.estimation.batch import equilibrated_solve
-from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import measurement_row, time_update
 from liaison_cli.measurements.registry import kinds_mask, residual

@@ -63,8 +63,10 @@ def _direction_ratios(result: RunResult):
     """[(label, values per healthy run and spacecraft row divided by their consistent value)]."""
     table = _healthy(result)
     runs = table.drop_duplicates("run")
-    states = int(result.consistency.state_size.max()) if "state_size" in result.consistency else np.nan
-    out = [(f"whole state (÷ {states})", runs.mean_nees_settled / states)]
+    out = []
+    if "state_size" in result.consistency and not result.consistency.empty:
+        states = int(result.consistency.state_size.max())
+        out.append((f"whole state (÷ {states})", runs.mean_nees_settled / states))
     out += [(f"{name}'s own 6 states (÷ 6)", rows.mean_nees_spacecraft_settled / 6.0)
             for name, rows in table.groupby("spacecraft", sort=False)]
     out.append(("common time shift (÷ 1)", runs.time_shift_nees_settled))

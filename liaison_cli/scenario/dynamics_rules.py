@@ -118,16 +118,30 @@ def check_model_error(scenario) -> None:
             and "moon" not in scenario.ephemeris.filter_bodies:
         raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
                          "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
-    if any(error.truth_acceleration_m_s2) and scenario.dynamics_descriptor().dated:
-        from liaison_cli.scenario.dated import is_corrected
+    if any(error.truth_acceleration_m_s2):
+        _check_truth_acceleration(scenario)
 
-        corrected = [i for i, sc in enumerate(scenario.spacecraft)
-                     if is_corrected(sc) and sc.longitude_deg is None and sc.manoeuvre is None]
-        if corrected:
-            raise ValueError(f"model_error.truth_acceleration_m_s2 with spacecraft[{corrected[0]}] on a corrected "
-                             "orbit: its truth is flown from the corrected nodes, which would undo the acceleration "
-                             "at every node; allowed: dynamics: crtbp, or dated spacecraft with a state_km, an "
-                             "orbit file or a departure")
+
+def _check_truth_acceleration(scenario) -> None:
+    """An unmodelled push needs a truth that is propagated: not one read from an OEM, not a corrected dated
+    orbit flown node by node (each node would undo it). Station-kept geostationary spacecraft are points fixed
+    to the Earth and stay exempt (documented)."""
+    for i, sc in enumerate(scenario.spacecraft):
+        if sc.orbit_file is not None and sc.orbit_file.kind == "oem":
+            raise ValueError(f"model_error.truth_acceleration_m_s2 with spacecraft[{i}].orbit = {{oem: ...}}: its "
+                             "truth is the file's, which no acceleration moves; allowed: spacecraft whose truth "
+                             "liaison propagates")
+    if not scenario.dynamics_descriptor().dated:
+        return
+    from liaison_cli.scenario.dated import is_corrected
+
+    corrected = [i for i, sc in enumerate(scenario.spacecraft)
+                 if is_corrected(sc) and sc.longitude_deg is None and sc.manoeuvre is None]
+    if corrected:
+        raise ValueError(f"model_error.truth_acceleration_m_s2 with spacecraft[{corrected[0]}] on a corrected "
+                         "orbit: its truth is flown from the corrected nodes, which would undo the acceleration "
+                         "at every node; allowed: dynamics: crtbp, or dated spacecraft with a state_km, an OPM "
+                         "or a departure")
 
 
 def check_estimated_parameters(scenario) -> None:
@@ -151,3 +165,6 @@ def check_estimated_parameters(scenario) -> None:
     if scenario.filter.initial_batch_hours is not None:
         raise ValueError("filter.estimated_parameters with filter.initial_batch_hours: the initial batch solves "
                          "for the spacecraft states only; allowed: one of the two")
+    if "cr" in wanted and scenario.ephemeris.cr * scenario.ephemeris.area_to_mass_m2_kg == 0.0:
+        raise ValueError("filter.estimated_parameters.cr with ephemeris.area_to_mass_m2_kg = 0: no solar "
+                         "radiation pressure, so no data can reach C_R; allowed: a cannonball with an area")

@@ -110,11 +110,12 @@ class FilterSpec(StrictModel):
         "window's end is below this (or the window has reached initial_batch_max_hours) (km)")
     initial_batch_max_iterations: int = Field(
         30, ge=1, le=1000, description="Gauss-Newton iterations per batch window at most (count)")
-    estimated_parameters: dict[str, Annotated[float, Field(gt=0, le=1)]] = Field(
-        default_factory=dict, description="dynamics-model parameters the filter carries as states, one per "
-        "estimated spacecraft, each with its a-priori 1-sigma: {cr: 0.1} estimates a relative correction to "
-        "each spacecraft's C_R (dynamics: ephemeris; the filter flies C_R (1 + state), a priori 0 +- 0.1). The "
-        "names a dynamics model offers are listed in docs/model.md (dimensionless)",
+    estimated_parameters: dict[str, Annotated[float, Field(gt=0, le=0.5)]] = Field(
+        default_factory=dict, description="dynamics-model parameters the filter carries as states, each with its "
+        "a-priori 1-sigma (at most 0.5, so that the flown value stays positive): {cr: 0.1} estimates one "
+        "relative correction to the C_R of every spacecraft (dynamics: ephemeris has one C_R A/m for all; the "
+        "filter flies C_R (1 + state), a priori 0 +- 0.1). What each dynamics model offers: docs/filter.md "
+        "(dimensionless)",
         json_schema_extra={"propertyNames": {"enum": sorted({p.name for d in DYNAMICS.values() for p in d.parameters})}})
 
     @model_validator(mode="after")
