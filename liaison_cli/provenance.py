@@ -30,14 +30,18 @@ ARITHMETIC_VARIABLES = ("OPENBLAS_CORETYPE", "NUMBA_CPU_NAME", "NUMBA_CPU_FEATUR
 # integers, suffix) every symbol.
 CORENAME_SYMBOLS = ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename", "openblas_get_corename64_",
                     "openblas_get_corename")
+# An installed copy has no .git beside it: a wheel built from a checkout carries the commit in this file of the
+# package (written by the build, tools/build_commit.py; absent when the build had no checkout).
+BUILD_COMMIT_FILE = "build_commit.txt"
 
 
 @functools.cache
 def arithmetic_provenance() -> dict[str, str | None]:
     """Library versions, each BLAS and the kernel it runs, the CPU, the variables that steer them and the
-    checkout's commit, as a flat dict (None: not known or not set). Computed once per process (the libraries
-    read their variables once too); the dict is shared, so copy it before changing it. It imports numpy and
-    scipy, which a campaign has loaded already, and nothing else of weight."""
+    checkout's commit (an installed copy's: the one it was built from), as a flat dict (None: not known or not
+    set). Computed once per process (the libraries read their variables once too); the dict is shared, so copy
+    it before changing it. It imports numpy and scipy, which a campaign has loaded already, and nothing else of
+    weight."""
     facts: dict[str, str | None] = {"python": platform.python_version()}
     for name in VERSIONED:
         facts[name] = _distribution_version(name)
@@ -47,7 +51,8 @@ def arithmetic_provenance() -> dict[str, str | None]:
     facts["cpu"] = _cpu_model()
     facts["machine"] = platform.machine() or None
     facts.update({name: os.environ.get(name) for name in ARITHMETIC_VARIABLES})
-    facts["git_commit"] = git_commit(Path(__file__).resolve().parent.parent)
+    package = Path(__file__).resolve().parent
+    facts["git_commit"] = git_commit(package.parent) or recorded_commit(package)
     return facts
 
 
@@ -101,9 +106,9 @@ def _cpu_model() -> str | None:
 
 
 def git_commit(checkout: Path) -> str | None:
-    """The commit checked out at `checkout` (liaison installed from a clone, editable), read from its .git
-    without needing git; None for an installed copy (site-packages has no .git) or anything unreadable. Local
-    edits do not show: for the code itself, see the sweep tables' core_hash."""
+    """The commit checked out at `checkout` (liaison run from a clone or installed editable), read from its .git
+    without needing git; None for an installed copy (site-packages has no .git: see recorded_commit) or
+    anything unreadable. Local edits do not show: for the code itself, see the sweep tables' core_hash."""
     git = checkout / ".git"
     try:
         if git.is_file():  # a worktree or a submodule: "gitdir: <path>"
@@ -125,6 +130,15 @@ def git_commit(checkout: Path) -> str | None:
     except (OSError, UnicodeDecodeError):
         pass
     return None
+
+
+def recorded_commit(package: Path) -> str | None:
+    """The commit the build wrote into the installed package `package` (BUILD_COMMIT_FILE); None when the build
+    had none (no checkout), or the file is unreadable or holds no commit."""
+    try:
+        return _commit_or_none((package / BUILD_COMMIT_FILE).read_text(encoding="ascii").strip())
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 def _commit_or_none(text: str) -> str | None:

@@ -3,18 +3,36 @@
 Patch points: the CRTBP trajectory sampled every `node_spacing_s` from the epoch (CRTBP time scaled by the
 nominal TU) and mapped to geocentric ICRF through the instantaneous Earth-Moon frame at each node's date.
 Unknowns: every node's state; constraints: each segment's propagated end state equals the next node
-(position and velocity). Newton with the minimum-norm update dX = -DF^+ F, DF = [Phi_i, -I] per segment,
-until every defect is below 1e-6 km and 1e-9 km/s (003's continuity criterion), or, where no step lowers
-the defects any more (the rounding floor), below 1e-4 km and 1e-7 km/s.
+(position and velocity), DF = [Phi_i, -I] per segment; until every defect is below 1e-6 km and 1e-9 km/s
+(003's continuity criterion), or, where no step lowers the defects any more (the rounding floor), below
+1e-4 km and 1e-7 km/s.
 
-Globalised, so that the answer does not hang on the last bit of the linear algebra: Levenberg-Marquardt.
-A step is taken only when it lowers the scaled defect norm; the Newton step (from a QR factorisation of the
-scaled DF, not the normal equations DF DF^T, which square its condition number) is tried first, and damped
-steps dX = -D^T (D D^T + lambda I)^-1 F, shorter and turned toward steepest descent, when it does not. A
-CRTBP orbit mapped into the dated model starts thousands of km from continuity; full Newton steps from there
-wandered (defects of 1e5 km) and landed, or not, by the rounding of the BLAS kernel; a line search along
-the Newton direction stalled at 100 km; damped steps reach 1e-6 km in four to five Jacobians. Propagation: the fixed-step RK8 of the ephemeris
-dynamics with its STM (`steps_per_node` per segment).
+One solution, whatever the rounding. Two things let the last bits of the BLAS kernel choose the orbit (004's
+60-day EML1 halo: nodes 29-299 km apart between the four kernels of docs/reproducibility.md):
+- The patch points. A periodic orbit's are taken within its first period (along_orbit). Propagated on
+  through five unstable revolutions, the last-bit differences of the family member's state grew (x1.4e5
+  over the first stage's two, 8e-10 to 1.1e-4 km): the second and third stages' patch points differed by
+  340-380 km between the host's kernel and Sandybridge, and the corrected orbit follows its patch points.
+  Taken within a period, they differ by at most 2.2e-7 km.
+- The freedom left: 6N defects in 6N + 6 unknowns leave six degrees of freedom (any dated trajectory near the
+  patch points is continuous). With the minimum-norm Newton update dX = -DF^+ F at every iterate, the answer
+  was the member of that family the Levenberg-Marquardt path happened to reach (halving three steps of the
+  9-day EML1 halo's path moved it by 8.9 km). So every correction is taken in one fixed subspace: the row
+  space of the patch points' own (scaled) Jacobian D_0, X - X_0 = Q w / scale with D_0^T = Q R, the
+  orthogonal complement of the family's tangent there. The system in w is square (6N by 6N; at the patch
+  points its Jacobian D_0 Q = R^T is as well conditioned as D_0) and its root isolated, the same whatever
+  the path; the first Newton step is the minimum-norm one, as before, and the root is, to first order, the
+  continuous orbit nearest the patch points. Pinning six unknowns instead (the first and last nodes'
+  positions) made the system singular for orbits flown over whole periods (004's DRO over two: velocity
+  defects of 0.5-1.1 m/s that no step removed, at every node spacing).
+
+Globalised, so that convergence does not hang on the last bit of the linear algebra: Levenberg-Marquardt.
+A step is taken only when it lowers the scaled defect norm; the Newton step dw = -J^-1 F, J = D Q, is tried
+first, and damped steps dw = -J^T (J J^T + lambda I)^-1 F, shorter and turned toward steepest descent, when
+it does not. A CRTBP orbit mapped into the dated model starts thousands of km from continuity; full Newton
+steps from there wandered (defects of 1e5 km) and landed, or not, by the rounding of the BLAS kernel; a line
+search along the Newton direction stalled at 100 km; damped steps reach 1e-6 km in four to five Jacobians.
+Propagation: the fixed-step RK8 of the ephemeris dynamics with its STM (`steps_per_node` per segment).
 
 Long arcs in stages (`corrected_in_stages`): the dated orbit's phase drifts from the CRTBP orbit's (004's
 EML1 halo over 60 d: by 1.5 d after 48 d, as the Earth-Moon distance and rate vary), so patch points taken
@@ -27,7 +45,6 @@ STAGE_DAYS at a time: each stage appends patch points from the CRTBP orbit re-ph
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import rk4_states
@@ -94,27 +111,47 @@ class ForceModel:
         return geocentric_state(w.coeffs, w.start_s, w.interval_s, w.n_records, 301, t_s)
 
 
-def patch_points_from_crtbp(state_lu, epoch_s: float, span_s: float, node_spacing_s: float, forces: ForceModel):
-    """Node times (N + 1,) and the CRTBP orbit's states mapped to ICRF at them (N + 1, 6)."""
+def patch_points_from_crtbp(state_lu, epoch_s: float, span_s: float, node_spacing_s: float, forces: ForceModel,
+                            period_tu: float | None = None):
+    """Node times (N + 1,) and the CRTBP orbit's states mapped to ICRF at them (N + 1, 6); period_tu: the
+    orbit's period, when it is periodic (see along_orbit)."""
     n_nodes = int(round(span_s / node_spacing_s)) + 1
     times_s = epoch_s + np.arange(n_nodes) * node_spacing_s
-    return times_s, _mapped(state_lu, times_s, forces)
+    return times_s, _mapped(state_lu, times_s, forces, period_tu)
 
 
-def _mapped(state_lu, times_s, forces: ForceModel) -> np.ndarray:
-    """(len(times_s), 6) km, km/s: the CRTBP orbit from state_lu at times_s[0], mapped to ICRF at each time."""
-    rotating = rk4_states(np.asarray(state_lu, dtype=float), (times_s - times_s[0]) / TU_S, 10.0 / TU_S, MU)
+def along_orbit(state_lu, elapsed_tu, period_tu: float | None = None) -> np.ndarray:
+    """(m, 6) LU, LU/TU: the CRTBP orbit through state_lu at the times elapsed_tu (>= 0) after it. A periodic
+    orbit's states are taken within its first period (elapsed_tu modulo period_tu): propagated along an
+    unstable orbit for longer, the last bits of state_lu, which differ between BLAS kernels (the family member
+    is computed: 004's 11.94-d EML1 halo's z differs by ~300 ulp between the host's kernel and Sandybridge),
+    grew without bound, so 60-day patch points, and the orbit corrected from them, followed the kernel
+    (docs/reproducibility.md)."""
+    elapsed_tu = np.asarray(elapsed_tu, dtype=float)
+    phases = elapsed_tu if period_tu is None else np.mod(elapsed_tu, period_tu)
+    order = np.argsort(phases, kind="stable")
+    grid = np.concatenate([[0.0], phases[order]])  # rk4_states starts at its first time
+    states = np.empty((len(phases), 6))
+    states[order] = rk4_states(np.asarray(state_lu, dtype=float), grid, 10.0 / TU_S, MU)[1:]
+    return states
+
+
+def _mapped(state_lu, times_s, forces: ForceModel, period_tu: float | None = None, phase_tu: float = 0.0):
+    """(len(times_s), 6) km, km/s: the CRTBP orbit through state_lu, phase_tu after it at times_s[0], mapped to
+    ICRF at each time."""
+    rotating = along_orbit(state_lu, phase_tu + (times_s - times_s[0]) / TU_S, period_tu)
     return np.array([crtbp_to_inertial(rotating[k], forces.moon_state(t), MU) for k, t in enumerate(times_s)])
 
 
 def corrected_in_stages(state_lu, epoch_s: float, span_s: float, node_spacing_s: float, forces: ForceModel,
-                        steps_per_node: int = 200, max_iterations: int = 20) -> CorrectedOrbit:
-    """The CRTBP orbit state_lu corrected over [epoch_s, epoch_s + span_s], STAGE_DAYS of arc at a time (module
-    docstring); an arc no longer than one stage is plain multiple shooting from patch_points_from_crtbp. The
-    result's defect histories run through every stage in turn (one entry per Jacobian, so the last is the
-    final stage's last) and its iterations count them all. Stops at the first stage that does not converge
-    (returned, converged False)."""
-    times_s, seed = patch_points_from_crtbp(state_lu, epoch_s, span_s, node_spacing_s, forces)
+                        steps_per_node: int = 200, max_iterations: int = 20,
+                        period_tu: float | None = None) -> CorrectedOrbit:
+    """The CRTBP orbit state_lu (of period period_tu, if periodic) corrected over [epoch_s, epoch_s + span_s],
+    STAGE_DAYS of arc at a time (module docstring); an arc no longer than one stage is plain multiple shooting
+    from patch_points_from_crtbp. The result's defect histories run through every stage in turn (one entry per
+    Jacobian, so the last is the final stage's last) and its iterations count them all. Stops at the first
+    stage that does not converge (returned, converged False)."""
+    times_s, seed = patch_points_from_crtbp(state_lu, epoch_s, span_s, node_spacing_s, forces, period_tu)
     per_stage = max(1, int(round(STAGE_DAYS * 86400.0 / node_spacing_s)))
     end = min(per_stage, len(times_s) - 1)
     nodes, position_defects, velocity_defects = seed[: end + 1], (), ()
@@ -126,33 +163,31 @@ def corrected_in_stages(state_lu, epoch_s: float, span_s: float, node_spacing_s:
             return CorrectedOrbit(stage.node_times_s, stage.nodes, position_defects, velocity_defects,
                                   len(position_defects), stage.converged)
         following = min(end + per_stage, len(times_s) - 1)
-        rephased = _rephased(state_lu, stage.nodes[-1], times_s[end], forces)
-        nodes = np.vstack([stage.nodes, _mapped(rephased, times_s[end:following + 1], forces)[1:]])
+        phase_tu = _rephased(state_lu, stage.nodes[-1], times_s[end], forces, period_tu)
+        nodes = np.vstack([stage.nodes, _mapped(state_lu, times_s[end:following + 1], forces, period_tu,
+                                                phase_tu)[1:]])
         end = following
 
 
-def _rephased(state_lu, node_km, t_s: float, forces: ForceModel) -> np.ndarray:
-    """The state of the CRTBP orbit through state_lu nearest (position in LU, velocity in LU/TU) to node_km
-    seen in the rotating frame of t_s: the nearest of PHASE_SEARCH_STEP_S samples over STAGE_DAYS (which covers
-    a period of every orbit corrected in stages), refined between its neighbours by the parabola through the
-    three squared distances, so the phase is a continuous function of the corrected end (picked from the
-    samples alone, a last-bit change of the end could pick the next sample). It did not remove the spread of
-    the 60-day EML1 halo between BLAS kernels (136-163 km: docs/reproducibility.md); that comes from the
-    correction's own freedom."""
+def _rephased(state_lu, node_km, t_s: float, forces: ForceModel, period_tu: float | None = None) -> float:
+    """The phase (TU after state_lu) of the CRTBP orbit's state nearest (position in LU, velocity in LU/TU) to
+    node_km seen in the rotating frame of t_s: the nearest of samples about PHASE_SEARCH_STEP_S apart over a
+    period (without one: over STAGE_DAYS, which covers a period of every orbit corrected in stages), refined
+    between its neighbours by the parabola through the three squared distances, so the phase is a continuous
+    function of the corrected end (picked from the samples alone, a last-bit change of the end could pick the
+    next sample)."""
     target = inertial_to_crtbp(node_km, forces.moon_state(t_s), MU)
-    step_tu = PHASE_SEARCH_STEP_S / TU_S
-    samples_tu = np.arange(0.0, STAGE_DAYS * 86400.0, PHASE_SEARCH_STEP_S) / TU_S
-    orbit = rk4_states(np.asarray(state_lu, dtype=float), samples_tu, 10.0 / TU_S, MU)
-    squared = np.sum((orbit - target) ** 2, axis=1)
+    span_tu = period_tu if period_tu is not None else STAGE_DAYS * 86400.0 / TU_S
+    n_samples = int(np.ceil(span_tu * TU_S / PHASE_SEARCH_STEP_S))
+    step_tu = span_tu / n_samples
+    squared = np.sum((along_orbit(state_lu, np.arange(n_samples) * step_tu, period_tu) - target) ** 2, axis=1)
     k = int(np.argmin(squared))
-    if not 0 < k < len(squared) - 1:
-        return orbit[k]
-    curvature = squared[k - 1] - 2.0 * squared[k] + squared[k + 1]
-    offset = 0.5 * (squared[k - 1] - squared[k + 1]) / curvature if curvature > 0.0 else 0.0
-    offset = min(max(offset, -1.0), 1.0)  # in samples, from sample k
-    base = k - 1 if offset < 0.0 else k
-    forward_tu = (k + offset - base) * step_tu
-    return rk4_states(orbit[base], np.array([0.0, forward_tu]), 10.0 / TU_S, MU)[-1]
+    if period_tu is None and not 0 < k < n_samples - 1:
+        return k * step_tu
+    before, after = squared[k - 1], squared[(k + 1) % n_samples]  # a period's samples wrap around
+    curvature = before - 2.0 * squared[k] + after
+    offset = 0.5 * (before - after) / curvature if curvature > 0.0 else 0.0
+    return (k + min(max(offset, -1.0), 1.0)) * step_tu  # offset in samples, from sample k
 
 
 def segment_defects(node_times_s, nodes, forces: ForceModel, steps_per_node: int) -> np.ndarray:
@@ -181,18 +216,22 @@ def _scale(n_nodes: int) -> np.ndarray:
     return np.tile([1.0, 1.0, 1.0, VELOCITY_WEIGHT_S, VELOCITY_WEIGHT_S, VELOCITY_WEIGHT_S], n_nodes)
 
 
-def minimum_norm_step(F, DF, damping: float = 0.0) -> np.ndarray:
-    """dX (6N + 6,) with the least scaled norm among the solutions of DF dX = -F (damping 0: Newton, from the
-    QR factorisation of the scaled DF^T, DF^T = Q R, dX = -Q R^-T F), or Levenberg-Marquardt's damped step
-    dX = -D^T (D D^T + damping I)^-1 F, D the scaled DF: shorter, and turned toward steepest descent."""
-    scale = _scale(DF.shape[1] // 6)
-    D = DF / scale
+def seed_row_space(DF) -> np.ndarray:
+    """(6N + 6, 6N): an orthonormal basis Q (in scaled unknowns) of the row space of the seed's scaled Jacobian
+    D, from its QR factorisation D^T = Q R. Every correction is X - X_seed = Q w / scale (module docstring)."""
+    q, _ = np.linalg.qr((DF / _scale(DF.shape[1] // 6)).T)
+    return q
+
+
+def shooting_step(F, J, damping: float = 0.0) -> np.ndarray:
+    """dw (6N,) for the square Jacobian J = D Q of the defects in the coordinates w: Newton's dw = -J^-1 F
+    (damping 0), or Levenberg-Marquardt's damped step dw = -J^T (J J^T + damping I)^-1 F: shorter, and turned
+    toward steepest descent."""
     if damping == 0.0:
-        q, r = np.linalg.qr(D.T)
-        return -(q @ solve_triangular(r, F, trans="T")) / scale
-    normal = D @ D.T
+        return -np.linalg.solve(J, F)
+    normal = J @ J.T
     normal[np.diag_indices_from(normal)] += damping
-    return -(D.T @ np.linalg.solve(normal, F)) / scale
+    return -(J.T @ np.linalg.solve(normal, F))
 
 
 def weighted_norm(defects) -> float:
@@ -204,15 +243,21 @@ def weighted_norm(defects) -> float:
 
 def multiple_shooting(node_times_s, nodes, forces: ForceModel, steps_per_node: int = 200,
                       max_iterations: int = 40) -> CorrectedOrbit:
-    """Levenberg-Marquardt on every node until each segment's defect is below the tolerances (or
-    max_iterations Jacobians): a Newton step where it lowers the scaled defect norm, else damped steps."""
+    """Levenberg-Marquardt from the patch points `nodes` until each segment's defect is below the tolerances
+    (or max_iterations Jacobians): a Newton step where it lowers the scaled defect norm, else damped steps;
+    every correction in the row space of the patch points' Jacobian (seed_row_space), so the system is square
+    and its root the same whatever the path to it."""
     node_times_s = np.asarray(node_times_s, dtype=float)
     nodes = np.array(nodes, dtype=float)
     pos_defects, vel_defects = [], []
     converged = False
     damping = 0.0
+    to_nodes = None  # (6N + 6, 6N): a change of the coordinates w to the change of the nodes' states
     for iteration in range(1, max_iterations + 1):
         F, DF = defects_and_jacobian(node_times_s, nodes, forces, steps_per_node)
+        if to_nodes is None:
+            scale = _scale(len(nodes))
+            to_nodes = seed_row_space(DF) / scale[:, None]
         defects = F.reshape(-1, 6)
         pos_defects.append(float(np.max(np.linalg.norm(defects[:, :3], axis=1))))
         vel_defects.append(float(np.max(np.linalg.norm(defects[:, 3:], axis=1))))
@@ -221,24 +266,23 @@ def multiple_shooting(node_times_s, nodes, forces: ForceModel, steps_per_node: i
             break
         if not np.all(np.isfinite(F)):
             break
-        nodes, damping, lowered = _damped_step(node_times_s, nodes, F, DF, damping, forces, steps_per_node)
+        nodes, damping, lowered = _damped_step(node_times_s, nodes, F, DF @ to_nodes, to_nodes, damping, forces,
+                                               steps_per_node)
         if not lowered:  # at the rounding floor, or stuck: no damping lowers the defects any more
             converged = pos_defects[-1] < FLOOR_POSITION_TOLERANCE_KM and vel_defects[-1] < FLOOR_VELOCITY_TOLERANCE_KM_S
             break
     return CorrectedOrbit(node_times_s, nodes, tuple(pos_defects), tuple(vel_defects), iteration, converged)
 
 
-def _damped_step(node_times_s, nodes, F, DF, damping, forces: ForceModel, steps_per_node: int):
+def _damped_step(node_times_s, nodes, F, J, to_nodes, damping, forces: ForceModel, steps_per_node: int):
     """(new nodes, damping for the next step, lowered). Tries the step at the current damping; while it does
     not lower the merit by SUFFICIENT_DECREASE, raises the damping tenfold (from a floor of DAMPING_FLOOR of
-    D D^T's mean diagonal) up to MAX_DAMPING_TRIES times; on success the next step starts with a tenth of it
+    J J^T's mean diagonal) up to MAX_DAMPING_TRIES times; on success the next step starts with a tenth of it
     (0 below the floor). When no damping lowers the merit, the nodes are returned unchanged."""
     merit = weighted_norm(F)
-    scaled = DF / _scale(DF.shape[1] // 6)
-    floor = DAMPING_FLOOR * float(np.mean(np.sum(scaled * scaled, axis=1)))
+    floor = DAMPING_FLOOR * float(np.mean(np.sum(J * J, axis=1)))
     for _ in range(MAX_DAMPING_TRIES):
-        step = minimum_norm_step(F, DF, damping).reshape(-1, 6)
-        trial = nodes + step
+        trial = nodes + (to_nodes @ shooting_step(F, J, damping)).reshape(-1, 6)
         trial_merit = weighted_norm(segment_defects(node_times_s, trial, forces, steps_per_node))
         if trial_merit <= (1.0 - SUFFICIENT_DECREASE) * merit:
             lowered = damping / 10.0

@@ -35,7 +35,8 @@ from liaison_cli.orbits.departure_missions import (
 )
 from liaison_cli.orbits.corrected_store import corrected_orbit
 from liaison_cli.orbits.ephemeris_correction import POSITION_TOLERANCE_KM, VELOCITY_TOLERANCE_KM_S, ForceModel
-from liaison_cli.scenario.reference_states import phased_state_lu
+from liaison_cli.scenario.reference_states import period_tu, phased_state_lu
+from liaison_cli.scenario.participants import KEPLERIAN_ORBIT
 
 # Patch-point spacings tried, nearest the scenario's own first, when a correction does not converge.
 RETRY_NODE_SPACINGS_DAYS = (0.75, 1.0, 1.5, 2.0, 3.0)
@@ -118,7 +119,8 @@ def corrected_nodes_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> t
     tried = []
     for spacing_days in node_spacings_to_try(scenario.ephemeris.node_spacing_days):
         spacing_s = min(spacing_days * SECONDS_PER_DAY, span_s)
-        corrected, _ = corrected_orbit(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s, forces)
+        corrected, _ = corrected_orbit(phased_state_lu(spacecraft), model.epoch_tdb_s, span_s, spacing_s, forces,
+                                       period_tu=reference_period_tu(spacecraft))
         if corrected.converged:
             return corrected.node_times_s - model.epoch_tdb_s, corrected.nodes / SCALE
         tried.append(f"{spacing_days:g} d: {corrected.position_defects_km[-1]:.3g} km, "
@@ -128,6 +130,13 @@ def corrected_nodes_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> t
         f"{scenario.duration_days:g} d did not converge to {POSITION_TOLERANCE_KM * 1e3:g} m and "
         f"{VELOCITY_TOLERANCE_KM_S * 1e3:g} m/s; node spacings tried (largest defects left): {'; '.join(tried)}. "
         "A shorter scenario, or another epoch, may have a nearby orbit in the dated model")
+
+
+def reference_period_tu(spacecraft) -> float | None:
+    """The period of the spacecraft's catalog or family orbit (TU), along which its patch points are taken
+    (orbits.ephemeris_correction.along_orbit); None for a Keplerian orbit about the Moon, not periodic in the
+    CRTBP."""
+    return None if spacecraft.orbit == KEPLERIAN_ORBIT else period_tu(spacecraft)
 
 
 def node_spacings_to_try(requested_days: float) -> list[float]:

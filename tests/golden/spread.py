@@ -10,8 +10,14 @@ the column sum; the largest |value| for the sampled values). The tolerance is SA
 least FLOOR: an ill-conditioned statistic (a NEES dominated by a few epochs, a per-epoch error late in a
 divergent arc) gets a loose bound, a well-conditioned one (a summary RMS) a tight one. Writes
 tests/golden/tolerances.json with the spreads, the tolerances, the kernels and the rule.
+
+`python tests/golden/spread.py --scenario NAME.yaml [--scenario ...] HOST.json.gz OTHER.json.gz ...`: after
+re-recording only those scenarios (record.py NAME.yaml under each kernel), replace only their spreads and
+tolerances; the other scenarios keep theirs (their records in these files are copies of the golden record, so
+they would measure no spread). The kernels must be the ones of tolerances.json, in its order.
 """
 
+import argparse
 import gzip
 import json
 import sys
@@ -68,7 +74,7 @@ def _floor(name: str) -> float:
     return SHARE_FLOOR if name.split(".", 1)[1].startswith("frac_") else FLOOR
 
 
-def main(paths: list[str]) -> None:
+def main(paths: list[str], only: list[str]) -> None:
     records = []
     for path in paths:
         with gzip.open(path, "rt", encoding="utf-8") as handle:
@@ -77,6 +83,13 @@ def main(paths: list[str]) -> None:
     tolerances = {scenario: {name: max(_floor(name), SAFETY * spread) for name, spread in columns.items()}
                   for scenario, columns in measured.items()}
     kernels = [Path(p).name.split(".")[0] for p in paths]
+    if only:
+        kept = json.loads(TOLERANCES.read_text(encoding="utf-8"))
+        if [k.split("_")[-1] for k in kept["kernels"]] != [k.split("_")[-1] for k in kernels]:
+            raise SystemExit(f"kernels {kernels} are not those of {TOLERANCES.name}: {kept['kernels']}")
+        for scenario in only:
+            kept["spread"][scenario], kept["rtol"][scenario] = measured[scenario], tolerances[scenario]
+        measured, tolerances, kernels = kept["spread"], kept["rtol"], kept["kernels"]
     TOLERANCES.write_text(json.dumps({"kernels": kernels, "safety": SAFETY, "floor": FLOOR,
                                       "share_floor": SHARE_FLOOR, "spread": measured,
                                       "rtol": tolerances}, indent=1, sort_keys=True) + "\n")
@@ -84,4 +97,8 @@ def main(paths: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    parser = argparse.ArgumentParser(description="Write tests/golden/tolerances.json from per-kernel records.")
+    parser.add_argument("records", nargs="+", help="record.py's output under each kernel, the host's first")
+    parser.add_argument("--scenario", action="append", default=[], help="replace only this scenario's entries")
+    arguments = parser.parse_args()
+    main(arguments.records, arguments.scenario)

@@ -59,6 +59,7 @@ def test_every_input_is_in_the_key(setting):
         (*args[:4], dataclasses.replace(forces, window=shifted_window), *args[5:]),
         (*args[:5], 100, 20),
         (*args[:6], 10),
+        (*args, CATALOG["eml1_halo"].period_tu),  # patch points taken within one period
     ]
     keys = {corrected_store.correction_key(*variant) for variant in variants}
     assert key not in keys and len(keys) == len(variants)
