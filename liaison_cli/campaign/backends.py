@@ -193,14 +193,34 @@ def _worker_environment(jobs: int) -> dict:
     return {var: str(os.environ.get(var, threads)) for var in THREAD_POOL_VARIABLES}
 
 
+def _executor(jobs: int):
+    """loky's reusable executor of `jobs` workers: the same one for every call with the same `jobs`."""
+    from joblib.externals.loky import get_reusable_executor
+
+    shield_pool_workers()
+    return get_reusable_executor(max_workers=jobs, env=_worker_environment(jobs))
+
+
+def start_workers(where: Backend, jobs: int, module: str) -> None:
+    """Start the local pool now, each worker importing `module` (the one of the function its batches will call),
+    and return at once: the workers' start (a process spawn and about a second of imports each) then overlaps
+    what the caller does before its first batch (a sweep's truth propagation and warm-up) instead of following
+    it. The later fan-out finds the same pool. joblib with jobs > 1 only: a dask cluster starts with its fan-out,
+    and jobs=1 runs in this process."""
+    if where.name != "joblib" or jobs == 1:
+        return
+    import importlib
+
+    executor = _executor(jobs)
+    for _ in range(jobs):  # one each (loky gives a task to an idle worker; the first is busy importing)
+        executor.submit(importlib.import_module, module)
+
+
 def _local_processes(fn, shared, batches, jobs, window, ordered):
     """joblib's process pool (loky's reusable executor: started once per process, kept between calls)."""
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    from joblib.externals.loky import get_reusable_executor
-
-    shield_pool_workers()
-    executor = get_reusable_executor(max_workers=jobs, env=_worker_environment(jobs))
+    executor = _executor(jobs)
     # Not more undone than loky's call queue holds (2 per worker + 1), as joblib's pre_dispatch: a work item
     # still waiting outside that queue when the pool is killed trips loky's manager thread (a KeyError).
     futures = _windowed(lambda key, tasks: executor.submit(fn, shared[key], tasks),

@@ -12,45 +12,20 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
-from liaison_cli.campaign.backends import Backend, check_backend, map_batches
+from liaison_cli.campaign.backends import Backend, check_backend, map_batches, start_workers
 from liaison_cli.campaign.sweep_manifest import Manifest, read_manifest, sweep_lock
 from liaison_cli.campaign.sweep_plan import (SIGMA_KEY, SweepError, SweepInterrupted, SweepPlan, SweepTask,
                                              plan_sweep, scenario_hash)
 from liaison_cli.campaign.sweep_tables import build_curve_table, build_runs_table, write_sweep_tables
 from liaison_cli.campaign.runner import warm_up_here
-from liaison_cli.campaign.worker import RunTask, execute_run
+from liaison_cli.campaign.sweep_worker import execute_batch  # the workers import that light module, not this one
 from liaison_cli import interrupts
-from liaison_cli.interrupts import ignore_in_worker_process
 from liaison_cli.scenario.setup import prepare_problem
 
 __all__ = ["SIGMA_KEY", "SweepError", "SweepInterrupted", "SweepResult", "plan_sweep", "read_manifest", "run_sweep",
            "scenario_hash", "sweep_lock"]
-
-
-def execute_batch(problem, tasks: list[SweepTask]) -> list[dict]:
-    """Worker side: one JSON-ready record per task. Never raises (execute_run reports failures)."""
-    ignore_in_worker_process()
-    records = []
-    for task in tasks:
-        outcome = execute_run(problem, RunTask(task.run))
-        with np.errstate(all="ignore"):
-            mean_nees = float(np.nanmean(outcome.nees)) if outcome.nees is not None else float("nan")
-        records.append(
-            {
-                "task": task.task_id,
-                "point": task.point,
-                "run": task.run,
-                "status": outcome.status,
-                "reason": outcome.reason,
-                "fail_time_s": outcome.fail_time_s,
-                "mean_nees": mean_nees,
-                "rows": outcome.summary,
-            }
-        )
-    return records
 
 
 def _batches(pending: list[SweepTask], batch_runs: int) -> list[tuple[int, list[SweepTask]]]:
@@ -123,6 +98,8 @@ def _run_pending(plan: SweepPlan, pending: list[SweepTask], manifest: Manifest, 
     """Fan the pending tasks out; each finished batch is appended to the manifest before the next is taken."""
     from tqdm import tqdm
 
+    if pending:  # the workers start while the truth is propagated below, not after (issue 37)
+        start_workers(where, jobs, execute_batch.__module__)
     truth_cache: dict = {}
     problems = {i: prepare_problem(plan.points[i].scenario, truth_cache) for i in sorted({t.point for t in pending})}
     del truth_cache

@@ -1,0 +1,160 @@
+"""Where the time of the Fig. 15 sweep goes, and its ratio to the ideal (issue 37, item 2).
+
+    python benchmarks/sweep_overhead.py [--runs 10] [--jobs 2] [--repeat 1]
+
+Run it with PYTHONPATH=<another checkout> to measure that code instead (before/after, side by side).
+Stages, in this process (the sweep's own code, wrapped with timers):
+  start    a fresh interpreter importing what `liaison sweep` imports (subprocess, wall)
+  truth    the problems of every grid point (prepare_problem with the shared truth cache)
+  warm-up  the parent's one run that loads the compiled core before the workers start
+  fan-out  the pool's work, wall, from the first batch submitted to the last result in the manifest
+  tables   reading the manifest back and writing the Parquet tables
+  compute  the sum of every run's compute, measured serially in this process on a sample of each point
+The ideal is compute / jobs + start; `cli` is the whole command, a subprocess, wall. On a shared machine the
+cores actually available are measured too (effective_cores) and the ideal given on them as well.
+Needs a warm compiled cache (run any sweep once first). Numbers depend on the load: `uptime` is printed.
+"""
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")
+
+
+def _load() -> float:
+    return os.getloadavg()[0]
+
+
+def time_start() -> float:
+    """A fresh process importing the sweep command's modules (what every `liaison sweep` pays once)."""
+    code = "import liaison_cli.cli, liaison_cli.cli.sweep, liaison_cli.campaign.sweep, liaison_cli.scenario.setup"
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True)
+    return time.perf_counter() - t0
+
+
+def time_cli(runs: int, jobs: int) -> float:
+    with tempfile.TemporaryDirectory() as folder:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "from liaison_cli.cli import main; main()", "sweep", "--sigma",
+                        "50:700", "--runs", str(runs), "--jobs", str(jobs), "--quiet", "--output",
+                        f"{folder}/s"], check=True, stdout=subprocess.DEVNULL)
+        return time.perf_counter() - t0
+
+
+def _plan(runs: int):
+    from liaison_cli.campaign.grid import parse_range
+    from liaison_cli.campaign.sweep_plan import SIGMA_KEY, plan_sweep
+    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.shipped import scenario_folder
+
+    bases = [(*load_scenario(path), str(path)) for path in
+             (scenario_folder(None) / f"{formation}.yaml" for formation in FORMATIONS)]
+    return plan_sweep(bases, [(SIGMA_KEY, parse_range("50:700", "--sigma"))], runs, "fig15")
+
+
+def _timed(module, name: str, stages: dict, key: str, generator: bool = False):
+    """Wrap module.name so its time (a generator's: until exhausted) adds to stages[key]."""
+    original = getattr(module, name)
+
+    def plain(*args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            stages[key] = stages.get(key, 0.0) + time.perf_counter() - t0
+
+    def lazy(*args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            yield from original(*args, **kwargs)
+        finally:
+            stages[key] = stages.get(key, 0.0) + time.perf_counter() - t0
+
+    setattr(module, name, lazy if generator else plain)
+
+
+def time_stages(runs: int, jobs: int) -> dict:
+    """run_sweep in this process, its stages timed by wrapping the functions it calls."""
+    import liaison_cli.campaign.sweep as sweep
+
+    stages: dict = {}
+    _timed(sweep, "prepare_problem", stages, "truth")
+    _timed(sweep, "warm_up_here", stages, "warm-up")
+    _timed(sweep, "map_batches", stages, "fan-out", generator=True)
+    _timed(sweep, "read_manifest", stages, "tables")
+    _timed(sweep, "build_runs_table", stages, "tables")
+    _timed(sweep, "build_curve_table", stages, "tables")
+    _timed(sweep, "write_sweep_tables", stages, "tables")
+    plan = _plan(runs)
+    with tempfile.TemporaryDirectory() as folder:
+        t0 = time.perf_counter()
+        sweep.run_sweep(plan, Path(folder) / "s", jobs=jobs, progress=False)
+        stages["run_sweep"] = time.perf_counter() - t0
+    return stages
+
+
+def time_compute(runs: int, sample: int = 3) -> float:
+    """Sum of every run's compute: `sample` runs of each grid point, serially here, scaled to `runs`."""
+    from liaison_cli.campaign.sweep import execute_batch
+    from liaison_cli.scenario.setup import prepare_problem
+
+    plan = _plan(runs)
+    cache: dict = {}
+    problems = [prepare_problem(point.scenario, cache) for point in plan.points]
+    execute_batch(problems[0], plan.tasks[:1])  # loads the compiled core: not a run's cost
+    total = 0.0
+    for index, problem in enumerate(problems):
+        tasks = [task for task in plan.tasks if task.point == index][:sample]
+        t0 = time.perf_counter()
+        execute_batch(problem, tasks)
+        total += (time.perf_counter() - t0) / len(tasks) * runs
+    return total
+
+
+def effective_cores(jobs: int) -> float:
+    """The cores this machine gives us now: `jobs` copies of a CPU loop at once against one alone (2 on a quiet
+    2-core machine, about 1 when others keep one core busy). The ideal is then also given on these cores."""
+    loop = [sys.executable, "-c", "sum(i * i for i in range(12_000_000))"]
+
+    def wall(copies: int) -> float:
+        t0 = time.perf_counter()
+        for process in [subprocess.Popen(loop) for _ in range(copies)]:
+            process.wait()
+        return time.perf_counter() - t0
+
+    alone = wall(1)
+    return min(jobs, jobs * alone / wall(jobs))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=10)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--repeat", type=int, default=1)
+    args = parser.parse_args()
+    import liaison_cli
+
+    print(f"code: {Path(liaison_cli.__file__).parent}; runs {args.runs} x 42 points, jobs {args.jobs}")
+    for _ in range(args.repeat):
+        load0 = _load()
+        start, cli = time_start(), time_cli(args.runs, args.jobs)
+        stages = time_stages(args.runs, args.jobs)
+        compute = time_compute(args.runs)
+        cores = effective_cores(args.jobs)
+        ideal, ideal_here = compute / args.jobs + start, compute / cores + start
+        in_sweep = stages.pop("run_sweep")
+        other = in_sweep - sum(stages.values())
+        parts = "  ".join(f"{k} {v:.2f}" for k, v in stages.items())
+        print(f"load {load0:.2f}->{_load():.2f} | start {start:.2f}  {parts}  other {other:.2f}  (run_sweep "
+              f"{in_sweep:.2f}) | compute {compute:.2f} | ideal {ideal:.2f}  cli {cli:.2f}  ratio {cli / ideal:.3f} | "
+              f"effective cores {cores:.2f}: ideal {ideal_here:.2f}  ratio {cli / ideal_here:.3f}")
+
+
+if __name__ == "__main__":
+    main()
