@@ -1,0 +1,98 @@
+"""`liaison warm-up`: its --list names every combination the shipped scenarios and templates need, and it
+refuses a bad option in one line. The warm-up itself compiles for minutes on a cold cache: only the slow
+test runs it (and then checks that no shipped scenario or template compiles anything more)."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import REPO, SCENARIOS, run_cli_in_process, stderr_lines
+
+
+def _scenarios_and_templates() -> dict:
+    """{label as --list prints it: scenario}, read here from the files and templates themselves."""
+    from liaison_cli.scenario.loading import load_scenario, read_yaml_value, validate_scenario
+    from liaison_cli.scenario.templates import TEMPLATES, template_text
+
+    out = {}
+    for path in sorted(SCENARIOS.rglob("*.yaml")):
+        if "links" not in path.relative_to(SCENARIOS).parts:  # link files are not scenarios
+            out[path.relative_to(SCENARIOS).as_posix()] = load_scenario(path)[0]
+    for kind in TEMPLATES:
+        out[f"template {kind}"] = validate_scenario(read_yaml_value(template_text(kind)), kind)
+    return out
+
+
+def _needs(scenario) -> str:
+    """The combination a scenario's compiled estimator is specialised on, spelled as --list spells it: the
+    estimator (and an initial batch before an EKF), the dynamics, and the observables whose channel kinds the
+    registry compiles for its channels (kinds_mask: range and range-rate always)."""
+    from liaison_cli.measurements.registry import OBSERVABLES, get_observable, kinds_mask
+
+    codes = [kind.code for link in scenario.links for name in link.observables
+             for kind in get_observable(name).channels]
+    mask = kinds_mask(codes)
+    observables = [name for name, obs in OBSERVABLES.items() if any(mask >> k.code & 1 for k in obs.channels)]
+    start = " + initial batch" if scenario.filter.initial_batch_hours is not None else ""
+    return f"{scenario.estimator}{start} · {scenario.dynamics} · {', '.join(observables)}"
+
+
+def _listed(stdout: str) -> dict:
+    """{combination: [labels]} from --list (continuation lines are indented)."""
+    entries, current = {}, None
+    for line in stdout.splitlines()[1:]:
+        if not line.startswith(" "):
+            current, _, line = line.partition(": ")
+            entries[current] = []
+        entries[current] += [item.strip() for item in line.split(",") if item.strip()]
+    return entries
+
+
+def test_list_names_every_combination_the_shipped_scenarios_and_templates_need():
+    proc = run_cli_in_process("warm-up", "--list")
+    assert proc.returncode == 0, proc.stderr
+    listed = _listed(proc.stdout)
+    sources = _scenarios_and_templates()
+    expected: dict = {}
+    for label, scenario in sources.items():
+        expected.setdefault(_needs(scenario), set()).add(label)
+    assert {name: set(labels) for name, labels in listed.items()} == expected
+    assert sum(len(labels) for labels in listed.values()) == len(sources)  # each named once
+    assert proc.stdout.startswith(f"{len(expected)} combinations")
+    assert "template tdoa-pair" in sources and "004/eml2_halo.yaml" in sources and "smoke.yaml" in sources
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "x", "1.5", ""])
+def test_bad_jobs_is_one_line_and_exit_2(value):
+    proc = run_cli_in_process("warm-up", "--jobs", value)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    lines = stderr_lines(proc.stderr)
+    assert len(lines) == 1 and lines[0].startswith(f"error: --jobs {value!r}:"), proc.stderr
+    assert "allowed: a whole number of processes, 1 or more" in lines[0]
+    assert proc.stdout == ""  # refused before planning or compiling anything
+
+
+@pytest.mark.slow
+def test_after_warm_up_no_shipped_scenario_or_template_compiles(tmp_path):
+    """Warm-up into an empty cache, then every source at its smallest in a new process: numba compiles
+    nothing more. About 2-3 min on 2 cores (the warm-up), plus the 004 scenarios' orbit corrections."""
+    env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("NUMBA_CACHE_DIR", None)
+    warm = subprocess.run([sys.executable, "-m", "liaison_cli", "warm-up", "--jobs", "2"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=1800)
+    assert warm.returncode == 0, warm.stderr
+    assert "warm-up: compiled" in warm.stdout and "compiled twice" not in warm.stdout, warm.stdout
+    check = ("from liaison_cli.campaign.warmup import Specialisation, plan, warm_up_one\n"
+             "for spec in plan():\n"
+             "    for source in spec.sources:\n"
+             "        one = warm_up_one(Specialisation(*[getattr(spec, f) for f in "
+             "('estimator', 'dynamics', 'observables', 'initial_batch')], (source,)))\n"
+             "        print(source.label, len(one.compiled), one.error or 'ok', sorted(set(one.compiled)))\n")
+    proc = subprocess.run([sys.executable, "-c", check], cwd=REPO, env=env, capture_output=True, text=True,
+                          timeout=1800)
+    assert proc.returncode == 0, proc.stderr
+    rows = [line.split(" ", 3) for line in proc.stdout.splitlines()]
+    assert len(rows) == len(_scenarios_and_templates())
+    assert all(compiled == "0" and status == "ok" for _, compiled, status, _ in rows), proc.stdout
