@@ -79,11 +79,12 @@ def result_scenario(result_dir) -> Scenario:
 
 def recompute_run(problem: Problem, run: int) -> RecomputedRun:
     """Run `run` of the problem again with the EKF's forward record kept."""
-    from liaison_cli.estimation.estimators import ekf_with_record
+    from liaison_cli.estimation.estimators import ESTIMATORS, ekf_with_record
 
-    if not problem.scenario.estimator_descriptor().smoother:  # the smoother's forward record holds P per epoch
-        raise ExchangeFileError(f"{problem.scenario.name}: export needs the EKF (estimator: ekf), whose covariance "
-                                f"is kept per epoch; this result used {problem.scenario.estimator}")
+    if not problem.scenario.estimator_descriptor().covariance_record:  # an OEM carries P at every epoch
+        keeps = ", ".join(e.name for e in ESTIMATORS.values() if e.covariance_record)
+        raise ExchangeFileError(f"{problem.scenario.name}: export needs an estimator that keeps its covariance at "
+                                f"every epoch (estimator: {keeps}); this result used {problem.scenario.estimator}")
     if problem.scenario.filter.initial_batch_hours is not None:
         raise ExchangeFileError(f"{problem.scenario.name}: export of an EKF started from an initial batch "
                                 "(filter.initial_batch_hours) is not supported: its first hours are a batch solution")
@@ -125,7 +126,7 @@ def check_against_stored(result_dir, recomputed: RecomputedRun) -> tuple[float, 
 def _time_frame(problem: Problem):
     """(tags, frame, centre, time system, comments) of the problem's epochs."""
     scenario = problem.scenario
-    if scenario.dynamics == "ephemeris":
+    if scenario.dynamics_descriptor().dated:  # dated epochs: TDB dates in ICRF; else the rotating frame and MET
         epoch_s = problem.dynamics.epoch_tdb_s
         return (tdb_tags(epoch_s + problem.times_s), "ICRF", "EARTH", "TDB",
                 (f"liaison scenario {scenario.name}: geocentric ICRF, TDB (the ephemeris time of the run)",))

@@ -42,3 +42,4 @@ class Estimator:
     process_noise: bool = False
     dynamics_parameters: bool = False
     residuals: str = "innovations"  # what its residuals table holds: pre-fit innovations, or post-fit residuals
+    covariance_record: bool = False  # it can keep its estimate and covariance at every epoch (CCSDS export)

@@ -300,7 +300,7 @@ def _prediction_rms(errors_ahead, kind, start):
 EKF = Estimator(
     name="ekf", summary="the extended Kalman filter", run=_ekf, carries_clocks=True, carries_biases=True,
     carries_manoeuvres=True, dynamics=("crtbp", "ephemeris"), smoother=True, consider=True, residual_gate=True,
-    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True)
+    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True, covariance_record=True)
 # The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
 # apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
 BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",

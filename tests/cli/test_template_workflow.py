@@ -103,7 +103,7 @@ def test_template_workflow_round_trips_through_its_own_export(tmp_path, kind):
     assert any((tmp_path / "result" / "plots").glob("*.png"))
     if data.get("estimator") == "batch":
         proc = run_cli_in_process("export", tmp_path / "result")
-        assert_one_line_error(proc, "", ["export needs the EKF"])
+        assert_one_line_error(proc, "", ["export needs an estimator that keeps its covariance at every epoch (estimator: ekf)"])
         data = _ekf_variant(data)
         exported = _run_and_export(_write(tmp_path / "ekf.yaml", data), tmp_path / "ekf")
     else:
