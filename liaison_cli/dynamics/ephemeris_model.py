@@ -161,13 +161,15 @@ class EphemerisDynamicsModel:
     def rotating_frame(self) -> bool:  # geocentric ICRF (measurements.tdoa)
         return self.descriptor.rotating_frame
 
-    def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None):
-        """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all)."""
+    def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None,
+                 truth_acceleration_km_s2=(0.0, 0.0, 0.0)):
+        """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all);
+        truth_acceleration_km_s2 (3,): the truth's unmodelled constant force on the ICRF axes."""
         self.code = MODEL_EPHEMERIS
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
         self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)
-        self.truth_acceleration_km_s2 = np.zeros(3)  # the truth's unmodelled force (scenario.truth)
+        self.truth_acceleration_km_s2 = np.asarray(truth_acceleration_km_s2, dtype=float)
         keep = np.isin(self.bodies, self.bodies if filter_bodies is None else filter_bodies)
         self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s)
 

@@ -140,7 +140,10 @@ def _draw_nees(result: RunResult, highlight: int):
 def _draw_innovations(result: RunResult, highlight: int):
     import matplotlib.pyplot as plt
 
-    table, left_out = _channels_the_estimator_reads(result)
+    from liaison_cli.estimation.estimators import ESTIMATORS
+
+    estimator = ESTIMATORS.get(result.estimator)  # None: a result whose metadata does not say
+    table, left_out = _channels_the_estimator_reads(result.residuals, estimator)
     if table.empty:
         return None
     channels = list(table.groupby(["link", "observable"], sort=False).groups)
@@ -177,23 +180,17 @@ def _draw_innovations(result: RunResult, highlight: int):
     runs = table.run.nunique()
     shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
     note = f"\n({', '.join(left_out)}: read by clock_sync, not by the {result.estimator}; not drawn)" if left_out else ""
-    from liaison_cli.estimation.estimators import ESTIMATORS
-
-    estimator = ESTIMATORS.get(result.estimator)
     kind = estimator.residuals if estimator is not None else "innovations"
     fig.suptitle(f"{result.name}: normalised {kind}, {_runs_phrase(runs, highlight)}{shown}; ±3 lines{note}")
     return fig
 
 
-def _channels_the_estimator_reads(result: RunResult):
+def _channels_the_estimator_reads(table, estimator):
     """(the residual rows of the channels the estimator updates with, the observables left out): an estimator
     without clock states (the batch) does not use clock-offset channels; clock_sync does, so their residuals
     are raw clock offsets, hundreds of their sigma, not innovations."""
-    from liaison_cli.estimation.estimators import ESTIMATORS
     from liaison_cli.measurements.registry import OBSERVABLES
 
-    table = result.residuals
-    estimator = ESTIMATORS.get(result.estimator)
     if table.empty or estimator is None or estimator.carries_clocks:
         return table, []
     clock_offsets = {o.channels[o.clock_offset_channel].label for o in OBSERVABLES.values()

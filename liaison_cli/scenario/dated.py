@@ -70,7 +70,8 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
     gms = np.array([GM_KM3_S2[b] for b in THIRD_BODIES])
     filter_bodies = [BODY_CODES[name] for name in spec.filter_bodies]
     return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[BODY_EARTH], spec.cr * spec.area_to_mass_m2_kg, epoch_s,
-                                  filter_bodies)
+                                  filter_bodies,
+                                  np.asarray(scenario.model_error.truth_acceleration_m_s2, dtype=float) * 1e-3)
 
 
 def departure_state_km(spec, epoch_utc) -> np.ndarray:

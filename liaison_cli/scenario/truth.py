@@ -146,9 +146,7 @@ def _dated_trajectories(scenario: Scenario, model, times_s):
 def _dated_model(scenario: Scenario):
     from liaison_cli.scenario.dated import dated_model
 
-    model = dated_model(scenario)
-    model.truth_acceleration_km_s2 = np.asarray(scenario.model_error.truth_acceleration_m_s2, dtype=float) * 1e-3
-    return model
+    return dated_model(scenario)
 
 
 # Each dynamics model's builder from a scenario (its descriptor: dynamics.registry).
