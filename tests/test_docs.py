@@ -224,10 +224,11 @@ def test_run_tables_have_the_documented_columns(tmp_path):
 def test_smoother_and_gate_columns_are_documented(tmp_path):
     scenario = tmp_path / "smoothed.yaml"
     text = (SCENARIOS / "smoke.yaml").read_text()
-    scenario.write_text(text + "filter: {smoother: rts, residual_gate_sigma: 5}\n")
+    scenario.write_text(text + "filter: {smoother: rts, residual_gate_sigma: 5, empirical_acceleration: "
+                        "{sigma_m_s2: 1.0e-8, time_constant_s: 86400}}\n")
     proc = run_cli_in_process("run", scenario, "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
     assert proc.returncode == 0, proc.stderr
-    active = ALWAYS | {"`filter.smoother: rts`", "`filter.residual_gate_sigma` > 0"}
+    active = ALWAYS | {"`filter.smoother: rts`", "`filter.residual_gate_sigma` > 0", "`filter.empirical_acceleration`"}
     for stem in ("summary", "timeseries"):
         assert _schema(tmp_path / "run" / f"{stem}.parquet") == expected_columns(stem, active), stem
 

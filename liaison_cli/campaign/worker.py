@@ -15,8 +15,8 @@ from liaison_cli.analysis.metrics import (
 )
 from liaison_cli.campaign.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
-from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
-from liaison_cli.estimation.blocks import BLOCK_PARAMETER, FORMATION
+from liaison_cli.dynamics.constants import M_PER_LU, M_S2_PER_AU, M_S_PER_VU, SECONDS_PER_DAY
+from liaison_cli.estimation.blocks import BLOCK_EMPIRICAL, BLOCK_PARAMETER, FORMATION
 from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.interrupts import caused_by_interrupt
@@ -117,6 +117,8 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     filter_params, cr_factor = _filter_params(problem, rng)
     for start, value in true_parameters(problem, cr_factor):
         truth[:, start] = value
+    for start, value in true_empirical_accelerations(problem):
+        truth[:, start : start + 3] = value[None, :]
     # Manoeuvres (drawn last): the truth keeps the scenario's Delta-v, the filter starts its a-priori sigma off.
     for start, delta_v, sigma in problem.manoeuvres:
         truth[:, start : start + 3] = delta_v[None, :]
@@ -151,6 +153,16 @@ def true_parameters(problem: Problem, cr_factor: float):
             for block, start in zip(layout.blocks, layout.starts) if block.kind == BLOCK_PARAMETER]
 
 
+def true_empirical_accelerations(problem: Problem):
+    """(state offset, true value (3,) in LU/TU^2) of every empirical-acceleration block
+    (filter.empirical_acceleration): the acceleration the truth feels that the filter's dynamics lack,
+    model_error.truth_acceleration_m_s2 (zero when none), on the same axes."""
+    true_value = np.array(problem.scenario.model_error.truth_acceleration_m_s2) / M_S2_PER_AU
+    layout = problem.filter.layout
+    return [(int(start), true_value) for block, start in zip(layout.blocks, layout.starts)
+            if block.kind == BLOCK_EMPIRICAL]
+
+
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
     run = task.run_index
     try:
@@ -167,6 +179,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
                                       nees=history.nees, n_nees=problem.filter.n_nees)
         _add_directions(problem, arrays, history, summary)
         _add_parameters(problem, inputs, history, summary)
+        _add_empirical(problem, history, summary)
         _add_ric(problem, inputs, history, summary, n_dyn)
         _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
@@ -248,6 +261,23 @@ def _add_parameters(problem: Problem, inputs: RunInputs, history, summary) -> No
             f"sigma_{name}_settled": float(np.sqrt(np.mean(settled_sigma**2))) if settled_err.size else np.nan}
         for row in rows:
             row.update(columns)
+
+
+def _add_empirical(problem: Problem, history, summary) -> None:
+    """Each spacecraft's empirical acceleration (filter.empirical_acceleration) into its row: the RMS over the
+    settled epochs of its 3-D error and of its RSS sigma (m/s^2)."""
+    layout = problem.filter.layout
+    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
+    row_of = {name: row for name, row in zip(problem.spacecraft, summary)}
+    for block, start in zip(layout.blocks, layout.starts):
+        if block.kind != BLOCK_EMPIRICAL:
+            continue
+        err = history.err[:, start : start + 3] * M_S2_PER_AU
+        sigma = history.sigma[:, start : start + 3] * M_S2_PER_AU
+        use = settled & np.all(np.isfinite(err), axis=1)
+        row = row_of[block.owner.split(" ", 1)[1]]
+        row["rms_accel_error_settled_m_s2"] = float(np.sqrt(np.mean(np.sum(err[use] ** 2, axis=1)))) if use.any() else np.nan
+        row["sigma_accel_settled_m_s2"] = float(np.sqrt(np.mean(np.sum(sigma[use] ** 2, axis=1)))) if use.any() else np.nan
 
 
 _PRIMARIES: dict = {}

@@ -20,6 +20,7 @@ VU_KM_S = LU_KM / TU_S  # ~1.0245 km/s
 AU_KM_S2 = LU_KM / TU_S**2
 M_PER_LU = LU_KM * 1e3
 M_S_PER_VU = VU_KM_S * 1e3
+M_S2_PER_AU = AU_KM_S2 * 1e3  # the acceleration unit LU/TU^2 in m/s^2
 
 SPEED_OF_LIGHT_M_S = 299792458.0  # exact (SI definition of the metre)
 SPEED_OF_LIGHT_KM_S = SPEED_OF_LIGHT_M_S / 1e3

@@ -227,7 +227,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     trajectory over all m epochs, Phi(t_k, t_0) of the last STM pass, and the post-fit residuals with their
     predicted spread (estimation.batch.postfit_residuals)."""
     block_kind, block_start = layout.kind, layout.start
-    params, dt_tu, _, t0_tu = dynamics
+    params, dt_tu, _, t0_tu, _ = dynamics
     n = x_apriori.shape[0]
     m = y_obs.shape[0]
     n_blocks = block_kind.shape[0]

@@ -10,6 +10,9 @@
   for all); constant, but it moves its spacecraft: the transition couples them by the column
   gamma = d x_spacecraft / d parameter (dynamics.model.propagate_parameter_into), so Phi is block-diagonal
   plus those columns (ekf.predict_covariance_into). It has no process noise.
+- empirical (3): a spacecraft's first-order Gauss-Markov acceleration (owner 'accel L1A'; dynamic model
+  compensation, estimation.process_noise): transition exp(-dt / tau) on itself and kinematic gains into its
+  spacecraft's position and velocity (filter_loop.time_update), process noise coupled with the spacecraft's.
 Process noise is a fixed (n, n) block-diagonal Q built block by block by the problem setup. Consider
 blocks (zero gain, Schmidt-Kalman) come last, so the estimated states are a prefix of the state.
 """
@@ -22,10 +25,13 @@ BLOCK_SPACECRAFT = 0
 BLOCK_CLOCK = 1
 BLOCK_CONSTANT = 2
 BLOCK_PARAMETER = 3
-BLOCK_SIZES = {BLOCK_SPACECRAFT: (6,), BLOCK_CLOCK: (2, 3), BLOCK_CONSTANT: (1, 3), BLOCK_PARAMETER: (1,)}
+BLOCK_EMPIRICAL = 4
+BLOCK_SIZES = {BLOCK_SPACECRAFT: (6,), BLOCK_CLOCK: (2, 3), BLOCK_CONSTANT: (1, 3), BLOCK_PARAMETER: (1,),
+               BLOCK_EMPIRICAL: (3,)}
 # The owner names of blocks that belong to something other than a participant: f"{ROLE} {name}".
 ROLE_MANOEUVRE = "dv"
 ROLE_LINK_BIAS = "bias"
+ROLE_EMPIRICAL = "accel"  # a spacecraft's empirical (Gauss-Markov) acceleration
 FORMATION = "formation"  # a parameter block shared by every spacecraft block
 
 
@@ -66,11 +72,14 @@ class StateLayout:
 
     def arrays(self):
         """(kind (B,), start (B,), size (B,), parameter (B,)) for the compiled loop: parameter is, for a
-        spacecraft block, the start of its dynamics-parameter block (-1: none), and -1 for every other block."""
+        spacecraft block, the start of its dynamics-parameter block (-1: none), for an empirical-acceleration
+        block the start of the spacecraft block it accelerates, and -1 for every other block."""
         starts = self.starts
         parameter = np.full(len(self.blocks), -1, dtype=np.int64)
         for b, block in enumerate(self.blocks):
-            if block.kind == BLOCK_PARAMETER:
+            if block.kind == BLOCK_EMPIRICAL:
+                parameter[b] = self.start_of(BLOCK_SPACECRAFT, block.owner.split(" ", 1)[1])
+            elif block.kind == BLOCK_PARAMETER:
                 owner = block.owner.split(" ", 1)[1]
                 parameter[[i for i, o in enumerate(self.blocks)
                            if o.kind == BLOCK_SPACECRAFT and owner in (o.owner, FORMATION)]] = starts[b]

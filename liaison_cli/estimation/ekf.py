@@ -7,7 +7,7 @@ R, which is algebraically the batch update (Eq. 21-23) and needs no matrix inver
 import numpy as np
 from numba import njit
 
-from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_PARAMETER, BLOCK_SPACECRAFT
+from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER, BLOCK_SPACECRAFT
 
 
 @njit(cache=True)
@@ -32,6 +32,10 @@ def predict_covariance_into(P, Phi, Q, out, tmp, block_kind, block_start, block_
     Since row p of Phi_bd is the identity's, Phi = (I + G) Phi_bd, and with no process noise on p
     (Q[p, :] = 0, filter_arrays), Phi P Phi^T + Q = (I + G) (Phi_bd P Phi_bd^T + Q) (I + G)^T:
     the block products, then _couple_parameters' rank-one row and column updates.
+    An empirical-acceleration block w (3) of spacecraft s has the diagonal m I and the coupling columns
+    C = Phi[s, w]: Phi = (I + G) Phi_bd with G = C / m, and its process noise is coupled to s's. The caller
+    passes Q~ = (I + G)^-1 Q (I + G)^-T in place of Q (filter_arrays.coupled_process_noise), so that
+    (I + G) (Phi_bd P Phi_bd^T + Q~) (I + G)^T = Phi P Phi^T + Q exactly, with the same two steps.
     """
     n_blocks = block_kind.shape[0]
     # The leading spacecraft blocks sit at 6 a: offsets the compiler can see are non-negative multiples
@@ -94,27 +98,44 @@ def _identity_transition(kind):
 
 @njit(cache=True, inline="always")
 def _couple_parameters(M, Phi, block_kind, block_start):
-    """M <- (I + G) M (I + G)^T in place for every parameter block p and spacecraft block s whose coupling
-    column gamma = Phi[s : s + 6, p] is non-zero (predict_covariance_into): first rows s += gamma M[p, :]
+    """M <- (I + G) M (I + G)^T in place for every column p of a parameter or empirical-acceleration block and
+    spacecraft block s whose coupling column gamma = Phi[s : s + 6, p] / Phi[p, p] is non-zero
+    (predict_covariance_into; columns one at a time: G's columns never meet a spacecraft row of another G, so
+    the products commute): first rows s += gamma M[p, :]
     (row p itself is not in s, so it is read unchanged), then columns s += M[:, p] gamma^T, reading column p as
     the row step left it (its entries in rows s now include gamma M[p, p]), which is (I + G) M's."""
     n = M.shape[0]
     for q in range(block_kind.shape[0]):
-        if block_kind[q] != BLOCK_PARAMETER:
+        if block_kind[q] == BLOCK_PARAMETER:
+            columns = 1
+        elif block_kind[q] == BLOCK_EMPIRICAL:
+            columns = 3
+        else:
             continue
-        p = block_start[q]
-        for b in range(block_kind.shape[0]):
-            s = block_start[b]
-            if block_kind[b] != BLOCK_SPACECRAFT or (Phi[s, p] == 0.0 and Phi[s + 3, p] == 0.0):
-                continue
-            for i in range(6):
-                g = Phi[s + i, p]
-                for j in range(n):
-                    M[s + i, j] += g * M[p, j]
-            for i in range(6):
-                g = Phi[s + i, p]
-                for j in range(n):
-                    M[j, s + i] += M[j, p] * g
+        for c in range(columns):
+            p = block_start[q] + c
+            diagonal = Phi[p, p]  # 1 for a parameter; an empirical acceleration's decay m: G = Phi[s, p] / m
+            for b in range(block_kind.shape[0]):
+                s = block_start[b]
+                if block_kind[b] != BLOCK_SPACECRAFT or not _couples(Phi, s, p):
+                    continue
+                for i in range(6):
+                    g = Phi[s + i, p] / diagonal
+                    for j in range(n):
+                        M[s + i, j] += g * M[p, j]
+                for i in range(6):
+                    g = Phi[s + i, p] / diagonal
+                    for j in range(n):
+                        M[j, s + i] += M[j, p] * g
+
+
+@njit(cache=True, inline="always")
+def _couples(Phi, s, p):
+    """True if column p of Phi reaches the spacecraft block at s (any of its six rows non-zero)."""
+    for i in range(6):
+        if Phi[s + i, p] != 0.0:
+            return True
+    return False
 
 
 @njit(cache=True)

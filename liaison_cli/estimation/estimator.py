@@ -22,7 +22,8 @@ class Estimator:
     budget (estimation.lincov mirrors its gain, so campaign.error_budget can split its error), a start from an
     initial batch solution (filter.initial_batch_hours, estimation.initial_batch), process noise (the SNC that
     `liaison tune` chooses; a batch has none), dynamics-parameter states (filter.estimated_parameters: a
-    model's parameter such as C_R carried as a state, estimation.blocks.BLOCK_PARAMETER).
+    model's parameter such as C_R carried as a state, estimation.blocks.BLOCK_PARAMETER), empirical
+    accelerations (filter.empirical_acceleration: Gauss-Markov states, estimation.blocks.BLOCK_EMPIRICAL).
     settings_section: the scenario section of its own settings, given exactly when it is chosen (None: the
     filter section only)."""
 
@@ -41,5 +42,6 @@ class Estimator:
     initial_batch: bool = False
     process_noise: bool = False
     dynamics_parameters: bool = False
+    empirical_accelerations: bool = False
     residuals: str = "innovations"  # what its residuals table holds: pre-fit innovations, or post-fit residuals
     covariance_record: bool = False  # it can keep its estimate and covariance at every epoch (CCSDS export)

@@ -73,6 +73,7 @@ class FilterArrays:
     smoother: bool = False  # the EKF also returns its RTS-smoothed history (estimation.smoother)
     burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
     initial_batch: InitialBatchSettings | None = None  # the EKF starts from a batch solve (estimation.initial_batch)
+    empirical_tau_tu: float = 0.0  # the empirical accelerations' time constant (estimation.process_noise); 0: none
 
     def channels(self) -> Channels:
         return channels_of(self.channel_kind, self.channel_ends, self.channel_flags, self.channel_mod_index,
@@ -82,7 +83,7 @@ class FilterArrays:
         return BlockLayout(*self.layout.arrays())
 
     def dynamics(self, t0_tu: float = 0.0) -> Dynamics:
-        return dynamics_of(self.model_params, self.dt_tu, self.substeps, t0_tu)
+        return dynamics_of(self.model_params, self.dt_tu, self.substeps, t0_tu, self.empirical_tau_tu)
 
     def direction_starts(self) -> tuple[np.ndarray, np.ndarray]:
         """(spacecraft block offsets (S,), offsets of each pair of estimated spacecraft a channel links (L, 2),
@@ -300,7 +301,8 @@ def _prediction_rms(errors_ahead, kind, start):
 EKF = Estimator(
     name="ekf", summary="the extended Kalman filter", run=_ekf, carries_clocks=True, carries_biases=True,
     carries_manoeuvres=True, dynamics=("crtbp", "ephemeris"), smoother=True, consider=True, residual_gate=True,
-    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True, covariance_record=True)
+    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True, covariance_record=True,
+    empirical_accelerations=True)
 # The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
 # apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
 BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",

@@ -13,7 +13,8 @@ from numba import njit
 
 from liaison_cli.dynamics.model import (PROPAGATION_SIZE, STM_SIZE, propagate_parameter_into,
                                        propagate_state_stm_into)
-from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_PARAMETER, BLOCK_SPACECRAFT
+from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER,
+                                          BLOCK_SPACECRAFT)
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
 from liaison_cli.measurements.registry import predict_for, residual
 
@@ -129,10 +130,12 @@ def apply_burn_rows(M, burns, k):
 
 @njit(cache=True, inline="always")
 def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params, t_tu,
-                dt_tu, substeps, y, work):
+                dt_tu, substeps, empirical_tau_tu, y, work):
     """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11), the identity on
     parameter blocks and, for a spacecraft with a dynamics parameter (block_parameter >= 0), the column
-    gamma = d x_spacecraft / d parameter that couples them (estimation.blocks). y (PROPAGATION_SIZE,) and
+    gamma = d x_spacecraft / d parameter that couples them (estimation.blocks); an empirical-acceleration
+    block (time constant empirical_tau_tu) decays and moves its spacecraft (_empirical_update; spacecraft
+    blocks come first in a layout, so their x_bar is there to add to). y (PROPAGATION_SIZE,) and
     work (5, STM_SIZE): scratch for the state + STM propagation."""
     for b in range(block_kind.shape[0]):
         a, size = block_start[b], block_size[b]
@@ -163,11 +166,32 @@ def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_pa
                 for j in range(size):
                     acc += Phi[a + i, a + j] * x_hat[a + j]
                 x_bar[a + i] = acc
+        elif block_kind[b] == BLOCK_EMPIRICAL:
+            _empirical_update(x_hat, x_bar, Phi, a, block_parameter[b], dt_tu, empirical_tau_tu)
         else:
             for i in range(size):
                 x_bar[a + i] = x_hat[a + i]  # constant parameters
             if block_kind[b] == BLOCK_PARAMETER:
                 Phi[a, a] = 1.0  # its row of the coupled transition (ekf.predict_covariance_into reads it)
+
+
+@njit(cache=True, inline="always")
+def _empirical_update(x_hat, x_bar, Phi, a, s, dt_tu, tau_tu):
+    """The Gauss-Markov acceleration w = x_hat[a : a + 3] of the spacecraft block at s over one step
+    (estimation.process_noise.gauss_markov_gains, written out): w <- m w, and the spacecraft's propagated
+    position and velocity get the kinematic gains times w; the same numbers into Phi (its diagonal m and the
+    coupling columns the covariance step reads, ekf._couple_parameters)."""
+    decay = np.exp(-dt_tu / tau_tu)
+    gain_r = tau_tu * dt_tu - tau_tu * tau_tu * (1.0 - decay)
+    gain_v = tau_tu * (1.0 - decay)
+    for i in range(3):
+        w = x_hat[a + i]
+        x_bar[a + i] = decay * w
+        x_bar[s + i] += gain_r * w
+        x_bar[s + 3 + i] += gain_v * w
+        Phi[a + i, a + i] = decay
+        Phi[s + i, a + i] = gain_r
+        Phi[s + 3 + i, a + i] = gain_v
 
 
 @njit(cache=True, inline="always")
@@ -364,7 +388,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size, block_parameter = layout
-    model_params, dt_tu, substeps, t0_tu = dynamics
+    model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
     n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
     store_states, store_matrices = record
     channel_kind, sigma = channels.kind, channels.sigma
@@ -384,7 +408,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
         time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params,
-                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)

@@ -66,7 +66,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
     numba.literally(kinds)
     channel_kind, sigma = channels.kind, channels.sigma
     block_kind, block_start, block_size, block_parameter = layout
-    model_params, dt_tu, substeps, t0_tu = dynamics
+    model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
     w, n = traj.shape
     n_channels = channel_kind.shape[0]
     lam = np.zeros((n, n))
@@ -88,7 +88,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
             phi[0, i, j] = 1.0 if i == j else 0.0
     for k in range(1, w):
         time_update(traj[k - 1], traj[k], phi_step, block_kind, block_start, block_size, block_parameter, model,
-                    model_params, t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+                    model_params, t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
         _propagate_products(phi_step, phi[k - 1], phi[k], q_acc, q_tmp, Q)
         for c in range(n_channels):
             y_meas = y_obs[k, c]

@@ -7,8 +7,9 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
 - BlockLayout: the state's blocks, kind / start / size (B,) and parameter (B,): a spacecraft block's
   dynamics-parameter block start, -1 for none (estimation.blocks);
 - Dynamics: the model's parameter vector, the measurement interval dt_tu, the filter's propagation
-  substeps per interval and t0_tu, the time of epoch 0 from the model's origin (the model code itself is a
-  compile-time constant and goes first, on its own);
+  substeps per interval, t0_tu, the time of epoch 0 from the model's origin, and empirical_tau_tu, the time
+  constant of the empirical-acceleration blocks (0: none; estimation.process_noise) (the model code itself is
+  a compile-time constant and goes first, on its own);
 - EkfSettings: n_gain (states from it on are consider parameters, -1: none), n_nees (states the NEES
   covers), divergence_position_lu, underweight (Lear's beta), gate_sigma / gate_after (the residual gate);
 - SmootherRecord: the EKF's forward record for the RTS smoother, states (m, 2, n) and matrices (m, 3, n, n)
@@ -24,7 +25,7 @@ import numpy as np
 
 Channels = namedtuple("Channels", ["kind", "ends", "flags", "mod_index", "mod_coeff", "sigma"])
 BlockLayout = namedtuple("BlockLayout", ["kind", "start", "size", "parameter"])
-Dynamics = namedtuple("Dynamics", ["params", "dt_tu", "substeps", "t0_tu"])
+Dynamics = namedtuple("Dynamics", ["params", "dt_tu", "substeps", "t0_tu", "empirical_tau_tu"])
 EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_position_lu", "underweight", "gate_sigma",
                                          "gate_after"])
 SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
@@ -55,5 +56,6 @@ def channels_of(kind, ends, flags, mod_index, mod_coeff, sigma) -> Channels:
                     np.ascontiguousarray(mod_coeff, dtype=np.float64), np.ascontiguousarray(sigma, dtype=np.float64))
 
 
-def dynamics_of(params, dt_tu: float, substeps: int, t0_tu: float = 0.0) -> Dynamics:
-    return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu), int(substeps), float(t0_tu))
+def dynamics_of(params, dt_tu: float, substeps: int, t0_tu: float = 0.0, empirical_tau_tu: float = 0.0) -> Dynamics:
+    return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu), int(substeps), float(t0_tu),
+                    float(empirical_tau_tu))

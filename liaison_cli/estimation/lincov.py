@@ -180,7 +180,7 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
     numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size, block_parameter = layout
-    params, dt_tu, substeps, t0_tu = dynamics
+    params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
     D_initial, Q_true, S0, d_dyn_extra, channel_bias_link = truth_errors
     m, n = truth.shape
     n_links = S0.shape[1]
@@ -202,7 +202,7 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
             linearisation = truth[k - 1].copy()
             _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k - 1)
             time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, params,
-                        t0_tu + (k - 1) * dt_tu, dt_tu, substeps, y_stm, work_stm)
+                        t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
             d_dyn = _dynamics_mismatch(truth[k], x_bar, d_dyn_extra, Phi, layout)
             P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
                                                  block_size), P

@@ -18,10 +18,20 @@ else the filter's, else the default PSD):
     measurement.interval_s under this convention also changes the noise per day, by the ratio of the intervals.
   - `velocity_only`: (sigma_a dt)^2 on the velocity diagonal and nothing else (the form before issue 26).
   A PSD always takes the continuous form; process_noise_model applies to sigma_a only.
+Empirical accelerations (dynamic model compensation, DMC; `filter.empirical_acceleration`): a first-order
+Gauss-Markov acceleration w per spacecraft, three states on the dynamics model's axes (Tapley, Schutz & Born
+§4.9; Bar-Shalom et al. §8.2), w' = -w / tau + u with u white of PSD 2 sigma^2 / tau, so that w's steady-state
+sigma is sigma whatever tau. Over a step dt its transition is m = exp(-dt / tau) on w, and it moves its
+spacecraft through the kinematic gains position tau dt - tau^2 (1 - m) and velocity tau (1 - m) per unit of
+w (`gauss_markov_gains`; the gravity gradient's share of that coupling over a step is left out: at EML2,
+(GM / r^3) dt^2 ~ 1e-7 of it). `gauss_markov_process_noise` is the exact Q of [r, v, w] over dt for that
+linear model (Van Loan's matrix exponential, Van Loan 1978 "Computing integrals involving the matrix
+exponential"), per axis, added to the spacecraft's own SNC.
 Units: blocks are returned in the estimators' scaled units (LU, LU/TU) given the scales.
 """
 
 import numpy as np
+from scipy.linalg import expm
 
 PROCESS_NOISE_MODELS = ("continuous_white_acceleration", "velocity_only")
 
@@ -56,3 +66,46 @@ def spacecraft_process_noise(sigma_a_m_s2: float, dt_s: float, model: str, m_per
         raise ValueError(f"process noise model {model!r}: allowed {', '.join(PROCESS_NOISE_MODELS)}")
     Q[3:, 3:] = np.eye(3) * velocity_var / m_s_per_vu**2  # q dt to the last bit, as the reproductions recorded it
     return Q
+
+
+def gauss_markov_gains(tau: float, dt: float) -> tuple[float, float, float]:
+    """(m, position gain, velocity gain) of a first-order Gauss-Markov acceleration over one step dt (module
+    docstring): w(t + dt) = m w(t); it adds position gain * w to the position and velocity gain * w to the
+    velocity. Any consistent time unit (tau and dt in the same one; the gains in it and its square)."""
+    decay = np.exp(-dt / tau)
+    return float(decay), float(tau * dt - tau**2 * (1.0 - decay)), float(tau * (1.0 - decay))
+
+
+def gauss_markov_process_noise(sigma_m_s2: float, tau_s: float, dt_s: float, m_per_lu: float,
+                               m_s_per_vu: float) -> np.ndarray:
+    """Q (9, 9) over one step dt_s of [position (3), velocity (3), w (3)] driven by a Gauss-Markov acceleration
+    of steady-state sigma sigma_m_s2 and time constant tau_s (module docstring), in LU, LU/TU and LU/TU^2.
+
+    Per axis, F = [[0, 1, 0], [0, 0, 1], [0, 0, -1/tau]], G = [0, 0, 1]^T, PSD q = 2 sigma^2 / tau: Van Loan's
+    exp([[-F, G q G^T], [0, F^T]] dt) = [[., Phi^-1 Q], [0, Phi^T]] gives Q = Phi (Phi^-1 Q)."""
+    F = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0 / tau_s]])
+    noise = np.zeros((3, 3))
+    noise[2, 2] = 2.0 * sigma_m_s2**2 / tau_s
+    exponential = expm(np.block([[-F, noise], [np.zeros((3, 3)), F.T]]) * dt_s)
+    per_axis = exponential[3:, 3:].T @ exponential[:3, 3:]
+    per_axis = 0.5 * (per_axis + per_axis.T)
+    m_s2_per_au = m_s_per_vu**2 / m_per_lu  # the acceleration unit LU/TU^2 in m/s^2
+    scale = np.array([m_per_lu, m_s_per_vu, m_s2_per_au])
+    per_axis = per_axis / np.outer(scale, scale)
+    return np.kron(per_axis, np.eye(3))  # rows/columns ordered [r (3), v (3), w (3)]
+
+
+def coupled_process_noise(Q: np.ndarray, couplings, tau: float, dt: float) -> np.ndarray:
+    """Q~ = (I + G)^-1 Q (I + G)^-T = (I - G) Q (I - G)^T, the form of Q that ekf.predict_covariance_into takes
+    when empirical-acceleration blocks are in the state: G holds, at (the spacecraft's position and velocity
+    rows, the acceleration's columns), the kinematic gains over the decay m (gauss_markov_gains; G^2 = 0).
+    couplings: (spacecraft block start, acceleration block start) pairs; tau, dt in the state's time unit
+    (TU: the gains are in LU per LU/TU^2 and LU/TU per LU/TU^2)."""
+    decay, gain_r, gain_v = gauss_markov_gains(tau, dt)
+    G = np.zeros_like(Q)
+    for s, a in couplings:
+        for i in range(3):
+            G[s + i, a + i] = gain_r / decay
+            G[s + 3 + i, a + i] = gain_v / decay
+    reduced = Q - G @ Q - Q @ G.T + G @ Q @ G.T
+    return 0.5 * (reduced + reduced.T)

@@ -168,3 +168,26 @@ def check_estimated_parameters(scenario) -> None:
     if "cr" in wanted and scenario.ephemeris.cr * scenario.ephemeris.area_to_mass_m2_kg == 0.0:
         raise ValueError("filter.estimated_parameters.cr with ephemeris.area_to_mass_m2_kg = 0: no solar "
                          "radiation pressure, so no data can reach C_R; allowed: a cannonball with an area")
+
+
+def check_empirical_acceleration(scenario) -> None:
+    """filter.empirical_acceleration: by an estimator that carries it, without an initial batch (whose solve
+    keeps the spacecraft states only), with a time constant of at least one measurement interval (the
+    transition exp(-dt / tau) stays above 1/e; a shorter correlation is white noise, which the process noise
+    already is)."""
+    spec = scenario.filter.empirical_acceleration
+    if spec is None:
+        return
+    estimator = scenario.estimator_descriptor()
+    if not estimator.empirical_accelerations:
+        runners = ", ".join(e.name for e in ESTIMATORS.values() if e.empirical_accelerations)
+        raise ValueError(f"filter.empirical_acceleration: estimator {estimator.name} does not carry empirical "
+                         f"accelerations; allowed: estimator {runners}")
+    if scenario.filter.initial_batch_hours is not None:
+        raise ValueError("filter.empirical_acceleration with filter.initial_batch_hours: the initial batch solves "
+                         "for the spacecraft states only; allowed: one of the two")
+    interval_s = scenario.measurement.interval_s
+    if spec.time_constant_s < interval_s:
+        raise ValueError(f"filter.empirical_acceleration.time_constant_s = {spec.time_constant_s:g} is shorter than "
+                         f"measurement.interval_s = {interval_s:g}: allowed: at least one interval (a shorter "
+                         "correlation is white noise: use filter.process_noise_psd_m2_s3)")

@@ -33,6 +33,17 @@ MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML an
 GATE_AFTER_DEFAULT = 0
 
 
+class EmpiricalAccelerationSpec(StrictModel):
+    """filter.empirical_acceleration: a first-order Gauss-Markov acceleration per estimated spacecraft, three
+    states on the dynamics model's axes (dynamic model compensation; estimation.process_noise)."""
+
+    sigma_m_s2: float = Field(..., gt=0, le=1e-5, description="its steady-state 1-sigma per axis, which is also its "
+                              "a priori (the SRP on a 0.01 m^2/kg cannonball is ~7e-8) (m/s^2)")
+    time_constant_s: float = Field(..., gt=0, description="its correlation time tau: the acceleration decays as "
+                                   "exp(-t / tau) between updates; at least measurement.interval_s (shorter is "
+                                   "white noise: use the process noise) (s)")
+
+
 class FilterSpec(StrictModel):
     """The estimator's settings: a priori, process noise, health checks, the filter's measurement models."""
 
@@ -117,6 +128,11 @@ class FilterSpec(StrictModel):
         "filter flies C_R (1 + state), a priori 0 +- 0.1). What each dynamics model offers: docs/filter.md "
         "(dimensionless)",
         json_schema_extra={"propertyNames": {"enum": sorted({p.name for d in DYNAMICS.values() for p in d.parameters})}})
+
+    empirical_acceleration: EmpiricalAccelerationSpec | None = Field(
+        None, description="estimate a first-order Gauss-Markov acceleration per estimated spacecraft (dynamic "
+        "model compensation: three states on the dynamics model's axes, crtbp: the rotating frame, ephemeris: "
+        "ICRF; docs/filter.md), beside the process noise; absent: none")
 
     @model_validator(mode="after")
     def _batch_window_order(self):

@@ -7,18 +7,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from liaison_cli.dynamics.clock import clock_process_noise
-from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY, SPEED_OF_LIGHT_M_S, TU_S
+from liaison_cli.dynamics.constants import (LU_KM, M_PER_LU, M_S2_PER_AU, M_S_PER_VU, SECONDS_PER_DAY,
+                                           SPEED_OF_LIGHT_M_S, TU_S)
 from liaison_cli.dynamics.model import DynamicsModel
 from liaison_cli.dynamics.trajectory import states_with_accelerations
 from liaison_cli.estimation.batch import JACOBIAN_EVERY, JACOBIAN_FIRST
-from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_PARAMETER, BLOCK_SPACECRAFT,
-                                          FORMATION, ROLE_LINK_BIAS, ROLE_MANOEUVRE, StateBlock, StateLayout,
-                                          owner_name)
+from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER,
+                                          BLOCK_SPACECRAFT, FORMATION, ROLE_EMPIRICAL, ROLE_LINK_BIAS, ROLE_MANOEUVRE,
+                                          StateBlock, StateLayout, owner_name)
 from liaison_cli.estimation.estimators import BatchArrays, FilterArrays
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_KNOWN, END_RECEIVER_STATE, END_SECOND_KNOWN,
                                                 END_SECOND_STATE, END_TRANSMITTER_KNOWN, END_TRANSMITTER_STATE)
 from liaison_cli.estimation.initial_batch import InitialBatchSettings
-from liaison_cli.estimation.process_noise import psd_process_noise, spacecraft_process_noise
+from liaison_cli.estimation.process_noise import (coupled_process_noise, gauss_markov_process_noise,
+                                                 psd_process_noise, spacecraft_process_noise)
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD
@@ -87,7 +89,8 @@ def _channels(scenario: Scenario) -> list[Channel]:
 
 def state_layout(scenario: Scenario) -> StateLayout:
     """Spacecraft blocks, then clocks, Delta-v, dynamics parameters (one per filter.estimated_parameters name,
-    shared by the formation), then link biases (estimated, or considered last)."""
+    shared by the formation), empirical accelerations (one per spacecraft, filter.empirical_acceleration), then
+    link biases (estimated, or considered last)."""
     estimator = scenario.estimator_descriptor()
     blocks = [StateBlock(BLOCK_SPACECRAFT, 6, name) for name in scenario.spacecraft_names()]
     if estimator.carries_clocks:  # else clocks are synchronised apart from the estimator, by clock_sync
@@ -101,6 +104,9 @@ def state_layout(scenario: Scenario) -> StateLayout:
     # errors where the truth has one: measured 54 % of eph_eml1_eml2_dsn's NEES in band against 90 %+ own).
     blocks += [StateBlock(BLOCK_PARAMETER, 1, owner_name(parameter, FORMATION))
                for parameter in scenario.filter.estimated_parameters]
+    if scenario.filter.empirical_acceleration is not None:
+        blocks += [StateBlock(BLOCK_EMPIRICAL, 3, owner_name(ROLE_EMPIRICAL, name))
+                   for name in scenario.spacecraft_names()]
     if scenario.filter.bias != "ignore" and estimator.carries_biases:
         consider = scenario.filter.bias == "consider"
         blocks += [StateBlock(BLOCK_CONSTANT, 1, owner_name(ROLE_LINK_BIAS, i), consider)
@@ -181,12 +187,29 @@ def _matrices(scenario: Scenario, layout: StateLayout):
         elif block.kind == BLOCK_PARAMETER:  # no process noise: ekf.predict_covariance_into relies on it
             role, _ = block.owner.split(" ", 1)
             P0[s, s] = flt.estimated_parameters[role] ** 2
+        elif block.kind == BLOCK_EMPIRICAL:
+            _empirical_matrices(scenario, layout, block, a, P0, Q)
         elif block.owner.startswith(owner_name(ROLE_MANOEUVRE, "")):
             sigma_lu = by_name[block.owner.split(" ", 1)[1]].manoeuvre.apriori_sigma_m_s / M_S_PER_VU
             P0[s, s] = np.eye(3) * sigma_lu**2
         else:
             P0[s, s] = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
+    if flt.empirical_acceleration is not None:  # the form of Q the coupled covariance step takes
+        couplings = [(layout.start_of(BLOCK_SPACECRAFT, b.owner.split(" ", 1)[1]), a)
+                     for b, a in zip(layout.blocks, layout.starts) if b.kind == BLOCK_EMPIRICAL]
+        Q = coupled_process_noise(Q, couplings, flt.empirical_acceleration.time_constant_s / TU_S, interval_s / TU_S)
     return P0, Q
+
+
+def _empirical_matrices(scenario: Scenario, layout: StateLayout, block, a: int, P0, Q) -> None:
+    """An empirical-acceleration block at a: its a priori (its steady-state sigma) into P0, and the Gauss-Markov
+    process noise of [its spacecraft's position and velocity, itself] added into Q (estimation.process_noise)."""
+    spec = scenario.filter.empirical_acceleration
+    P0[a : a + 3, a : a + 3] = np.eye(3) * (spec.sigma_m_s2 / M_S2_PER_AU) ** 2
+    noise = gauss_markov_process_noise(spec.sigma_m_s2, spec.time_constant_s, scenario.measurement.interval_s,
+                                       M_PER_LU, M_S_PER_VU)
+    rows = np.r_[layout.start_of(BLOCK_SPACECRAFT, block.owner.split(" ", 1)[1]) + np.arange(6), a + np.arange(3)]
+    Q[np.ix_(rows, rows)] += noise
 
 
 def _channel_tables(scenario: Scenario, channels, layout: StateLayout, index_of_known):
@@ -338,5 +361,7 @@ def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajector
         smoother=flt.smoother == "rts",
         batch=_batch_arrays(scenario, model, times_s, trajectories),
         initial_batch=_initial_batch(scenario),
+        empirical_tau_tu=(flt.empirical_acceleration.time_constant_s / TU_S
+                          if flt.empirical_acceleration is not None else 0.0),
     )
     return EstimatorSetup(arrays, layout, tuple(channels), manoeuvres)

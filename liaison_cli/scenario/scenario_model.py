@@ -16,7 +16,8 @@ from liaison_cli.scenario.estimation_settings import (
     BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec)
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
 from liaison_cli.scenario.links import LinkSpec, MeasurementSpec, TopologySpec, expand_topology
-from liaison_cli.scenario.dynamics_rules import check_dynamics, check_estimated_parameters, check_model_error
+from liaison_cli.scenario.dynamics_rules import (check_dynamics, check_empirical_acceleration,
+                                                check_estimated_parameters, check_model_error)
 from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.participants import (
     DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
@@ -127,6 +128,7 @@ class Scenario(StrictModel):
         check_dynamics(self)
         check_model_error(self)
         check_estimated_parameters(self)
+        check_empirical_acceleration(self)
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "
