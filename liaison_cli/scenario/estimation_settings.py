@@ -1,14 +1,14 @@
 """Scenario estimation settings: the filter section, the batch estimator's, clock synchronisation, how each
 run's initial error is drawn, and the Monte Carlo runs and seed."""
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
-from liaison_cli.scenario.schema_rules import at_least, equals, given, not_given, schema_rules, when
-from liaison_cli.scenario.spec_base import StrictModel, one_process_noise_convention
+from liaison_cli.scenario.schema_rules import Rule, at_least, check_rules, equals, given, schema_rules, when
+from liaison_cli.scenario.spec_base import ONE_PROCESS_NOISE_CONVENTION, StrictModel
 
 
 # The two process-noise conventions (FilterSpec.process_noise_of; estimation.process_noise): the filter key
@@ -47,9 +47,10 @@ class EmpiricalAccelerationSpec(StrictModel):
 class FilterSpec(StrictModel):
     """The estimator's settings: a priori, process noise, health checks, the filter's measurement models."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(
-        when(equals("bias", "estimate", "consider"), given("bias_apriori_sigma_m")),
-        when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2"))))
+    RULES: ClassVar[tuple] = (Rule(when(equals("bias", "estimate", "consider"), given("bias_apriori_sigma_m")),
+                  lambda spec: f"bias {spec.bias!r} needs 'bias_apriori_sigma_m' (the a-priori 1-sigma, m)"),
+             ONE_PROCESS_NOISE_CONVENTION)
+    model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
     initial_sigma_position_m: float = Field(1000.0, gt=0, description="a-priori 1-sigma per position axis (m)")
     initial_sigma_velocity_m_s: float = Field(0.01, gt=0, description="a-priori 1-sigma per velocity axis (m/s)")
@@ -144,16 +145,9 @@ class FilterSpec(StrictModel):
             raise ValueError("initial_batch_max_hours needs initial_batch_hours (the first window)")
         return self
 
-
     @model_validator(mode="after")
-    def _bias_needs_apriori(self):
-        if self.bias != "ignore" and self.bias_apriori_sigma_m is None:
-            raise ValueError(f"bias {self.bias!r} needs 'bias_apriori_sigma_m' (the a-priori 1-sigma, m)")
-        return self
-
-    @model_validator(mode="after")
-    def _one_process_noise_convention(self):
-        return one_process_noise_convention(self)
+    def _rules(self):
+        return check_rules(self, self.RULES)
 
     def process_noise_of(self, spacecraft) -> tuple[str, float]:
         """(PROCESS_NOISE_PSD, q in m^2/s^3) or (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its
@@ -172,7 +166,9 @@ class BatchSpec(StrictModel):
     measurements of the first `span_days`, predicted `prediction_hours` past the span (002's DRMS window).
     The scenario's epochs end at span + prediction (duration_days must cover them)."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(when(at_least("windows", 2), given("renewal_hours"))))
+    RULES: ClassVar[tuple] = (Rule(when(at_least("windows", 2), given("renewal_hours")),
+                  lambda spec: f"windows = {spec.windows} needs 'renewal_hours' (the spacing of window starts)"),)
+    model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
     span_days: float = Field(gt=0, description="data span of the solve, from t0 (days)")
     prediction_hours: float = Field(3.0, ge=0, description="prediction after the span for the DRMS metrics (h)")
@@ -187,8 +183,7 @@ class BatchSpec(StrictModel):
 
     @model_validator(mode="after")
     def _renewal(self):
-        if self.windows > 1 and self.renewal_hours is None:
-            raise ValueError(f"windows = {self.windows} needs 'renewal_hours' (the spacing of window starts)")
+        check_rules(self, self.RULES)
         if self.renewal_hours is not None and self.renewal_hours / 24.0 > self.span_days:
             raise ValueError(f"renewal_hours = {self.renewal_hours:g} is longer than the span ({self.span_days:g} d): "
                              "windows would leave data unused")

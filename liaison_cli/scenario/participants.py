@@ -1,7 +1,7 @@
 """Scenario participants: spacecraft (orbit, clock, manoeuvre, departure), ground stations, and the dated
 (ephemeris) dynamics they fly in."""
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import ConfigDict, Field, field_validator, model_validator
 
@@ -9,17 +9,17 @@ from liaison_cli.dynamics.clock_presets import CLOCK_PRESETS, clock_preset_names
 from liaison_cli.dynamics.constants import MOON_RADIUS_KM, WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.orbits.catalog import catalog_names
 from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
-from liaison_cli.orbits.families import FAMILIES, family_names
+from liaison_cli.orbits.families import family_names
 from liaison_cli.scenario.exchange_specs import (
     ORBIT_FILE_KINDS, OrbitFileSpec, orbit_file_from_mapping, orbit_json_schema)
 from liaison_cli.scenario.schema_rules import (
-    all_of, any_of, equals, given, not_given, one_of, schema_rules, together, when)
+    Rule, all_of, any_of, check_rules, equals, given, negate, not_given, one_of, schema_rules, together, when)
 from liaison_cli.scenario.spec_base import (
     NAME_PATTERN,
     UNIQUE,
+    ONE_PROCESS_NOISE_CONVENTION,
     StrictModel,
     allowed_names,
-    one_process_noise_convention,
 )
 
 
@@ -61,8 +61,11 @@ class ClockSpec(StrictModel):
     of its initial offset and frequency (the truth draws from it, the filter starts at zero with that
     covariance)."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(
-        any_of(given("preset"), all_of(given("sigma1_s_per_sqrt_s"), given("sigma2_per_sqrt_s")))))
+    RULES: ClassVar[tuple] = (Rule(
+        any_of(given("preset"), all_of(given("sigma1_s_per_sqrt_s"), given("sigma2_per_sqrt_s"))),
+        "give a 'preset' (" + ", ".join(clock_preset_names()) + ") or both 'sigma1_s_per_sqrt_s' and "
+        "'sigma2_per_sqrt_s'"),)
+    model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
     preset: str | None = Field(None, description="a named oscillator: " + ", ".join(clock_preset_names()),
                                json_schema_extra={"enum": [*clock_preset_names(), None]})
@@ -84,11 +87,8 @@ class ClockSpec(StrictModel):
         return value
 
     @model_validator(mode="after")
-    def _diffusions_given(self):
-        if self.preset is None and (self.sigma1_s_per_sqrt_s is None or self.sigma2_per_sqrt_s is None):
-            raise ValueError("give a 'preset' (" + ", ".join(clock_preset_names()) + ") or both "
-                             "'sigma1_s_per_sqrt_s' and 'sigma2_per_sqrt_s'")
-        return self
+    def _rules(self):
+        return check_rules(self, self.RULES)
 
     @property
     def sigma1(self) -> float:
@@ -114,8 +114,12 @@ class DepartureSpec(StrictModel):
     """A hyperbolic Earth departure (orbit: departure, dynamics: ephemeris): one of 003's missions, whose
     launch targets are derived on DE421 (orbits.departure_missions), or C3 / DLA / RLA given directly."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(when(
-        given("mission"), all_of(*map(not_given, _TARGETS)), all_of(*map(given, _TARGETS)))))
+    RULES: ClassVar[tuple] = (
+        Rule(when(given("mission"), all_of(*map(not_given, _TARGETS))),
+             lambda spec: f"mission {spec.mission!r} derives c3_km2_s2 / dla_deg / rla_deg; remove them"),
+        Rule(when(not_given("mission"), all_of(*map(given, _TARGETS))),
+             "give a mission, or all of c3_km2_s2, dla_deg and rla_deg"))
+    model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
     mission: str | None = Field(None, description="one of 003's missions, whose C3, DLA, RLA, parking altitude and "
                                 "injection time are derived on DE421 (instead of c3_km2_s2, dla_deg, rla_deg, "
@@ -154,11 +158,7 @@ class DepartureSpec(StrictModel):
 
     @model_validator(mode="after")
     def _mission_or_targets(self):
-        targets = [self.c3_km2_s2, self.dla_deg, self.rla_deg]
-        if self.mission is not None and any(t is not None for t in targets):
-            raise ValueError(f"mission {self.mission!r} derives c3_km2_s2 / dla_deg / rla_deg; remove them")
-        if self.mission is None and any(t is None for t in targets):
-            raise ValueError("give a mission, or all of c3_km2_s2, dla_deg and rla_deg")
+        check_rules(self, self.RULES)
         if (self.parking_inclination_deg is not None and self.dla_deg is not None
                 and min(self.parking_inclination_deg, 180.0 - self.parking_inclination_deg) < abs(self.dla_deg)):
             raise ValueError(f"parking_inclination_deg = {self.parking_inclination_deg:g} cannot hold an asymptote at "
@@ -180,17 +180,31 @@ class ManoeuvreSpec(StrictModel):
 class SpacecraftSpec(StrictModel):
     """A spacecraft: its orbit (where it starts and how it flies) and what the filter knows of it."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(
-        together(equals("orbit", KEPLERIAN_ORBIT), "elements"),
-        together(equals("orbit", ICRF_STATE_ORBIT), "state_km"),
-        together(equals("orbit", DEPARTURE_ORBIT), "departure"),
-        together(equals("orbit", GEOSTATIONARY_ORBIT), "longitude_deg"),
-        when(equals("orbit", GEOSTATIONARY_ORBIT), equals("role", "known")),
-        when(equals("orbit", *family_names()), one_of(given("period_days"), given("amplitude_km")),
-             all_of(not_given("period_days"), not_given("amplitude_km"))),
-        when(equals("orbit", *UNPHASED_ORBITS), {"properties": {"phase": {"const": 0}}}),
-        when(equals("role", "known"), all_of(not_given("clock"), not_given("manoeuvre"))),
-        when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2"))))
+    RULES: ClassVar[tuple] = (
+        ONE_PROCESS_NOISE_CONVENTION,
+        Rule(when(equals("orbit", KEPLERIAN_ORBIT), given("elements")),
+             f"orbit {KEPLERIAN_ORBIT!r} needs an 'elements' mapping"),
+        Rule(when(negate(equals("orbit", KEPLERIAN_ORBIT)), not_given("elements")),
+             f"'elements' is only allowed with orbit {KEPLERIAN_ORBIT!r}"),
+        Rule(when(equals("orbit", *family_names()), one_of(given("period_days"), given("amplitude_km"))),
+             lambda spec: f"orbit family {spec.orbit!r} needs exactly one of 'period_days' or 'amplitude_km'"),
+        Rule(when(negate(equals("orbit", *family_names())), all_of(not_given("period_days"), not_given("amplitude_km"))),
+             f"'period_days' / 'amplitude_km' are only allowed with an orbit family ({', '.join(family_names())})"),
+        Rule(together(equals("orbit", ICRF_STATE_ORBIT), "state_km")[0],
+             f"orbit {ICRF_STATE_ORBIT!r} and 'state_km' (6 numbers) go together"),
+        Rule(together(equals("orbit", DEPARTURE_ORBIT), "departure")[0],
+             f"orbit {DEPARTURE_ORBIT!r} and a 'departure' section go together"),
+        Rule(together(equals("orbit", GEOSTATIONARY_ORBIT), "longitude_deg")[0],
+             f"orbit {GEOSTATIONARY_ORBIT!r} and 'longitude_deg' go together"),
+        Rule(when(equals("role", "known"), not_given("manoeuvre")),
+             "a manoeuvre is solved for by the filter: give it to an estimated spacecraft"),
+        Rule(when(equals("orbit", GEOSTATIONARY_ORBIT), equals("role", "known")),
+             f"orbit {GEOSTATIONARY_ORBIT!r} is station-kept, not flown by the filter's dynamics: give it role: known"),
+        Rule(when(equals("orbit", *UNPHASED_ORBITS), {"properties": {"phase": {"const": 0}}}),
+             lambda spec: f"'phase' advances a periodic orbit (catalog or family), not orbit {spec.orbit!r}"),
+        Rule(when(equals("role", "known"), not_given("clock")),
+             "a known spacecraft's clock is not estimated; remove 'clock' or make it role: estimated"))
+    model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
     name: str = Field(pattern=NAME_PATTERN, description="unique among spacecraft and ground stations; letters, "
                       "digits, '_', '.', '-'")
@@ -243,10 +257,6 @@ class SpacecraftSpec(StrictModel):
     def _orbit_from_file(cls, data):
         return orbit_file_from_mapping(data)
 
-    @model_validator(mode="after")
-    def _one_process_noise_convention(self):
-        return one_process_noise_convention(self)
-
     @field_validator("orbit")
     @classmethod
     def _known_orbit(cls, value):
@@ -256,33 +266,14 @@ class SpacecraftSpec(StrictModel):
         return value
 
     @model_validator(mode="after")
-    def _elements_iff_keplerian(self):
-        if self.orbit == KEPLERIAN_ORBIT and self.elements is None:
-            raise ValueError(f"orbit {KEPLERIAN_ORBIT!r} needs an 'elements' mapping")
-        if self.orbit != KEPLERIAN_ORBIT and self.elements is not None:
-            raise ValueError(f"'elements' is only allowed with orbit {KEPLERIAN_ORBIT!r}")
-        if self.orbit in FAMILIES and (self.period_days is None) == (self.amplitude_km is None):
-            raise ValueError(f"orbit family {self.orbit!r} needs exactly one of 'period_days' or 'amplitude_km'")
-        if self.orbit not in FAMILIES and (self.period_days is not None or self.amplitude_km is not None):
-            raise ValueError(
-                f"'period_days' / 'amplitude_km' are only allowed with an orbit family ({', '.join(family_names())})")
-        if (self.orbit == ICRF_STATE_ORBIT) != (self.state_km is not None):
-            raise ValueError(f"orbit {ICRF_STATE_ORBIT!r} and 'state_km' (6 numbers) go together")
-        if (self.orbit == DEPARTURE_ORBIT) != (self.departure is not None):
-            raise ValueError(f"orbit {DEPARTURE_ORBIT!r} and a 'departure' section go together")
-        if (self.orbit == GEOSTATIONARY_ORBIT) != (self.longitude_deg is not None):
-            raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} and 'longitude_deg' go together")
+    def _rules_then_what_rules_cannot_say(self):
+        """The declared RULES, then what needs arithmetic or a file: the orbit file's mapping, an OEM with a
+        manoeuvre, the ICRF state's length and radius."""
+        check_rules(self, self.RULES)
         if (self.orbit in ORBIT_FILE_KINDS) != (self.orbit_file is not None):
             raise ValueError("orbit: {oem: FILE} or {opm: FILE} is given as a mapping with the file")
         if self.orbit == "oem" and self.manoeuvre is not None:
             raise ValueError("an OEM truth already holds its manoeuvres: remove 'manoeuvre' or use orbit: {opm: FILE}")
-        if self.manoeuvre is not None and self.role != "estimated":
-            raise ValueError("a manoeuvre is solved for by the filter: give it to an estimated spacecraft")
-        if self.orbit == GEOSTATIONARY_ORBIT and self.role != "known":
-            raise ValueError(f"orbit {GEOSTATIONARY_ORBIT!r} is station-kept, not flown by the filter's dynamics: "
-                             "give it role: known")
-        if self.phase and self.orbit in UNPHASED_ORBITS:
-            raise ValueError(f"'phase' advances a periodic orbit (catalog or family), not orbit {self.orbit!r}")
         if self.state_km is not None and len(self.state_km) != 6:
             raise ValueError(f"'state_km' needs 6 numbers (x, y, z km, vx, vy, vz km/s), got {len(self.state_km)}")
         if self.state_km is not None:
@@ -290,8 +281,6 @@ class SpacecraftSpec(StrictModel):
             if radius_km <= WGS84_EQUATORIAL_RADIUS_KM:
                 raise ValueError(f"'state_km' puts the spacecraft {radius_km:.1f} km from the Earth's centre, inside "
                                  f"the Earth; allowed: a geocentric position above {WGS84_EQUATORIAL_RADIUS_KM} km")
-        if self.role == "known" and self.clock is not None:
-            raise ValueError("a known spacecraft's clock is not estimated; remove 'clock' or make it role: estimated")
         return self
 
 

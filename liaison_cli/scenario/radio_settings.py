@@ -2,14 +2,15 @@
 method and the carrier), link budgets, and the link file of `liaison budget` (with the dual one-way
 receiver)."""
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.radio.carrier import TURNAROUND_S_BAND
 from liaison_cli.radio.link_budget import LinkLeg
 from liaison_cli.radio.ranging import carrier_sigmas_from_link_budget, pn_chip_rate_bias_m, sigma_from_link_budget
-from liaison_cli.scenario.schema_rules import all_of, any_of, equals, given, not_given, one_of, schema_rules, when
+from liaison_cli.scenario.schema_rules import (Rule, all_of, any_of, check_rules, equals, given, negate, not_given,
+                                               schema_rules, when)
 from liaison_cli.scenario.spec_base import StrictModel
 
 
@@ -63,14 +64,23 @@ class NoiseSpec(StrictModel):
     """Range sigma: `sigma_m` directly, or `ranging_method` + `link_budget` (000 Eq. 1-4, 001 Eq. 62-63).
     Range-rate and LOS sigmas: directly, or from the link budget's carrier (`carrier`, 001 Eq. 5 and 9)."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(
-        one_of(given("sigma_m"), given("ranging_method")),
-        when(given("ranging_method"), given("link_budget")),
-        when(given("carrier"), all_of(given("link_budget"), not_given("range_rate_sigma_m_s"),
-                                      not_given("los_path_sigma_m"))),
-        when(given("link_budget"), any_of(given("ranging_method"), given("carrier"))),
-        when(equals("ranging_method", "telemetry", "pn", "tone"), all_of(*map(given, CLOCK_KEYS))),
-        when(given("pn_chip_rate_offset_hz"), equals("ranging_method", "pn"))))
+    RULES: ClassVar[tuple] = (
+        Rule(any_of(given("sigma_m"), given("ranging_method")), "give 'sigma_m' or both 'ranging_method' and 'link_budget'"),
+        Rule(negate(all_of(given("sigma_m"), given("ranging_method"))),
+             "give either 'sigma_m' or 'ranging_method' + 'link_budget', not both"),
+        Rule(when(given("ranging_method"), given("link_budget")), "'ranging_method' and 'link_budget' go together"),
+        Rule(when(given("carrier"), given("link_budget")),
+             "'carrier' derives its sigmas from the link budget: give 'link_budget'"),
+        Rule(when(given("link_budget"), any_of(given("ranging_method"), given("carrier"))),
+             "'link_budget' is used by 'ranging_method' or 'carrier'; give one of them"),
+        Rule(when(equals("ranging_method", "telemetry", "pn", "tone"), all_of(*map(given, CLOCK_KEYS))),
+             lambda spec: f"ranging_method {spec.ranging_method!r} needs "
+                          f"{', '.join(k for k in CLOCK_KEYS if getattr(spec, k) is None)}"),
+        Rule(when(given("pn_chip_rate_offset_hz"), equals("ranging_method", "pn")),
+             "'pn_chip_rate_offset_hz' applies to ranging_method 'pn' only"),
+        *(Rule(when(given("carrier"), not_given(key)), f"give either '{key}' or 'carrier' (which derives it), not both")
+          for key in ("range_rate_sigma_m_s", "los_path_sigma_m")))
+    model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
     sigma_m: float | None = Field(None, gt=0, description="1-sigma of range-like channels (m)")
     ranging_method: RangingMethod | None = Field(None, description="derive the range sigma from link_budget by "
@@ -102,27 +112,7 @@ class NoiseSpec(StrictModel):
 
     @model_validator(mode="after")
     def _one_source_of_sigma(self):
-        if self.sigma_m is None and self.ranging_method is None:
-            raise ValueError("give 'sigma_m' or both 'ranging_method' and 'link_budget'")
-        if self.sigma_m is not None and self.ranging_method is not None:
-            raise ValueError("give either 'sigma_m' or 'ranging_method' + 'link_budget', not both")
-        if self.ranging_method is not None and self.link_budget is None:
-            raise ValueError("'ranging_method' and 'link_budget' go together")
-        if self.carrier is not None and self.link_budget is None:
-            raise ValueError("'carrier' derives its sigmas from the link budget: give 'link_budget'")
-        if self.link_budget is not None and self.ranging_method is None and self.carrier is None:
-            raise ValueError("'link_budget' is used by 'ranging_method' or 'carrier'; give one of them")
-        if self.ranging_method in ("telemetry", "pn", "tone"):
-            missing = [k for k in CLOCK_KEYS if getattr(self, k) is None]
-            if missing:
-                raise ValueError(f"ranging_method {self.ranging_method!r} needs {', '.join(missing)}")
-        if self.pn_chip_rate_offset_hz is not None and self.ranging_method != "pn":
-            raise ValueError("'pn_chip_rate_offset_hz' applies to ranging_method 'pn' only")
-        if self.carrier is not None:
-            for key in ("range_rate_sigma_m_s", "los_path_sigma_m"):
-                if getattr(self, key) is not None:
-                    raise ValueError(f"give either '{key}' or 'carrier' (which derives it), not both")
-        return self
+        return check_rules(self, self.RULES)
 
     def resolved_sigma_m(self) -> float:
         if self.sigma_m is not None:

@@ -3,6 +3,8 @@ ones named, numbers finite), the name pattern, and the JSON Schema words the sec
 
 from pydantic import BaseModel, ConfigDict, model_validator
 
+from liaison_cli.scenario.schema_rules import Rule, given, not_given, when
+
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
 UNIQUE = {"uniqueItems": True}  # the JSON Schema word for a list the loader refuses repeats in
@@ -18,13 +20,12 @@ def allowed_names(schema: dict, what: str) -> None:
     schema["enum"] = [*names(), None]
 
 
-def one_process_noise_convention(spec):
-    """A section (the filter, or a spacecraft) gives its process noise in at most one convention
-    (estimation.process_noise: a PSD, or the papers' per-step sigma_a); returns spec."""
-    if spec.process_noise_psd_m2_s3 is not None and spec.process_noise_accel_m_s2 is not None:
-        raise ValueError("give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and "
-                         "'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not both")
-    return spec
+# A section (the filter, or a spacecraft) gives its process noise in at most one convention
+# (estimation.process_noise: a PSD, or the papers' per-step sigma_a).
+ONE_PROCESS_NOISE_CONVENTION = Rule(
+    when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2")),
+    "give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and 'process_noise_accel_m_s2' (per-step "
+    "sigma_a, m/s^2), not both")
 
 
 class StrictModel(BaseModel):
