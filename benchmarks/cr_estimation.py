@@ -31,7 +31,10 @@ LADDER = (1e-8, 1e-9, 1e-10)
 OUTPUT = REPO / "results" / "reference" / "cr_estimation.md"
 
 
-VARIANTS = {"no": {}, "yes": {"filter.estimated_parameters": {"cr": 0.05}},
+# Each variant states both settings: the shipped scenario estimates C_R with every body in the filter's model.
+MOON_AND_SUN = ["moon", "sun"]
+VARIANTS = {"no": {"filter.estimated_parameters": {}, "ephemeris.filter_bodies": MOON_AND_SUN},
+            "yes": {"filter.estimated_parameters": {"cr": 0.05}, "ephemeris.filter_bodies": MOON_AND_SUN},
             "yes, all bodies": {"filter.estimated_parameters": {"cr": 0.05}, "ephemeris.filter_bodies": list(BODY_CODES)}}
 
 
