@@ -191,9 +191,20 @@ def format_smoothed(summary: list[dict], spacecraft) -> str:
     return "\n".join(lines)
 
 
+# A batch solve whose equilibrated normal-equation condition number (summary column batch_condition, the same in
+# every row of a run) is above this leaves some combination of the states almost undetermined by its span's data
+# (sqrt(1e7) ~ 3,000: that combination's σ is ~3,000 times what the diagonal of the information alone implies),
+# and the errors and σ the run prints follow it. Measured on the nrho-batch template (3 runs, position RMS):
+# span 1.5 T (9.885 d) 1.3e5, ~1 m; 1 T 1.6e6, 3-5 m; 5 d 1.5e7, 15-18 m; 4 d 1.3e8, 130-170 m; 3 d 1.9e9,
+# 400-600 m; 2 d refused (estimation.batch.CONDITION_LIMIT, 1e12). The shipped 002 scenarios (1 to 2 periods)
+# lie at 1.9e4 to 1.4e5, two decades below the line, so they print nothing more.
+WEAK_BATCH_CONDITION = 1e7
+
+
 def format_prediction(summary: list[dict], spacecraft) -> str:
     """For a batch scenario: the DRMS of the prediction after the span and the clock synchronisation RMS,
-    mean [90th percentile] over the runs that finished; empty for an EKF scenario."""
+    mean [90th percentile] over the runs that finished, and weak_batch_line when the solve was weak; empty for an
+    EKF scenario."""
     if not any("rms_position_prediction_m" in row for row in summary):
         return ""
     clocks = any("clock_rms_window_ns" in row for row in summary)
@@ -208,7 +219,22 @@ def format_prediction(summary: list[dict], spacecraft) -> str:
         if clocks:
             line += right(stat("clock_rms_window_ns"), 26) + right(stat("clock_rms_prediction_ns"), 22)
         lines.append(line)
-    return "after the data span, mean [90th percentile] over runs:\n" + "\n".join(lines)
+    weak = weak_batch_line(summary)
+    return "after the data span, mean [90th percentile] over runs:\n" + "\n".join(lines + ([weak] if weak else []))
+
+
+def weak_batch_line(summary: list[dict]) -> str:
+    """When the largest batch condition number over the runs that finished is above WEAK_BATCH_CONDITION: one
+    line saying so and what it means for the figures above (a user sees only consistent, large errors); else
+    empty (an EKF run has no batch_condition)."""
+    values = [row["batch_condition"] for row in summary if row.get("status") == "ok"
+              and isinstance(row.get("batch_condition"), float) and math.isfinite(row["batch_condition"])]
+    if not values or max(values) <= WEAK_BATCH_CONDITION:
+        return ""
+    return (f"weak batch: the normal equations' condition number is {max(values):.2g} (equilibrated; above "
+            f"{WEAK_BATCH_CONDITION:.0e}): the span's data leave a combination of the states almost undetermined, "
+            "and the errors and σ above follow it; a longer span (more of the orbit's geometry) or more "
+            "observables lower it")
 
 
 def rejection_line(summary: list[dict], spec) -> str:
@@ -225,6 +251,22 @@ def rejection_line(summary: list[dict], spec) -> str:
     return (f"residual gate {spec.residual_gate_sigma:g} sigma after {spec.residual_gate_after} accepted: "
             f"{sum(counts)} measurements rejected in {len(counts)} runs ({100.0 * mean(shares):.3g} % per run); "
             "per link: residuals.parquet, column rejected")
+
+
+# A link measuring at fewer than this share of the epochs leaves much of the arc to its gaps (where a spacecraft
+# no other link reaches rests on its dynamics and a priori), which a table of RMS and err/σ does not show.
+# Measured: the templates' crosslinks 100 %, their GEO TDoA pair 89-93 % (both paths must clear the Earth and
+# the Moon); ground passes about a third (dated-dsn's Goldstone 35 %, the Mauna Kea / Owens Valley TDoA pair
+# 28 % of 1.5 d).
+COVERAGE_FLAG = 0.8
+
+
+def coverage_lines(shares: dict, duration_days: float) -> list[str]:
+    """One line per link whose share of epochs with a measurement (report.run_result.link_coverage) is below
+    COVERAGE_FLAG, saying how much of the arc it covered; none when every link covers the arc."""
+    return [f"{link} measured at {100.0 * share:.0f} % of the epochs (about {share * duration_days:.2g} of "
+            f"{duration_days:g} d): the figures above include its gaps, where it adds nothing"
+            for link, share in sorted(shares.items()) if share < COVERAGE_FLAG]
 
 
 def status_line(summary: list[dict]) -> str:

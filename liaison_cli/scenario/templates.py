@@ -14,7 +14,7 @@ TEMPLATES = {
     "network": "star of three spacecraft around an EML2 hub, CRTBP (EKF; one word to a mesh)",
     "nrho-batch": "NRHO Gateway + 2 anchors, dual one-way range + range-rate and clocks, batch least squares",
     "dated-dsn": "dated DE421 + SRP EML1 / EML2 halos, crosslink + Goldstone range / range-rate (EKF)",
-    "tdoa-pair": "EML2 halo transmitter located by TDoA + FDoA at a VLBA receiver pair, dated (EKF)",
+    "tdoa-pair": "EML2 halo transmitter located by TDoA + FDoA at a GEO receiver pair, dated (EKF)",
 }
 _NAME_LINE = re.compile(r"^name: .*$", re.MULTILINE)
 

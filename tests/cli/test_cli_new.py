@@ -17,6 +17,18 @@ def invoke(*args):
     return CliRunner().invoke(app, [str(a) for a in args])
 
 
+# Issue 35: each template's printed numbers are representative of its configuration. Position RMS after day 1 (m)
+# per spacecraft, loose bounds around what 3 runs of seed 1 gave (in brackets); before issue 35 nrho-batch gave
+# 330-630 m (a 3 d span, no perilune pass) and tdoa-pair 185 km (a ground pair seeing the transmitter 28 % of 1.5 d).
+AFTER_DAY1_M = {
+    "crosslink-pair": {"EML2": (1e3, 6e3), "Lunar": (100.0, 1.5e3)},         # [2389, 419]
+    "network": {"EML2": (1e3, 6e3), "EML1": (500.0, 6e3), "Lunar": (100.0, 1.5e3)},  # [2163, 1800, 337]
+    "dated-dsn": {"EML1": (300.0, 5e3), "EML2": (300.0, 6e3)},               # [1269, 1909]
+    "nrho-batch": {"Gateway": (0.2, 5.0), "Anchor1": (0.2, 5.0), "Anchor2": (0.2, 5.0)},  # [1.1, 1.2, 1.1]
+    "tdoa-pair": {"TX": (200.0, 5e3)},                                         # [992]
+}
+
+
 @pytest.mark.parametrize("kind", sorted(TEMPLATES))
 def test_every_template_validates_and_runs_as_written(tmp_path, kind):
     jsonschema = pytest.importorskip("jsonschema")
@@ -36,6 +48,31 @@ def test_every_template_validates_and_runs_as_written(tmp_path, kind):
     summary = json.loads(ran.stdout)
     assert summary["runs_ok"] == summary["runs"] == data["monte_carlo"]["runs"]
     assert all(figures["rms_position_m"] > 0 for figures in summary["spacecraft"].values())
+    bounds = AFTER_DAY1_M[kind]
+    assert set(summary["spacecraft"]) == set(bounds)
+    for name, (low, high) in bounds.items():
+        figures = summary["spacecraft"][name]
+        assert low < figures["rms_position_after_day1_m"] < high, (name, figures["rms_position_after_day1_m"])
+        assert 0.4 < figures["position_error_to_sigma_settled"] < 2.5, (name, figures)  # measured 0.88 to 1.55
+
+
+def test_the_batch_template_names_a_span_too_short_for_its_orbit(tmp_path):
+    """nrho-batch as written (1.5 NRHO periods) prints no limit line; with the 3 d span it had before issue 35 (no
+    perilune pass) the run text says the normal equations are weak (report.run_text.weak_batch_line)."""
+    path = tmp_path / "nrho.yaml"
+    assert invoke("new", path, "--from", "nrho-batch").exit_code == 0
+    as_written = invoke("run", path, "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "written")
+    assert as_written.exit_code == 0 and "after the data span" in as_written.stdout, as_written.output
+    assert "weak batch" not in as_written.stdout
+    text = path.read_text()
+    for old, new in (("duration_days: 10.01", "duration_days: 3.125"), ("span_days: 9.885", "span_days: 3.0")):
+        assert old in text
+        text = text.replace(old, new)
+    path.write_text(text)
+    short = invoke("run", path, "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "short")
+    assert short.exit_code == 0, short.output
+    (line,) = [line for line in short.stdout.splitlines() if line.startswith("weak batch")]
+    assert "condition number is" in line and "above 1e+07" in line
 
 
 def test_new_refuses_an_existing_file(tmp_path):
@@ -64,3 +101,33 @@ def test_the_help_names_every_template():
 
     help_text = inspect.signature(new).parameters["kind"].default.help
     assert all(kind in help_text for kind in TEMPLATES) and help_text.count(",") + 2 == len(TEMPLATES)  # a, b, c, d or e
+
+
+GROUND_PAIR = ("ground_stations:\n  - {name: MaunaKea, site: mauna_kea, elevation_mask_deg: 10}\n"
+               "  - {name: OwensValley, site: owens_valley, elevation_mask_deg: 10}\nlinks:\n"
+               "  - {receiver: MaunaKea, second_receiver: OwensValley, transponder: TX, observables: [tdoa, fdoa], "
+               "occultation: true}\n")
+
+
+def test_the_tdoa_template_covers_its_arc_and_the_ground_pair_it_replaced_does_not(tmp_path):
+    """tdoa-pair's GEO pair measures at ~90 % of the epochs: no coverage line; the VLBA ground pair it had before
+    issue 35 (1.5 d) at 28 %, which report.run_text.coverage_lines names from the result's residuals."""
+    from liaison_cli.report.run_result import link_coverage, load_run_result
+    from liaison_cli.report.run_text import coverage_lines
+
+    path = tmp_path / "tdoa.yaml"
+    assert invoke("new", path, "--from", "tdoa-pair").exit_code == 0
+    ran = invoke("run", path, "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "geo")
+    assert ran.exit_code == 0, ran.output
+    shares = link_coverage(load_run_result(tmp_path / "geo").residuals)
+    assert list(shares) == ["GEO130W/GEO170W->TX"] and 0.85 < shares["GEO130W/GEO170W->TX"] < 1.0  # measured 0.93
+    assert coverage_lines(shares, 3.0) == []
+    text = path.read_text()
+    start, end = text.index("  - {name: GEO130W"), text.index("measurement:")
+    text = text[:start] + GROUND_PAIR + text[end:]
+    path.write_text(text.replace("duration_days: 3\n", "duration_days: 1.5\n"))
+    ran = invoke("run", path, "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "ground")
+    assert ran.exit_code == 0, ran.output
+    shares = link_coverage(load_run_result(tmp_path / "ground").residuals)
+    (line,) = coverage_lines(shares, 1.5)
+    assert line.startswith("MaunaKea/OwensValley->TX measured at 28 % of the epochs"), line

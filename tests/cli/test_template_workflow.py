@@ -26,7 +26,7 @@ SHORTER = {
     "network": [("duration_days: 1.5", "duration_days: 0.3")],
     # As written: the dated ones reuse the orbits corrected into DE421 for their span (kept on disk; another span
     # is another correction, seconds to a minute); nrho-batch runs in 2 s, and a shorter batch span leaves its
-    # normal equations ill-conditioned.
+    # normal equations weak (3 d: condition number 2e9) or ill-conditioned (2 d and less: refused).
     "dated-dsn": [],
     "tdoa-pair": [],
     "nrho-batch": [],
