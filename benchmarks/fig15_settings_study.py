@@ -2,7 +2,7 @@
 
     python -m benchmarks.fig15_settings_study [--top 8] [--output results/reference/fig15_study.md]
 
-1. The error budget (campaign.error_budget) of the three formations at sigma = 150 and 300 m with today's
+1. The error budget (campaign.studies.error_budget) of the three formations at sigma = 150 and 300 m with today's
    scenario files: each source's share of the mean-square position error (all epochs after t0).
 2. A grid over the settings the paper leaves open: the true initial error (position, velocity), whether
    the filter's P0 matches it, the SNC accelerations of the halo and of the lunar orbiter, and whether the
@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from liaison_cli.campaign.error_budget import error_budget, part_of, shares
+from liaison_cli.campaign.studies.error_budget import error_budget, part_of, shares
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-from liaison_cli.report.table3 import FORMATIONS, paper_table3
+from liaison_cli.campaign.studies.table3 import FORMATIONS, paper_table3
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from liaison_cli.campaign.error_budget import error_budget
-from liaison_cli.campaign.study004 import pair_name, pair_scenario
+from liaison_cli.campaign.studies.error_budget import error_budget
+from liaison_cli.campaign.studies.study004 import pair_name, pair_scenario
 from liaison_cli.campaign.worker import RunTask, execute_run
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.scenario.setup import prepare_problem

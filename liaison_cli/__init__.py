@@ -51,7 +51,7 @@ class _DigestMemo:
     numeric core costs about 0.1 s, paid on every import otherwise. Keyed by content, so it cannot go stale;
     an unreadable memo is only recomputed, and one that cannot be written is skipped."""
 
-    LIMIT = 1000  # entries kept: a few checkouts' worth of the ~110 modules study cells hash (campaign.study_cells)
+    LIMIT = 1000  # a few checkouts' worth of the ~110 modules study cells hash (campaign.studies.study_cells)
 
     def __init__(self):
         self.path = Path(user_cache_dir()) / "code-digests.json"

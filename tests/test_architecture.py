@@ -259,3 +259,109 @@ def test_every_library_the_package_imports_is_a_declared_dependency():
                 if not names & declared:
                     undeclared.add(f"{path.relative_to(PACKAGE.parent)}: {root} ({', '.join(sorted(names))})")
     assert not undeclared, sorted(undeclared)
+
+
+# Roles (issue 36, one study template): a study's computation lives in campaign/ (campaign.studies), report/
+# formats and draws what it returns, campaign.studies.output writes it through storage/, and the CLI only puts
+# the parts together and prints. Two checks hold the ends of that line.
+
+# What writes a file or a folder: storage's writers, pandas' and matplotlib's, pathlib's. `resumable_output` is
+# not among them: `liaison sweep` hands the folder it settles to the sweep engine (campaign.sweep), which writes.
+FILE_WRITERS = {"write_parquet_atomic", "write_text_atomic", "write_bytes_atomic", "write_columns_atomic",
+                "write_atomic", "staged_output", "prepare_output_dir", "ParquetStream", "to_parquet", "to_csv",
+                "savefig", "write_text", "write_bytes", "mkdir", "touch", "unlink", "rmtree"}
+
+
+def _writes_with_open(node: ast.Call) -> bool:
+    """open(path, mode) or open(path, mode=...) with a mode that writes ('w', 'a', 'x' or '+')."""
+    if not (isinstance(node.func, ast.Name) and node.func.id == "open"):
+        return False
+    modes = [*node.args[1:2], *[k.value for k in node.keywords if k.arg == "mode"]]
+    return any(isinstance(m, ast.Constant) and isinstance(m.value, str) and set(m.value) & set("wax+")
+               for m in modes)
+
+
+def file_writes(package_root: Path, folder: str) -> list[str]:
+    """Calls of a file writer (FILE_WRITERS, open for writing), and imports of one, in the modules of `folder`."""
+    found = []
+    for path in sorted((package_root / folder).rglob("*.py")):
+        module = _module_name(package_root, path)
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call):
+                name = getattr(node.func, "id", None) or getattr(node.func, "attr", None)
+                if name in FILE_WRITERS or _writes_with_open(node):
+                    found.append(f"{module}:{node.lineno}: calls {name}")
+            elif isinstance(node, ast.ImportFrom):
+                found += [f"{module}:{node.lineno}: imports {a.name}" for a in node.names if a.name in FILE_WRITERS]
+    return found
+
+
+def test_the_cli_writes_no_files():
+    """The CLI parses, calls a study's compute function, its report formatter and the writer
+    (campaign.studies.output), and prints; it writes nothing itself."""
+    assert file_writes(PACKAGE, "cli") == []
+
+
+@pytest.mark.parametrize("text", [
+    "from liaison_cli.storage import staged_output\n",
+    "def f(out):\n    with staged_output(out, False) as stage:\n        pass\n",
+    "def f(frame, path):\n    frame.to_parquet(path)\n",
+    "def f(path):\n    with open(path, 'w') as handle:\n        handle.write('x')\n",
+    "def f(path):\n    return open(path, mode='ab')\n",
+    "def f(path):\n    path.write_text('x')\n",
+    "def f(fig, path):\n    fig.savefig(path)\n",
+    "def f(path):\n    path.mkdir(parents=True)\n",
+])
+def test_the_cli_write_check_catches_a_write(tmp_path, text):
+    package = _write_fake_package(tmp_path, {"__init__.py": "", "cli/__init__.py": "", "cli/study.py": text})
+    assert len(file_writes(package, "cli")) == 1, file_writes(package, "cli")
+
+
+def test_the_cli_write_check_lets_reading_pass(tmp_path):
+    text = "def f(path):\n    with open(path, 'rb') as handle:\n        return handle.read(), open(path).read()\n"
+    package = _write_fake_package(tmp_path, {"__init__.py": "", "cli/__init__.py": "", "cli/study.py": text})
+    assert file_writes(package, "cli") == []
+
+
+# report/ may read the estimator descriptors' registry (what each estimator is called and keeps, to choose which
+# channels a run's figures draw); it runs no estimator and computes no study.
+REPORT_MAY_IMPORT = {"estimation.estimators"}
+
+
+def report_reaches_into_computation(package_root: Path) -> list[str]:
+    """Modules of report/ that import from campaign/ or estimation/ (lazily too), or name one of their modules in a
+    string (importlib.import_module, __import__)."""
+    found = []
+    for path in sorted((package_root / "report").rglob("*.py")):
+        module = _module_name(package_root, path)
+        imported = {m for m in _internal_imports(package_root, path) if m.split(".")[0] in ("campaign", "estimation")}
+        found += [f"{module}: imports {m}" for m in sorted(imported - REPORT_MAY_IMPORT)]
+        found += [f"{module}: names {node.value}" for node in ast.walk(ast.parse(path.read_text()))
+                  if isinstance(node, ast.Constant) and isinstance(node.value, str)
+                  and node.value.startswith(("liaison_cli.campaign", "liaison_cli.estimation"))]
+    return found
+
+
+def test_report_only_formats_and_draws():
+    """report/ formats and draws the frames a study returns: it imports nothing that computes one."""
+    assert report_reaches_into_computation(PACKAGE) == []
+
+
+@pytest.mark.parametrize("text", [
+    "from liaison_cli.campaign.studies.table3 import compute_table3\n",
+    "def f():\n    from liaison_cli.estimation import ekf\n",
+    "import liaison_cli.campaign.runner\n",
+    "from liaison_cli.campaign import worker\n",
+    "import importlib\nrunner = importlib.import_module('liaison_cli.campaign.runner')\n",
+])
+def test_the_report_check_catches_a_computation(tmp_path, text):
+    package = _write_fake_package(tmp_path, {"__init__.py": "", "report/__init__.py": "", "report/table3.py": text,
+                                             "estimation/__init__.py": "", "estimation/estimators.py": ""})
+    assert len(report_reaches_into_computation(package)) == 1, report_reaches_into_computation(package)
+
+
+def test_the_report_check_lets_the_estimator_registry_pass(tmp_path):
+    package = _write_fake_package(tmp_path, {
+        "__init__.py": "", "report/__init__.py": "", "estimation/__init__.py": "", "estimation/estimators.py": "",
+        "report/run_plots.py": "def f():\n    from liaison_cli.estimation.estimators import ESTIMATORS\n"})
+    assert report_reaches_into_computation(package) == []

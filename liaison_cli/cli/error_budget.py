@@ -28,8 +28,10 @@ def errors(
 ):
     """Error budget: the EKF's error split by source (LinCov along the truth) and its consistency after the
     settle time (budget error RMS / filter sigma RMS), with an optional MC check (adds the NEES-in-band share)."""
-    from liaison_cli.campaign.error_budget import budget_study, select_sources
-    from liaison_cli.report.error_budget import format_consistency, format_shares, write_budget_folder
+    from liaison_cli.campaign.studies.budget_tables import budget_tables, by_source, provenance
+    from liaison_cli.campaign.studies.error_budget import budget_study, select_sources
+    from liaison_cli.campaign.studies.output import StudyOutput, write_folder
+    from liaison_cli.report.error_budget import draw_budget, format_consistency, format_shares
     from liaison_cli.scenario.schema import read_scenario_text, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
 
@@ -48,7 +50,10 @@ def errors(
         _print_budget(scenario, table, study.checks, check_runs)
         typer.echo(consistency_text, nl=False)
     out_dir = output or Path("results") / f"{scenario.name}-errors"
-    write_budget_folder(study, out_dir, overwrite, table + "\n" + consistency_text, scenario.name, text)
+    write_folder(out_dir, overwrite, lambda: StudyOutput(
+        budget_tables(study), provenance(scenario.name, text), {"shares.md": table + "\n" + consistency_text},
+        lambda folder: [draw_budget(study.budget, by_source(study.budget), folder / "error_budget.png",
+                                    f"Error budget: {scenario.name}")]))
     if as_json:
         from liaison_cli.report.json_summary import errors_document
 

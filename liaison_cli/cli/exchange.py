@@ -20,8 +20,8 @@ def export(
     """One run as CCSDS files: truth and estimate OEM (with covariance) per spacecraft, TDM of its measurements.
 
     Example: liaison export results/eml2_lunar --run 3 --format both"""
-    from liaison_cli.campaign.exchange_export import export_run
-    from liaison_cli.storage import staged_output
+    from liaison_cli.campaign.exchange.export import export_run
+    from liaison_cli.campaign.studies.output import fill_folder
 
     formats = {"kvn": ("kvn",), "xml": ("xml",), "both": ("kvn", "xml")}.get(data_format)
     if formats is None:
@@ -30,8 +30,7 @@ def export(
     if Path(out_dir).resolve() in (Path(result).resolve(), *Path(result).resolve().parents):
         fail(f"--output {out_dir}: the result folder being exported, or a folder holding it; allowed: a folder "
              f"beside or inside it (default: {result / f'ccsds-run{run_index}'})", 2)
-    with staged_output(out_dir, overwrite) as stage:
-        done = export_run(result, run_index, formats, stage)
+    done = fill_folder(out_dir, overwrite, lambda stage: export_run(result, run_index, formats, stage))
     typer.echo(f"{done['scenario']}: run {done['run']}, {done['epochs']} epochs recomputed (position errors within "
                f"{done['stored_difference_m']:.2g} m of the stored run)")
     for skipped in done["skipped"]:

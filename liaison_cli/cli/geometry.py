@@ -20,17 +20,26 @@ def observability(
     no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
 ):
     """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
-    from liaison_cli.storage import staged_output
+    from liaison_cli.campaign.studies.observability_study import (check_supported, observability_study, provenance,
+                                                                  study_tables)
+    from liaison_cli.campaign.studies.output import StudyOutput, write_folder
+    from liaison_cli.report.observability_report import draw_effectiveness, summary_json
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.report.observability_report import check_supported, observability_report
 
     config, text = load_scenario(scenario)
     check_supported(config, str(scenario))
     if range_rate_sigma_m_s is None:
         range_rate_sigma_m_s = config.noise.resolved_range_rate_sigma_m_s() or 1e-3
     out_dir = output or Path("results") / f"observability-{config.name}"
-    with staged_output(out_dir, overwrite) as stage:
-        summary = observability_report(config, text, stage, range_rate_sigma_m_s, taylor=not no_taylor)
+
+    def make():
+        study = observability_study(config, range_rate_sigma_m_s, taylor=not no_taylor)
+        return StudyOutput(study_tables(study), provenance(study, text),
+                           {"observability.json": summary_json(study.summary)},
+                           lambda folder: draw_effectiveness(study, folder / "effectiveness.png", config.name),
+                           result=study.summary)
+
+    summary = write_folder(out_dir, overwrite, make).result
     for observable, values in summary["observables"].items():
         least = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["least_observable"])
         most = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["most_observable"])
@@ -57,12 +66,19 @@ def geometry(
     interval_s: float = typer.Option(600.0, "--interval", min=10.0, help="sampling interval of the links, s"),
 ):
     """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter."""
-    from liaison_cli.storage import staged_output
-    from liaison_cli.report.geometry import run_study
+    from liaison_cli.campaign.studies.geometry import GRIDS, geometry_tables, provenance
+    from liaison_cli.campaign.studies.output import StudyOutput, write_folder
+    from liaison_cli.report.geometry import draw_study
 
     out_dir = output
-    with staged_output(out_dir, overwrite) as stage:
-        tables = run_study(stage, count, interval_s)
+
+    def make():
+        tables = geometry_tables(count, interval_s)
+        titles = {key: title for key, (_, _, title) in GRIDS.items()}
+        return StudyOutput(tables, provenance(count, interval_s), draw=lambda folder: draw_study(
+            tables, titles, interval_s, folder), table_meta={key: {"study": key} for key in tables}, result=tables)
+
+    tables = write_folder(out_dir, overwrite, make).result
     for key, table in tables.items():
         for observable in ("range", "range_rate"):
             col = table[f"{observable}_condition_number"]

@@ -19,11 +19,12 @@ def plot_fig15(
     title: str = typer.Option(None, "--title", help="figure title"),
 ):
     """Error vs ranging sigma (Fig. 15), one line per formation and spacecraft, Table 3 overlaid."""
+    from liaison_cli.campaign.studies.table3 import paper_table3
     from liaison_cli.report.fig15 import draw_fig15, load_curve, paper_points_vs_curve
 
-    curve = load_curve(sweep_dir)
-    paths = draw_fig15(curve, output or sweep_dir / "fig15", title)
-    check = paper_points_vs_curve(curve)
+    curve, paper = load_curve(sweep_dir), paper_table3()
+    paths = draw_fig15(curve, paper, output or sweep_dir / "fig15", title)
+    check = paper_points_vs_curve(curve, paper)
     if len(check):
         typer.echo("Turan et al. 2022 Table 3 against our curve (mean of run RMS, interpolated in sigma):")
         for row in check.itertuples():

@@ -58,8 +58,8 @@ def run(
 
     Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2"""
     from liaison_cli.campaign.results import stream_campaign
+    from liaison_cli.campaign.studies.output import fill_folder
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.storage import staged_output
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -70,10 +70,9 @@ def run(
     if output is None and not overwrite and _earlier_run_of(out_dir, config.name):  # an edit-and-rerun cycle
         overwrite = True
         log.warning("replacing %s (an earlier `liaison run` of %s; --output keeps both)", out_dir, config.name)
-    with staged_output(out_dir, overwrite) as stage:  # complete, or not there at all
-        problem, summary = stream_campaign(config, stage, text, runs=runs, jobs=jobs,
-                                           progress=not quiet and sys.stderr.isatty(),
-                                           float_dtype="float64" if float64 else "float32", where=where)
+    problem, summary = fill_folder(out_dir, overwrite, lambda stage: stream_campaign(  # complete, or not there at all
+        config, stage, text, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
+        float_dtype="float64" if float64 else "float32", where=where))
     if as_json:
         from liaison_cli.report.json_summary import run_document
 
@@ -137,15 +136,19 @@ def table3(
     quiet: QuietOption = False,
 ):
     """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
-    from liaison_cli.report.table3 import run_table3
-    from liaison_cli.storage import staged_output
+    from liaison_cli.campaign.studies.output import StudyOutput, write_folder
+    from liaison_cli.campaign.studies.table3 import compute_table3, provenance
+    from liaison_cli.report.table3 import to_markdown
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
-    with staged_output(output, overwrite) as stage:
-        result = run_table3(scenario_folder(scenarios), stage, runs, jobs, progress=not quiet and sys.stderr.isatty(),
-                            where=where)
-    typer.echo(result.markdown)
+
+    def make():
+        computed = compute_table3(scenario_folder(scenarios), runs, jobs, not quiet and sys.stderr.isatty(), where)
+        return StudyOutput({"table3": computed.table, "summary": computed.summaries}, provenance(computed, runs),
+                           {"table3.md": to_markdown(computed.table, computed.checks)})
+
+    typer.echo(write_folder(output, overwrite, make).texts["table3.md"])
     typer.echo(f"results: {output}")
 
 
@@ -164,25 +167,23 @@ def compare(
     as_json: bool = json_option(),
 ):
     """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
-    from liaison_cli.campaign.results import summarise_campaign
-    from liaison_cli.report.compare import compare_rows, write_compare
+    from liaison_cli.campaign.studies.compare import compare_study, provenance
+    from liaison_cli.campaign.studies.output import StudyOutput, write_folder
+    from liaison_cli.report.compare import to_markdown
     from liaison_cli.scenario.schema import load_scenario
-    from liaison_cli.storage import staged_output
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
     loaded = [(path, *load_scenario(path)) for path in scenarios]
     refuse_repeated_labels([(path, config.name) for path, config, _ in loaded], "name")
-    rows, summaries, texts = [], [], {}
-    with staged_output(output, overwrite) as stage:
-        for path, config, text in loaded:
-            _, summary = summarise_campaign(config, runs=runs, jobs=jobs,
-                                            progress=not quiet and sys.stderr.isatty(), description=config.name,
-                                            where=where)
-            rows.append(compare_rows(config, summary))
-            summaries.append(summary.assign(scenario=config.name))
-            texts[config.name] = text
-        table, markdown = write_compare(rows, summaries, texts, stage)
+
+    def make():
+        table, summary, texts = compare_study(loaded, runs, jobs, not quiet and sys.stderr.isatty(), where)
+        return StudyOutput({"compare": table, "summary": summary}, provenance(texts),
+                           {"compare.md": to_markdown(table)}, result=table)
+
+    written = write_folder(output, overwrite, make)
+    table, markdown = written.result, written.texts["compare.md"]
     if as_json:
         from liaison_cli.report.json_summary import compare_document
 

@@ -33,10 +33,10 @@ def schema(
     if output is None:
         typer.echo(text, nl=False)
         return
-    from liaison_cli.storage import write_text_atomic
+    from liaison_cli.campaign.studies.output import StudyOutput, write_files
 
     check_file_output(output, overwrite, "--output", "the scenario schema", _schema_file)
-    write_text_atomic(text, output)
+    write_files(output.parent, StudyOutput(texts={output.name: text}))
     typer.echo(f"wrote {output}")
 
 

@@ -5,7 +5,6 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli import __version__
 from liaison_cli.cli.common import (
     QuietOption,
     StudyGridOption,
@@ -31,27 +30,6 @@ def _load_study(paths: list[Path]) -> list:
 
     refuse_repeated_labels([(Path(path), Path(path).stem) for path in paths], "file stem")
     return [(Path(path).stem, *load_scenario(path)) for path in paths]
-
-
-def _write_study(output: Path, overwrite: bool, loaded, runs: int, summary, history, table: str, draw,
-                 tables: dict | None = None) -> None:
-    """A study's table, Parquet (scenario texts, seeds and version in the metadata) and figures, swapped in
-    whole; `draw(history, stage)` draws the figures into the staging folder; `tables`: further Parquet files,
-    {stem: DataFrame}."""
-    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
-
-    typer.echo(table, nl=False)
-    meta = {"package": "liaison", "version": __version__, "runs": runs,
-            "scenarios_yaml": {name: text for name, _, text in loaded},
-            "seeds": {name: scenario.monte_carlo.seed for name, scenario, _ in loaded}}
-    with staged_output(output, overwrite) as stage:
-        write_parquet_atomic(summary, stage / "summary.parquet", meta)
-        write_parquet_atomic(history, stage / "histories.parquet", meta)
-        for stem, frame in (tables or {}).items():
-            write_parquet_atomic(frame, stage / f"{stem}.parquet", meta)
-        write_text_atomic(table, stage / "table.md")
-        draw(history, stage)
-    typer.echo(f"results: {output}")
 
 
 def work_option():
@@ -90,7 +68,9 @@ def study003(
 
     Example: liaison study003 --runs 50 --grid filter.underweighting=0,0.2"""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid
-    from liaison_cli.campaign.study003 import DSN_NOISE_READINGS, run_study, tuning
+    from liaison_cli.campaign.studies.output import StudyOutput, study_meta, write_folder
+    from liaison_cli.campaign.studies.study003 import DSN_NOISE_READINGS, run_study, tuning
+    from liaison_cli.campaign.studies.study_cells import first_grid_point
     from liaison_cli.report.study003 import draw_comparison, draw_mission, format_table
 
     check_runs(runs)
@@ -109,18 +89,17 @@ def study003(
                f"3D RMS after t0 (σ: the filter's; 003: its stated full-set values). Filter ({first.name}): "
                f"{tuning(first)}" + (f"; grid over {', '.join(k for k, _ in axes)}" if axes else ""))
 
-    def draw(history_, stage):
-        if axes:  # the figures show the first grid point; every point's numbers are in the tables
-            first_point = history_
-            for key, values in axes:
-                first_point = first_point[first_point[key] == values[0]]
-            history_ = first_point
+    def draw(folder):  # the figures show the first grid point; every point's numbers are in the tables
+        shown = first_grid_point(history, axes)
         for name, _, _ in loaded:
-            draw_mission(history_, name, stage)
-        draw_comparison(history_, stage)
+            draw_mission(shown, name, folder)
+        draw_comparison(shown, folder)
 
     table = format_table(summary, [k for k, _ in axes], first.settle_days())
-    _write_study(output, overwrite, loaded, runs, summary, history, table, draw)
+    typer.echo(table, nl=False)
+    write_folder(output, overwrite, lambda: StudyOutput({"summary": summary, "histories": history},
+                                                        study_meta(loaded, runs), {"table.md": table}, draw))
+    typer.echo(f"results: {output}")
 
 
 STUDY004_TRANSMITTERS = ("004/eml2_halo.yaml", "004/dro.yaml", "004/low_energy_transfer.yaml")
@@ -148,9 +127,12 @@ def study004(
     (converged share, time to converge, consistency), rankings, DOP, and 004's claims checked on the EKF's
     settled error with LinCov σ beside it (claims.parquet); table and figures."""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid
-    from liaison_cli.campaign.study003 import tuning
-    from liaison_cli.campaign.study004 import check_claims, rankings, run_study
-    from liaison_cli.report.study004 import draw_histories, format_claims, format_rankings, format_table
+    from liaison_cli.campaign.studies.study003 import tuning
+    from liaison_cli.campaign.studies.output import StudyOutput, study_meta, write_folder
+    from liaison_cli.campaign.studies.study004 import check_claims, rankings, run_study
+    from liaison_cli.campaign.studies.study_cells import first_grid_point
+    from liaison_cli.report.study004 import (draw_histories, format_claims, format_rankings, format_table,
+                                             initial_batch_text)
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -168,7 +150,7 @@ def study004(
               "scenario's settle time; consistent = the consistency verdict (analysis.consistency: the NEES test "
               "and the error/σ ratio's 95 % interval against [0.67, 1.5]; summary.parquet: "
               "ekf_consistency_failed)."]
-    header += [f"Filter ({name}): {tuning(scenario)}{_initial_batch_text(scenario)}" for name, scenario, _ in loaded]
+    header += [f"Filter ({name}): {tuning(scenario)}{initial_batch_text(scenario)}" for name, scenario, _ in loaded]
     header.append("Written by `liaison study004 " + " ".join([*map(str, scenarios or []), f"--runs {runs}"]
                                                             + [f"--grid {text}" for text in grid or []]) + "`")
     if axes:
@@ -177,23 +159,15 @@ def study004(
     table = "\n".join(header) + "\n\n" + format_table(summary, keys) + "\n" + format_rankings(
         rankings(summary, keys), keys) + "\n" + format_claims(claims, keys)
 
-    def draw(history_, stage):
-        if axes:  # the figures show the first grid point; every point's numbers are in the tables
-            for key, values in axes:
-                history_ = history_[history_[key] == values[0]]
+    def draw(folder):  # the figures show the first grid point; every point's numbers are in the tables
+        shown = first_grid_point(history, axes)
         for name, _, _ in loaded:
-            draw_histories(history_, name, stage)
+            draw_histories(shown, name, folder)
 
-    _write_study(output, overwrite, loaded, runs, summary, history, table, draw, {"claims": claims})
-
-
-def _initial_batch_text(scenario) -> str:
-    flt = scenario.filter
-    if flt.initial_batch_hours is None:
-        return "; no initial batch (the EKF starts from the a priori)"
-    longest = flt.initial_batch_max_hours or flt.initial_batch_hours
-    return (f"; initial batch {flt.initial_batch_hours:g} h, doubling up to {longest:g} h until the hand-over "
-            f"position 1σ < {flt.initial_batch_handover_sigma_km:g} km")
+    typer.echo(table, nl=False)
+    write_folder(output, overwrite, lambda: StudyOutput({"summary": summary, "histories": history, "claims": claims},
+                                                        study_meta(loaded, runs), {"table.md": table}, draw))
+    typer.echo(f"results: {output}")
 
 
 @app.command("tables002")
@@ -208,28 +182,20 @@ def tables002(
 ):
     """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms; with
     the nrho_gateway_anchors_mesh* scenarios in the sweep, both readings of 002's links side by side."""
-    from liaison_cli.report.nrho002 import (clock_table, consistency_table, draw_histograms, drms_table,
-                                            format_consistency, format_readings, format_tables, per_run_metrics)
-    from liaison_cli.storage import write_parquet_atomic, write_text_atomic
+    from liaison_cli.campaign.studies.output import StudyOutput, write_files
+    from liaison_cli.campaign.studies.tables002 import (NRHO_PERIOD_DAYS, clock_table, consistency_table, drms_table,
+                                                        histogram_cell, per_run_metrics)
+    from liaison_cli.report.nrho002 import draw_histograms, format_consistency, format_readings, format_tables
 
     metrics = per_run_metrics(sweep_dir)
     drms, clocks, consistency = drms_table(metrics), clock_table(metrics), consistency_table(sweep_dir)
     readings = format_readings(drms, clocks)
     text = format_tables(drms, clocks) + ("\n" + readings if readings else "") + "\n" + format_consistency(consistency)
     typer.echo(text, nl=False)
-    out_dir = output or sweep_dir / "tables002"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    meta = {"package": "liaison", "source": str(sweep_dir), "metric": "p90 over runs with status ok"}
-    paths = [out_dir / "drms_p90.parquet", out_dir / "clock_p90.parquet", out_dir / "per_run.parquet",
-             out_dir / "consistency.parquet", out_dir / "tables.md"]
-    write_parquet_atomic(drms, paths[0], meta)
-    write_parquet_atomic(clocks, paths[1], meta)
-    write_parquet_atomic(metrics, paths[2], meta)
-    write_parquet_atomic(consistency, paths[3], meta)
-    write_text_atomic(text, paths[4])
-    if readings:
-        paths.append(out_dir / "readings.md")
-        write_text_atomic(readings, paths[-1])
-    paths += draw_histograms(metrics, span_days, interval_s, out_dir)
-    for path in paths:
+    cell = histogram_cell(metrics, span_days, interval_s)
+    output_ = StudyOutput({"drms_p90": drms, "clock_p90": clocks, "per_run": metrics, "consistency": consistency},
+                          {"package": "liaison", "source": str(sweep_dir), "metric": "p90 over runs with status ok"},
+                          {"tables.md": text, **({"readings.md": readings} if readings else {})},
+                          lambda folder: draw_histograms(cell, span_days / NRHO_PERIOD_DAYS, interval_s, folder))
+    for path in write_files(output or sweep_dir / "tables002", output_):
         typer.echo(f"wrote {path}")

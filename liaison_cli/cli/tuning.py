@@ -5,14 +5,12 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli import __version__
 from liaison_cli.cli.common import (QuietOption, backend_option, check_file_output, check_runs, fan_out,
                                     file_starts_with, jobs_option, scheduler_option, scheduler_timeout_option,
                                     user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
 from liaison_cli.errors import LiaisonError
-from liaison_cli.provenance import arithmetic_provenance
 
 
 @app.command("tune")
@@ -37,9 +35,9 @@ def tune(
     """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder.
 
     Example: liaison tune scenarios/smoke.yaml --ladder 1e-9,1e-8,1e-7 --runs 20 --table consistency.md"""
-    from liaison_cli.campaign.tuning import TuningCase, parse_ladder, rule_text, tune as run_tuning
+    from liaison_cli.campaign.studies.output import StudyOutput, write_files
+    from liaison_cli.campaign.studies.tuning import TuningCase, parse_ladder, provenance, rule_text, tune as run_tuning
     from liaison_cli.report.tuning import format_ladder, format_table, paper_tuned_notes
-    from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -62,13 +60,8 @@ def tune(
     command = " ".join(["liaison tune", *map(str, scenarios), f"--runs {runs}"]
                        + ([f"--ladder {ladder}"] if ladder else []) + [f"--table {table}"])
     markdown = format_table(frame, rule_text(rungs, runs), command, settle_note, paper_tuned_notes())
-    meta = {"package": "liaison", "version": __version__, "arithmetic": arithmetic_provenance(), "command": command,
-            "rule": rule_text(rungs, runs),
-            "scenarios_yaml": {case.label: case.text for case in cases},
-            "seeds": {case.label: case.scenario.monte_carlo.seed for case in cases}}
-    table.parent.mkdir(parents=True, exist_ok=True)
-    write_parquet_atomic(frame, table.with_suffix(".parquet"), meta)
-    write_text_atomic(markdown, table)
+    write_files(table.parent, StudyOutput({table.stem: frame}, provenance(cases, rungs, runs, command),
+                                          {table.name: markdown}))
     typer.echo(f"wrote {table} and {table.with_suffix('.parquet')}")
 
 

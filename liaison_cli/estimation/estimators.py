@@ -18,7 +18,8 @@ from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
                                                 STATUS_NAMES, STATUS_OK, run_ekf)
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
-                                                SmootherRecord, channels_of, direction_record, dynamics_of)
+                                                ProcessNoise, SmootherRecord, channels_of, direction_record,
+                                                dynamics_of, process_noise_of)
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
 from liaison_cli.measurements.registry import kinds_mask
@@ -74,6 +75,8 @@ class FilterArrays:
     burns: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))  # filter_loop.apply_burns
     initial_batch: InitialBatchSettings | None = None  # the EKF starts from a batch solve (estimation.initial_batch)
     empirical_tau_tu: float = 0.0  # the empirical accelerations' time constant (estimation.process_noise); 0: none
+    ric_noise: np.ndarray | None = None  # (B, 3, 3) RIC process-noise factors (kernel_args.ProcessNoise); None: none
+    primaries: np.ndarray | None = None  # (m, 2, 6) the Earth's and the Moon's states, with ric_noise
 
     def channels(self) -> Channels:
         return channels_of(self.channel_kind, self.channel_ends, self.channel_flags, self.channel_mod_index,
@@ -96,6 +99,12 @@ class FilterArrays:
                                         (END_SECOND_STATE, END_TRANSMITTER_STATE))  # a TDoA's second path too
                   for a, b in zip(ends[:, first], ends[:, second]) if a >= 0 and b >= 0 and a != b}
         return spacecraft, np.array(sorted(linked), dtype=np.int64).reshape(-1, 2)
+
+    def process_noise(self, m: int) -> ProcessNoise:
+        """The EKF's process noise over the last m epochs (kernel_args.ProcessNoise)."""
+        if self.ric_noise is None:
+            return process_noise_of(self.Q)
+        return process_noise_of(self.Q, self.ric_noise, self.primaries[len(self.primaries) - m :])
 
     def ekf_settings(self) -> EkfSettings:
         return EkfSettings(int(self.n_gain), int(self.n_nees), float(self.divergence_position_lu),
@@ -154,7 +163,7 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, reco
     stored = m if record else 0  # the forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
     directions = direction_record(*arrays.direction_starts(), m)
-    args = (arrays.model, kinds_mask(arrays.channel_kind), x0_hat, P0, arrays.Q, truth, y_obs,
+    args = (arrays.model, kinds_mask(arrays.channel_kind), x0_hat, P0, arrays.process_noise(m), truth, y_obs,
             arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
             arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices), directions)
     entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))

@@ -16,6 +16,7 @@ from liaison_cli.dynamics.model import (PROPAGATION_SIZE, STM_SIZE, propagate_pa
 from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER,
                                           BLOCK_SPACECRAFT)
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
+from liaison_cli.estimation.ric_noise import step_process_noise
 from liaison_cli.measurements.registry import predict_for, residual
 
 STATUS_OK = 0
@@ -377,10 +378,11 @@ def run_outputs(m, n, n_channels):
 
 
 @njit(cache=True)
-def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
+def run_ekf(model, kinds, x0_hat, P0, noise, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
             record, directions):
     """Run one EKF pass. model, kinds: compile-time constants (the dynamics model code; registry.kinds_mask of
-    the channels' kinds). x0_hat (n,); P0, Q (n, n) (Q added at every step, Eq. 12); truth (m, n) at the epochs
+    the channels' kinds). x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12;
+    kernel_args.ProcessNoise, step_process_noise); truth (m, n) at the epochs
     t_k = t0_tu + k dt_tu; y_obs (m, C) (row 0 unused, NaN: none); known_states (m, K, 6); burns (N, 3)
     (apply_burns); the named groups as estimation.kernel_args describes them. Returns (err, sigma (m, n), nees
     (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's update, the
@@ -399,6 +401,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
     x_bar, dx, dx_spare, e, H, h, K, P_spare, Phi, g_receiver, g_transmitter, g_second, y_stm, work_stm, \
         work_block, work_nees, z_nees, work6, z6, u, v = _loop_buffers(n, n_nees)
     direction_stride = directions.stride if directions.nees_spacecraft.shape[0] > 0 else 0
+    Q_work, ric_axes = np.empty((n, n)), np.empty((3, 3))  # step_process_noise's, used with RIC noise only
     record_row(0, x_hat, truth, P, n_nees, e, err, sig, nees, (work_nees, z_nees), directions, (work6, z6, u, v))
     storing = store_states.shape[0] > 0
     if storing:
@@ -409,6 +412,7 @@ def run_ekf(model, kinds, x0_hat, P0, Q, truth, y_obs, known_states, channels, l
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
         time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params,
                     t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
+        Q = step_process_noise(noise, Q_work, x_hat, k - 1, block_kind, block_start, ric_axes)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)

@@ -12,6 +12,11 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
   a compile-time constant and goes first, on its own);
 - EkfSettings: n_gain (states from it on are consider parameters, -1: none), n_nees (states the NEES
   covers), divergence_position_lu, underweight (Lear's beta), gate_sigma / gate_after (the residual gate);
+- ProcessNoise: the fixed Q (n, n) added at every step, and the radial / in-track / cross-track PSDs of the
+  spacecraft that give theirs in that frame: ric (B, 3, 3), per block and RIC axis its [position, cross,
+  velocity] variance factors over one step (zero rows: none), and primaries (m, 2, 6), the Earth's and the
+  Moon's states at each epoch in the filter's frame, about the nearer of which the frame is taken (length 0:
+  no RIC noise in the scenario; filter_loop.step_process_noise);
 - SmootherRecord: the EKF's forward record for the RTS smoother, states (m, 2, n) and matrices (m, 3, n, n)
   (length 0: not recorded);
 - DirectionRecord: the EKF's consistency by direction (filter_loop.record_directions): per-spacecraft NEES,
@@ -28,6 +33,7 @@ BlockLayout = namedtuple("BlockLayout", ["kind", "start", "size", "parameter"])
 Dynamics = namedtuple("Dynamics", ["params", "dt_tu", "substeps", "t0_tu", "empirical_tau_tu"])
 EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_position_lu", "underweight", "gate_sigma",
                                          "gate_after"])
+ProcessNoise = namedtuple("ProcessNoise", ["Q", "ric", "primaries"])
 SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
 DirectionRecord = namedtuple("DirectionRecord", ["spacecraft_starts", "pair_starts", "nees_spacecraft", "time_shift",
                                                  "along_pair", "covariance", "stride"])
@@ -59,3 +65,11 @@ def channels_of(kind, ends, flags, mod_index, mod_coeff, sigma) -> Channels:
 def dynamics_of(params, dt_tu: float, substeps: int, t0_tu: float = 0.0, empirical_tau_tu: float = 0.0) -> Dynamics:
     return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu), int(substeps), float(t0_tu),
                     float(empirical_tau_tu))
+
+
+def process_noise_of(Q, ric=None, primaries=None) -> ProcessNoise:
+    """ProcessNoise with the fixed Q alone when ric / primaries are None (no RIC noise)."""
+    n_blocks = 0 if ric is None else len(ric)
+    return ProcessNoise(np.ascontiguousarray(Q, dtype=np.float64),
+                        np.zeros((n_blocks, 3, 3)) if ric is None else np.ascontiguousarray(ric, dtype=np.float64),
+                        np.zeros((0, 2, 6)) if primaries is None else np.ascontiguousarray(primaries, dtype=np.float64))

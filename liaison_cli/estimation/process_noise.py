@@ -4,8 +4,8 @@ Two conventions, chosen per spacecraft by the scenario (FilterSpec.process_noise
 else the filter's, else the default PSD):
 - A power spectral density q (m^2/s^3, `process_noise_psd_m2_s3`; the default, DEFAULT_PSD_M2_S3): an
   acceleration that is white noise in continuous time, isotropic (the same q on every axis, so the same
-  matrix in the inertial frame and in any rotated one such as radial / in-track / cross-track; a different
-  density per RIC axis is not offered), integrated exactly over the step through the double integrator
+  matrix in the inertial frame and in any rotated one such as radial / in-track / cross-track; a density per
+  RIC axis is estimation.ric_noise's, rebuilt at every step), integrated exactly over the step through the double integrator
   (Bar-Shalom, Li & Kirubarajan, "Estimation with Applications to Tracking and Navigation", §6.2.2; Tapley,
   Schutz & Born §4.9), `psd_process_noise`:
       Q(dt) = q [[dt^3/3 I, dt^2/2 I], [dt^2/2 I, dt I]].

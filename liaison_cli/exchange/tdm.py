@@ -1,6 +1,6 @@
 """TDM (CCSDS 503.0-B-2, version 2.0) <-> arrays: one track per segment (its participants, its signal path(s),
 one data keyword), through ccsds-ndm. Which liaison channel a track carries is decided by the caller
-(scenario.observed on reading, campaign.exchange_export on writing)."""
+(scenario.observed on reading, campaign.exchange.export on writing)."""
 
 from dataclasses import dataclass
 

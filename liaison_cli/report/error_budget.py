@@ -1,32 +1,14 @@
-"""The error budget as tables and the ODTBX-style stacked-area picture."""
+"""The error budget (campaign.studies.error_budget) as Markdown tables and the ODTBX-style stacked-area picture.
+Formats and draws only."""
 
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
-from liaison_cli.campaign.error_budget import part_of
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-from liaison_cli.provenance import arithmetic_provenance
 
 COLOURS = {"initial": "tab:blue", "noise": "tab:orange", "process": "tab:green", "bias": "tab:red",
            "measurement_model": "tab:purple", "dynamics_model": "tab:brown", "cr": "tab:olive", "moon_gm": "tab:cyan"}
-
-
-def budget_table(budget) -> pd.DataFrame:
-    """One row per (epoch, spacecraft, part): position m^2, velocity (m/s)^2 contributions, and the total."""
-    frames = []
-    m, n_sc, _ = budget.total.shape
-    for name, values in {**budget.parts, "total": budget.total, "filter_covariance": budget.filter_variance}.items():
-        frames.append(pd.DataFrame({
-            "t_s": np.repeat(budget.times_s, n_sc),
-            "spacecraft": np.tile(np.array(budget.spacecraft, dtype=object), m),
-            "part": name,
-            "source": name if name in ("total", "filter_covariance") else part_of(name),
-            "position_m2": values[:, :, 0].reshape(-1),
-            "velocity_m2_s2": values[:, :, 1].reshape(-1),
-        }))
-    return pd.concat(frames, ignore_index=True)
 
 
 def format_shares(share_rows_all: list[dict], share_rows_late: list[dict]) -> str:
@@ -44,9 +26,10 @@ def format_shares(share_rows_all: list[dict], share_rows_late: list[dict]) -> st
     return "\n".join(lines) + "\n"
 
 
-def draw_budget(budget, path: Path, title: str) -> Path:
-    """Stacked areas of each source's RMS-squared contribution, per spacecraft, position and velocity; the
-    filter's own trace(P) as a line."""
+def draw_budget(budget, grouped: dict, path: Path, title: str) -> Path:
+    """Stacked areas of each source's RMS-squared contribution (`grouped`: {source: (m, n_sc, 2)},
+    campaign.studies.budget_tables.by_source), per spacecraft, position and velocity; the filter's own trace(P)
+    as a line."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -55,10 +38,6 @@ def draw_budget(budget, path: Path, title: str) -> Path:
     n_sc = len(budget.spacecraft)
     days = budget.times_s / SECONDS_PER_DAY
     fig, axes = plt.subplots(2, n_sc, figsize=(5.5 * n_sc, 7), squeeze=False, sharex=True)
-    grouped = {}
-    for name, values in budget.parts.items():
-        grouped.setdefault(part_of(name), np.zeros_like(values))
-        grouped[part_of(name)] = grouped[part_of(name)] + values
     for i, name in enumerate(budget.spacecraft):
         for row, (unit, scale) in enumerate((("m²", 1.0), ("(mm/s)²", 1e3))):
             ax = axes[row, i]
@@ -90,16 +69,6 @@ def draw_budget(budget, path: Path, title: str) -> Path:
     return path
 
 
-def shares_frame(rows, late=None) -> pd.DataFrame:
-    """Rows as a table; with `late` (the after-day-1 rows), their shares as extra columns."""
-    frame = pd.DataFrame(rows)
-    if late is not None:
-        other = pd.DataFrame(late).set_index(["spacecraft", "part"])
-        for column in ("position_share", "velocity_share"):
-            frame[f"{column}_after_day1"] = [other.loc[(r.spacecraft, r.part), column] for r in frame.itertuples()]
-    return frame
-
-
 def format_consistency(rows: list[dict], settle_days: float, nees_share: float | None = None,
                        check_runs: int = 0) -> str:
     """Per spacecraft after the settle time: the budget's error RMS, the filter's sigma RMS and their ratio
@@ -125,22 +94,3 @@ def format_consistency(rows: list[dict], settle_days: float, nees_share: float |
         lines.append(f"! inconsistent ({', '.join(bad)}): error RMS outside [{1 / CONSISTENCY_RATIO_LIMIT:.2f}, "
                      f"{CONSISTENCY_RATIO_LIMIT:g}]x the filter's sigma RMS (consistency.parquet: consistent)")
     return "\n".join(lines) + "\n"
-
-
-def write_budget_folder(study, out_dir: Path, overwrite: bool, text_table: str, scenario_name: str,
-                        scenario_yaml: str) -> None:
-    """`liaison errors`' result folder, built beside and swapped in (storage.staged_output): budget, shares,
-    Monte Carlo check (when run) and consistency as Parquet, the text tables as shares.md, the figure."""
-    from liaison_cli.storage import staged_output, write_parquet_atomic, write_text_atomic
-
-    meta = {"package": "liaison", "arithmetic": arithmetic_provenance(), "scenario": scenario_name,
-            "scenario_yaml": scenario_yaml,
-            "method": "LinCov along the truth with the filter's own gains; parts in m^2 and (m/s)^2"}
-    with staged_output(out_dir, overwrite) as stage:
-        write_parquet_atomic(budget_table(study.budget), stage / "budget.parquet", meta)
-        write_parquet_atomic(shares_frame(study.rows_all, study.rows_late), stage / "shares.parquet", meta)
-        if study.checks:
-            write_parquet_atomic(shares_frame(study.checks), stage / "monte_carlo_check.parquet", meta)
-        write_parquet_atomic(pd.DataFrame(study.consistency_rows), stage / "consistency.parquet", meta)
-        write_text_atomic(text_table, stage / "shares.md")
-        draw_budget(study.budget, stage / "error_budget.png", f"Error budget: {scenario_name}")

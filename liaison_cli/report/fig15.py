@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 
 from liaison_cli.errors import LiaisonError, UnreadableFileError
-from liaison_cli.report.table3 import paper_table3
 
 FORMATION_LABELS = {"eml2_lunar": "EML2 halo – lunar", "eml1_lunar": "EML1 halo – lunar",
                     "eml1_eml2": "EML1 halo – EML2 halo"}
@@ -50,8 +49,9 @@ def sigma_series(curve: pd.DataFrame):
         yield scenario, spacecraft, rows.sort_values("sigma_m")
 
 
-def draw_fig15(curve: pd.DataFrame, out_stem, title: str | None = None) -> list[Path]:
-    """Write <out_stem>.png and .svg; returns the paths."""
+def draw_fig15(curve: pd.DataFrame, paper: pd.DataFrame, out_stem, title: str | None = None) -> list[Path]:
+    """Write <out_stem>.png and .svg; returns the paths. `paper`: the paper's Table 3
+    (campaign.studies.table3.paper_table3)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -59,7 +59,6 @@ def draw_fig15(curve: pd.DataFrame, out_stem, title: str | None = None) -> list[
     from matplotlib.lines import Line2D
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-    paper = paper_table3()
     colours = plt.get_cmap("tab10")
     fig, axes = plt.subplots(1, 2, figsize=(13, 6.2), constrained_layout=True)
     series = list(sigma_series(curve))
@@ -105,9 +104,8 @@ def draw_fig15(curve: pd.DataFrame, out_stem, title: str | None = None) -> list[
     return paths
 
 
-def paper_points_vs_curve(curve: pd.DataFrame) -> pd.DataFrame:
-    """Paper Table 3 values beside our curve (interpolated in sigma); ratio = ours / paper."""
-    paper = paper_table3()
+def paper_points_vs_curve(curve: pd.DataFrame, paper: pd.DataFrame) -> pd.DataFrame:
+    """Paper Table 3 values (`paper`) beside our curve (interpolated in sigma); ratio = ours / paper."""
     rows = []
     for scenario, spacecraft, series in sigma_series(curve):
         ref = paper[(paper.formation == scenario) & (paper.spacecraft == spacecraft)]

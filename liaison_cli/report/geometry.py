@@ -1,14 +1,10 @@
-"""The formation-geometry study (campaign.geometry) as tables and heat maps: per grid, the pairs'
-condition numbers for range and range-rate links (Parquet) and their log10 as a heat map (PNG)."""
+"""The formation-geometry study (campaign.studies.geometry) as heat maps: per grid, the log10 of the pairs'
+condition numbers for range and range-rate links (PNG). Draws only."""
 
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-
-from liaison_cli.campaign.geometry import GRIDS, geometry_study
-from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.storage import write_parquet_atomic
 
 
 def draw_heatmaps(table: pd.DataFrame, title: str, path) -> Path:
@@ -40,15 +36,7 @@ def draw_heatmaps(table: pd.DataFrame, title: str, path) -> Path:
     return path
 
 
-def run_study(out_dir, count: int = 7, interval_s: float = 600.0) -> dict:
-    out_dir = Path(out_dir)
-    outputs = {}
-    for key, (first, second, title) in GRIDS.items():
-        table = geometry_study(first, second, count, interval_s)
-        meta = {"package": "liaison", "arithmetic": arithmetic_provenance(), "study": key, "interval_s": interval_s,
-                "count": count}
-        write_parquet_atomic(table, out_dir / f"{key}.parquet", meta)
-        draw_heatmaps(table, f"{title}: observability over the longer period ({interval_s:g} s sampling)",
-                      out_dir / f"{key}.png")
-        outputs[key] = table
-    return outputs
+def draw_study(tables: dict, titles: dict, interval_s: float, folder) -> list[Path]:
+    """Each grid's heat map, `folder/<key>.png`; `titles`: {key: the grid's title}."""
+    return [draw_heatmaps(table, f"{titles[key]}: observability over the longer period ({interval_s:g} s sampling)",
+                          Path(folder) / f"{key}.png") for key, table in tables.items()]

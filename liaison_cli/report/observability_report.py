@@ -1,35 +1,22 @@
-"""Observability report of a scenario: tables (Parquet), observability.json and the 000 Fig. 16-17
-analogues (PNG), of the analysis campaign.observability_study computes."""
+"""A scenario's observability (campaign.studies.observability_study computes it) as observability.json and the
+000 Fig. 16-17 analogues (PNG). Formats and draws only."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 
-from liaison_cli.campaign.observability_study import (
-    check_supported, known_inputs, observability_study, scenario_inputs)
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.storage import write_parquet_atomic, write_text_atomic
-
-__all__ = ["check_supported", "known_inputs", "observability_report", "scenario_inputs"]
 
 
-def observability_report(scenario, scenario_text: str, out_dir, range_rate_sigma_m_s: float = 1e-3,
-                         taylor: bool = True) -> dict:
-    """Run the analysis for range and range-rate links; write tables and plots; return the summary dict."""
-    out_dir = Path(out_dir)
-    study = observability_study(scenario, range_rate_sigma_m_s, taylor)
-    meta = {"package": "liaison", "arithmetic": arithmetic_provenance(), "scenario_yaml": scenario_text,
-            "summary": study.summary}
-    write_parquet_atomic(study.effectiveness, out_dir / "effectiveness.parquet", meta)
-    write_parquet_atomic(study.singular, out_dir / "singular.parquet", meta)
-    if study.taylor is not None:
-        write_parquet_atomic(study.taylor, out_dir / "taylor_stm.parquet", meta)
-    write_text_atomic(json.dumps(study.summary, indent=2) + "\n", out_dir / "observability.json")
-    _plot_effectiveness(study.results, study.names, study.times_s, study.moon_km, out_dir / "effectiveness.png",
-                        scenario.name)
-    return study.summary
+def summary_json(summary: dict) -> str:
+    """observability.json: the summary `liaison observability` prints."""
+    return json.dumps(summary, indent=2) + "\n"
+
+
+def draw_effectiveness(study, path, title: str):
+    """The effectiveness figure of an ObservabilityStudy."""
+    _plot_effectiveness(study.results, study.names, study.times_s, study.moon_km, path, title)
+    return [path]
 
 
 def _plot_effectiveness(results, names, times_s, moon_km, path, title):

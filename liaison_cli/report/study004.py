@@ -94,7 +94,7 @@ def draw_histories(history: pd.DataFrame, transmitter: str, out_dir: Path) -> Pa
     return path
 
 
-# --- 004's claims (campaign.study004.check_claims) -------------------------------------------------------------
+# --- 004's claims (campaign.studies.study004.check_claims) -------------------------------------------------------------
 
 CLAIMS_LEGEND = (
     "004's claims, each checked on one metric (report/data/study004_claims.yaml holds the statements and their "
@@ -178,3 +178,13 @@ def format_claims(claims: pd.DataFrame, grid_keys: list[str] | None = None) -> s
         lines.append(f"| {point}`{r['id']}` | {r['claim']} ({r['source']}) | {_verdict_cell(r['ekf_holds'])} | "
                      f"{_verdict_cell(r['lincov_holds'])} | {disagree} | {cell.replace('|', '/')} |")
     return "\n".join(lines) + "\n"
+
+
+def initial_batch_text(scenario) -> str:
+    """The header's note on a scenario's initial batch (how the EKF starts)."""
+    flt = scenario.filter
+    if flt.initial_batch_hours is None:
+        return "; no initial batch (the EKF starts from the a priori)"
+    longest = flt.initial_batch_max_hours or flt.initial_batch_hours
+    return (f"; initial batch {flt.initial_batch_hours:g} h, doubling up to {longest:g} h until the hand-over "
+            f"position 1σ < {flt.initial_batch_handover_sigma_km:g} km")

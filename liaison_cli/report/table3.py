@@ -1,19 +1,9 @@
-"""Turan et al. (2022) Table 3 beside ours, as tables and Markdown: the cases are run and compared in
-campaign.table3; this module writes table3.parquet, summary.parquet and table3.md."""
-
-from dataclasses import dataclass
-from pathlib import Path
+"""Turan et al. (2022) Table 3 beside ours as Markdown (table3.md): the cases are run and compared in
+campaign.studies.table3. Formats only."""
 
 import pandas as pd
 
-from liaison_cli import __version__
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
-from liaison_cli.campaign.backends import LOCAL, Backend
-from liaison_cli.campaign.table3 import FORMATIONS, compute_table3, paper_table3, tolerances
-from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.storage import write_parquet_atomic, write_text_atomic
-
-__all__ = ["FORMATIONS", "Table3Result", "paper_table3", "run_table3", "to_markdown", "tolerances"]
 
 
 def to_markdown(table: pd.DataFrame, checks: dict[str, bool]) -> str:
@@ -67,32 +57,3 @@ def _cost_of_the_paper_model(table: pd.DataFrame) -> list[str]:
                      f"{r.time_shift_bias_sigma_settled:+.1f} | {r.time_shift_nees_settled:.1f} | "
                      f"{r.mean_intrack_position_settled_m:+.1f} |")
     return lines
-
-
-@dataclass(frozen=True, eq=False)
-class Table3Result:
-    table: pd.DataFrame
-    checks: dict
-    markdown: str
-
-
-def run_table3(scenarios_dir, out_dir, runs: int, jobs: int, progress: bool,
-               where: Backend = LOCAL) -> Table3Result:
-    """Run the paper's six cases (campaign.table3), compare with the paper and write table3.parquet,
-    summary.parquet and table3.md into `out_dir` (which must exist)."""
-    computed = compute_table3(scenarios_dir, runs, jobs, progress, where)
-    meta = {
-        "package": "liaison",
-        "package_version": __version__,
-        "arithmetic": arithmetic_provenance(),
-        "scenarios_yaml": computed.texts,
-        "runs_per_case": runs,
-        "seeds": computed.seeds,
-        "ordering_checks": computed.checks,
-    }
-    out_dir = Path(out_dir)
-    write_parquet_atomic(computed.table, out_dir / "table3.parquet", meta)
-    write_parquet_atomic(computed.summaries, out_dir / "summary.parquet", meta)
-    markdown = to_markdown(computed.table, computed.checks)
-    write_text_atomic(markdown, out_dir / "table3.md")
-    return Table3Result(computed.table, computed.checks, markdown)

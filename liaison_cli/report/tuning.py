@@ -1,14 +1,12 @@
 """The consistency table `liaison tune` writes: per scenario and estimated spacecraft, the shipped process
 noise's error RMS, sigma RMS, their ratio and NEES-in-band share after the settle time, beside the same for
-the rung the rule chose (campaign.tuning states the rule). Formats only."""
+the rung the rule chose (campaign.studies.tuning states the rule). Formats only."""
 
 import math
 from importlib.resources import files
 
 import pandas as pd
 import yaml
-
-from liaison_cli.campaign.tuning import VERDICT_BATCH
 
 
 def paper_tuned_notes() -> dict:
@@ -22,14 +20,23 @@ def _ratio(value: float, half_width: float = math.nan) -> str:
     return f"{value:.2f}" + (f"±{half_width:.2f}" if math.isfinite(half_width) else "")
 
 
-def _cells(row) -> list[str]:
+def _untuned(table: pd.DataFrame) -> set:
+    """The scenarios tried on no rung: their estimator has no process noise (a batch), so no SNC to show."""
+    return set(table.scenario) - set(table.scenario[table.setting == "rung"])
+
+
+def _snc(row, untuned: set) -> str:
+    return "-" if row["scenario"] in untuned else f"{row['snc_m_s2']:.0e}"
+
+
+def _cells(row, untuned: set) -> list[str]:
     """SNC ('-' for a batch: it has none), position error RMS, sigma RMS, position and velocity error/sigma,
     NEES in band, runs ok."""
     if row is None:
         return ["-"] * 7
     share = row["nees_in_band_share"]
     mark = "" if row.get("consistent", True) else " !"
-    return ["-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}", f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
+    return [_snc(row, untuned), f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
             _ratio(row["position_error_to_sigma"], row.get("position_error_to_sigma_halfwidth", math.nan)),
             _ratio(row["velocity_error_to_sigma"], row.get("velocity_error_to_sigma_halfwidth", math.nan)),
             ("-" if not math.isfinite(share) else f"{100 * share:.0f} %") + mark, f"{row['runs_ok']}/{row['runs']}"]
@@ -71,14 +78,15 @@ def format_table(table: pd.DataFrame, rule: str, command: str, settle_note: str,
     lines += ["| scenario | S/C | shipped SNC | err RMS m | σ RMS m | pos err/σ | vel err/σ | NEES in band | runs ok "
               "| chosen SNC | err RMS m | σ RMS m | pos err/σ | vel err/σ | NEES in band | runs ok | verdict |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    untuned = _untuned(table)
     for label, rows in table.groupby("scenario", sort=False):
         chosen = rows[rows.chosen]
         verdict = _verdict(rows, chosen if len(chosen) else None, notes)
         for i, shipped in enumerate(rows[rows.setting == "shipped"].to_dict("records")):
             mine = chosen[chosen.spacecraft == shipped["spacecraft"]]
             rule_row = mine.iloc[0].to_dict() if len(mine) else None
-            lines.append(f"| {label} | {shipped['spacecraft']} | " + " | ".join(_cells(shipped)) + " | "
-                         + " | ".join(_cells(rule_row)) + f" | {verdict if i == 0 else ''} |")
+            lines.append(f"| {label} | {shipped['spacecraft']} | " + " | ".join(_cells(shipped, untuned)) + " | "
+                         + " | ".join(_cells(rule_row, untuned)) + f" | {verdict if i == 0 else ''} |")
     return "\n".join(lines) + "\n"
 
 
@@ -86,8 +94,9 @@ def format_ladder(table: pd.DataFrame) -> str:
     """Plain text for the terminal: every rung's ratios and NEES share, per scenario and spacecraft."""
     lines = [f"{'scenario':<32}{'S/C':<12}{'SNC m/s^2':>10}{'pos err/σ':>13}{'vel err/σ':>13}{'NEES in band':>14}"
              f"{'runs ok':>9}  why not consistent"]
+    untuned = _untuned(table)
     for row in table.to_dict("records"):
-        value = "-" if row["verdict"] == VERDICT_BATCH else f"{row['snc_m_s2']:.0e}"
+        value = _snc(row, untuned)
         snc = value + ("*" if row["chosen"] else (" s" if row["setting"] == "shipped" else ""))
         share = row["nees_in_band_share"]
         position = _ratio(row["position_error_to_sigma"], row.get("position_error_to_sigma_halfwidth", math.nan))

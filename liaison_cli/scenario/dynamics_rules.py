@@ -191,3 +191,12 @@ def check_empirical_acceleration(scenario) -> None:
         raise ValueError(f"filter.empirical_acceleration.time_constant_s = {spec.time_constant_s:g} is shorter than "
                          f"measurement.interval_s = {interval_s:g}: allowed: at least one interval (a shorter "
                          "correlation is white noise: use filter.process_noise_psd_m2_s3)")
+
+
+def check_ric_process_noise(scenario) -> None:
+    """A process noise per radial / in-track / cross-track axis (process_noise_psd_ric_m2_s3) is rebuilt at each
+    step in the frame of the estimate about the nearer primary of the dynamics model; the initial batch carries
+    a fixed process noise over its window, so the two do not go together."""
+    if scenario.filter.initial_batch_hours is not None and scenario.filter.uses_ric_process_noise(scenario.spacecraft):
+        raise ValueError("process_noise_psd_ric_m2_s3 with filter.initial_batch_hours: the initial batch takes a fixed "
+                         "process noise over its window; allowed: one of the two (or process_noise_psd_m2_s3)")

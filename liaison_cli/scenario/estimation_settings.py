@@ -3,19 +3,26 @@ run's initial error is drawn, and the Monte Carlo runs and seed."""
 
 from typing import Annotated, ClassVar, Literal
 
-from pydantic import ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_validator
 
 from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
 from liaison_cli.scenario.schema_rules import Rule, at_least, check_rules, equals, given, schema_rules, when
-from liaison_cli.scenario.spec_base import ONE_PROCESS_NOISE_CONVENTION, StrictModel
+from liaison_cli.scenario.spec_base import ONE_PROCESS_NOISE_CONVENTION, StrictModel, ric_densities
 
 
 # The two process-noise conventions (FilterSpec.process_noise_of; estimation.process_noise): the filter key
 # each is given by, and the unit of its value.
 PROCESS_NOISE_PSD = "process_noise_psd_m2_s3"
+PROCESS_NOISE_PSD_RIC = "process_noise_psd_ric_m2_s3"
 PROCESS_NOISE_SIGMA_A = "process_noise_accel_m_s2"
-PROCESS_NOISE_UNITS = {PROCESS_NOISE_PSD: "m^2/s^3", PROCESS_NOISE_SIGMA_A: "m/s^2"}
+PROCESS_NOISE_UNITS = {PROCESS_NOISE_PSD: "m^2/s^3", PROCESS_NOISE_PSD_RIC: "m^2/s^3", PROCESS_NOISE_SIGMA_A: "m/s^2"}
+RIC_PSD_DESCRIPTION = (
+    "SNC as a power spectral density per axis of the spacecraft's radial / in-track / cross-track frame [q_R, "
+    "q_I, q_C], the frame taken at the estimate at each step about the nearer primary (as the run's RIC "
+    "columns): Q = sum over the axes u of q_u [[dt^3/3, dt^2/2], [dt^2/2, dt]] u u'; the EKF only, without an "
+    "initial batch. Not with the other two process-noise keys (m^2/s^3)")
+
 
 MAX_RUNS = 1_000_000  # Monte Carlo runs per scenario or grid point: the YAML and --runs share this cap
 
@@ -57,13 +64,15 @@ class FilterSpec(StrictModel):
     process_noise_psd_m2_s3: float | None = Field(
         None, ge=0, description="SNC as a power spectral density q of a continuous white acceleration, the same on "
         "every axis of every frame (isotropic: inertial and radial / in-track / cross-track alike; a PSD per RIC "
-        "axis is not offered), for every spacecraft (a spacecraft's own key overrides it): Q = q [[dt^3/3, dt^2/2], "
+        "axis: process_noise_psd_ric_m2_s3), for every spacecraft (a spacecraft's own key overrides it): Q = q [[dt^3/3, dt^2/2], "
         "[dt^2/2, dt]] per axis, so the noise per day does not depend on measurement.interval_s. Not with "
         f"process_noise_accel_m_s2; neither given: {DEFAULT_PSD_M2_S3:g} (m^2/s^3)")
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="per-step sigma_a: q = sigma_a^2 dt, dt the measurement interval — the convention "
         "of 001/003/004's reproductions (the noise per day grows with measurement.interval_s), for every "
         "spacecraft (a spacecraft's own key overrides it). Not with process_noise_psd_m2_s3 (m/s^2)")
+    process_noise_psd_ric_m2_s3: tuple[float, float, float] | None = Field(
+        None, description=RIC_PSD_DESCRIPTION + "; for every spacecraft (a spacecraft's own key overrides it)")
     process_noise_model: Literal["continuous_white_acceleration", "velocity_only"] = Field(
         "continuous_white_acceleration", description="how a per-step sigma_a becomes Q per step dt: continuous "
         "white acceleration (q = sigma_a^2 dt; Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis) or (sigma_a dt)^2 "
@@ -149,16 +158,25 @@ class FilterSpec(StrictModel):
     def _rules(self):
         return check_rules(self, self.RULES)
 
-    def process_noise_of(self, spacecraft) -> tuple[str, float]:
-        """(PROCESS_NOISE_PSD, q in m^2/s^3) or (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its
-        own key, else the filter's, else the default PSD (estimation.process_noise)."""
-        for psd, sigma_a in ((spacecraft.process_noise_psd_m2_s3, spacecraft.process_noise_accel_m_s2),
-                             (self.process_noise_psd_m2_s3, self.process_noise_accel_m_s2)):
-            if psd is not None:
-                return PROCESS_NOISE_PSD, psd
-            if sigma_a is not None:
-                return PROCESS_NOISE_SIGMA_A, sigma_a
+    @field_validator("process_noise_psd_ric_m2_s3")
+    @classmethod
+    def _ric_densities(cls, value):
+        return ric_densities(value)
+
+    def process_noise_of(self, spacecraft) -> tuple[str, float | tuple]:
+        """(PROCESS_NOISE_PSD, q in m^2/s^3), (PROCESS_NOISE_PSD_RIC, (q_R, q_I, q_C) in m^2/s^3) or
+        (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its own key, else the filter's, else the
+        default PSD (estimation.process_noise)."""
+        for section in (spacecraft, self):
+            for key in (PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A):
+                if getattr(section, key) is not None:
+                    return key, getattr(section, key)
         return PROCESS_NOISE_PSD, DEFAULT_PSD_M2_S3
+
+    def uses_ric_process_noise(self, spacecraft_list) -> bool:
+        """Whether an estimated spacecraft of the list takes its process noise per RIC axis."""
+        return any(self.process_noise_of(sc)[0] == PROCESS_NOISE_PSD_RIC for sc in spacecraft_list
+                   if sc.role == "estimated")
 
 
 class BatchSpec(StrictModel):

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liaison_cli.analysis.ric import primaries_lu, primary_velocities_lu
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import (LU_KM, M_PER_LU, M_S2_PER_AU, M_S_PER_VU, SECONDS_PER_DAY,
                                            SPEED_OF_LIGHT_M_S, TU_S)
@@ -23,7 +24,7 @@ from liaison_cli.estimation.process_noise import (coupled_process_noise, gauss_m
                                                  psd_process_noise, spacecraft_process_noise)
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
-from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD
+from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A
 from liaison_cli.scenario.links import link_label
 from liaison_cli.scenario.schema import Scenario
 from liaison_cli.scenario.truth import burn_step, link_observables
@@ -174,10 +175,12 @@ def _matrices(scenario: Scenario, layout: StateLayout):
                                                flt.initial_sigma_velocity_m_s)
             P0[s, s] = per_axis_block_diagonal(1, (sigma_r / M_PER_LU) ** 2, (sigma_v / M_S_PER_VU) ** 2)
             # State-noise compensation (estimation.process_noise): a PSD, or the papers' per-step sigma_a.
+            # A PSD per RIC axis is added at each step in the frame of the moment (_ric_noise).
             convention, value = flt.process_noise_of(by_name[block.owner])
-            Q[s, s] = (psd_process_noise(value, interval_s, M_PER_LU, M_S_PER_VU) if convention == PROCESS_NOISE_PSD
-                       else spacecraft_process_noise(value, interval_s, flt.process_noise_model, M_PER_LU,
-                                                     M_S_PER_VU))
+            if convention == PROCESS_NOISE_PSD:
+                Q[s, s] = psd_process_noise(value, interval_s, M_PER_LU, M_S_PER_VU)
+            elif convention == PROCESS_NOISE_SIGMA_A:
+                Q[s, s] = spacecraft_process_noise(value, interval_s, flt.process_noise_model, M_PER_LU, M_S_PER_VU)
         elif block.kind == BLOCK_CLOCK:
             clock = by_name[block.owner].clock
             scale = _clock_scale()
@@ -199,6 +202,27 @@ def _matrices(scenario: Scenario, layout: StateLayout):
                      for b, a in zip(layout.blocks, layout.starts) if b.kind == BLOCK_EMPIRICAL]
         Q = coupled_process_noise(Q, couplings, flt.empirical_acceleration.time_constant_s / TU_S, interval_s / TU_S)
     return P0, Q
+
+
+def _ric_noise(scenario: Scenario, layout: StateLayout, model: DynamicsModel, times_s):
+    """(ric (B, 3, 3), primaries (m, 2, 6)) for the spacecraft whose process noise is a PSD per RIC axis
+    (kernel_args.ProcessNoise: per block and axis q [dt^3/3, dt^2/2, dt] in the state's units; the Earth's and
+    the Moon's positions and velocities per epoch, analysis.ric's), or (None, None) when none is."""
+    flt, by_name = scenario.filter, {sc.name: sc for sc in scenario.spacecraft}
+    if not flt.uses_ric_process_noise(scenario.spacecraft):
+        return None, None
+    dt = scenario.measurement.interval_s
+    ric = np.zeros((len(layout.blocks), 3, 3))
+    for b, block in enumerate(layout.blocks):
+        if block.kind == BLOCK_SPACECRAFT:
+            convention, densities = flt.process_noise_of(by_name[block.owner])
+            if convention == PROCESS_NOISE_PSD_RIC:
+                for axis, q in enumerate(densities):
+                    ric[b, axis] = [q * dt**3 / 3.0 / M_PER_LU**2, q * dt**2 / 2.0 / (M_PER_LU * M_S_PER_VU),
+                                    q * dt / M_S_PER_VU**2]
+    positions = primaries_lu(float(model.params[0]), model.body_positions_lu(times_s), times_s)
+    step_s = float(times_s[1] - times_s[0]) if len(times_s) > 1 else 1.0
+    return ric, np.concatenate([positions, primary_velocities_lu(positions, step_s)], axis=2)
 
 
 def _empirical_matrices(scenario: Scenario, layout: StateLayout, block, a: int, P0, Q) -> None:
@@ -346,6 +370,7 @@ def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajector
     burns, manoeuvres = _manoeuvres(scenario, layout)
     channels = _channels(scenario)
     P0, Q = _matrices(scenario, layout)
+    ric_noise, primaries = _ric_noise(scenario, layout, model, times_s)
     ends, flags, mod_index, mod_coeff = _channel_tables(scenario, channels, layout, index_of_known)
     if model.rotating_frame:
         flags |= FLAG_ROTATING_FRAME
@@ -363,5 +388,6 @@ def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajector
         initial_batch=_initial_batch(scenario),
         empirical_tau_tu=(flt.empirical_acceleration.time_constant_s / TU_S
                           if flt.empirical_acceleration is not None else 0.0),
+        ric_noise=ric_noise, primaries=primaries,
     )
     return EstimatorSetup(arrays, layout, tuple(channels), manoeuvres)

@@ -20,6 +20,7 @@ from liaison_cli.scenario.spec_base import (
     ONE_PROCESS_NOISE_CONVENTION,
     StrictModel,
     allowed_names,
+    ric_densities,
 )
 
 
@@ -233,6 +234,10 @@ class SpacecraftSpec(StrictModel):
         "sigma_a^2 dt, the reproductions' convention); overrides the filter's key of either convention; not with "
         "this spacecraft's process_noise_psd_m2_s3 (m/s^2)"
     )
+    process_noise_psd_ric_m2_s3: tuple[float, float, float] | None = Field(
+        None, description="this spacecraft's SNC as a PSD per radial / in-track / cross-track axis (as "
+        "filter.process_noise_psd_ric_m2_s3); overrides the filter's key of any convention; not with this "
+        "spacecraft's other process-noise keys (m^2/s^3)")
     state_km: list[float] | None = Field(None, description=f"orbit: {ICRF_STATE_ORBIT}: geocentric ICRF state at "
                                          "the epoch x, y, z, vx, vy, vz (km, km/s)",
                                          json_schema_extra={"minItems": 6, "maxItems": 6})
@@ -256,6 +261,11 @@ class SpacecraftSpec(StrictModel):
     @classmethod
     def _orbit_from_file(cls, data):
         return orbit_file_from_mapping(data)
+
+    @field_validator("process_noise_psd_ric_m2_s3")
+    @classmethod
+    def _ric_densities(cls, value):
+        return ric_densities(value)
 
     @field_validator("orbit")
     @classmethod

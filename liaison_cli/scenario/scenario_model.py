@@ -17,7 +17,8 @@ from liaison_cli.scenario.estimation_settings import (
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
 from liaison_cli.scenario.links import LinkSpec, MeasurementSpec, TopologySpec, expand_topology
 from liaison_cli.scenario.dynamics_rules import (check_dynamics, check_empirical_acceleration,
-                                                check_estimated_parameters, check_model_error)
+                                                check_estimated_parameters, check_model_error,
+                                                check_ric_process_noise)
 from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.participants import (
     DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
@@ -129,6 +130,7 @@ class Scenario(StrictModel):
         check_model_error(self)
         check_estimated_parameters(self)
         check_empirical_acceleration(self)
+        check_ric_process_noise(self)
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "

@@ -3,7 +3,7 @@ ones named, numbers finite), the name pattern, and the JSON Schema words the sec
 
 from pydantic import BaseModel, ConfigDict, model_validator
 
-from liaison_cli.scenario.schema_rules import Rule, given, not_given, when
+from liaison_cli.scenario.schema_rules import Rule, all_of, given, not_given, when
 
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
@@ -21,11 +21,22 @@ def allowed_names(schema: dict, what: str) -> None:
 
 
 # A section (the filter, or a spacecraft) gives its process noise in at most one convention
-# (estimation.process_noise: a PSD, or the papers' per-step sigma_a).
+# (estimation.process_noise: a PSD, a PSD per radial / in-track / cross-track axis, or the papers'
+# per-step sigma_a).
+def ric_densities(value):
+    """A process_noise_psd_ric_m2_s3 value: three densities, each non-negative (a field validator's body)."""
+    if value is not None and any(not q >= 0 for q in value):
+        raise ValueError(f"{list(value)}: three densities [radial, in-track, cross-track], each >= 0 (m^2/s^3)")
+    return value
+
+
+PROCESS_NOISE_KEYS = ("process_noise_psd_m2_s3", "process_noise_psd_ric_m2_s3", "process_noise_accel_m_s2")
 ONE_PROCESS_NOISE_CONVENTION = Rule(
-    when(given("process_noise_psd_m2_s3"), not_given("process_noise_accel_m_s2")),
-    "give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3) and 'process_noise_accel_m_s2' (per-step "
-    "sigma_a, m/s^2), not both")
+    all_of(*(when(given(key), all_of(*(not_given(other) for other in PROCESS_NOISE_KEYS if other != key)))
+             for key in PROCESS_NOISE_KEYS)),
+    "give at most one of 'process_noise_psd_m2_s3' (PSD, m^2/s^3), 'process_noise_psd_ric_m2_s3' (a PSD per "
+    "radial / in-track / cross-track axis, m^2/s^3) and 'process_noise_accel_m_s2' (per-step sigma_a, m/s^2), not "
+    "both of any two")
 
 
 class StrictModel(BaseModel):

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from liaison_cli.campaign.exchange_export import export_run, recompute_run
+from liaison_cli.campaign.exchange.export import export_run, recompute_run
 from liaison_cli.campaign.results import stream_campaign
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, VU_KM_S
 from liaison_cli.errors import ExchangeFileError

@@ -130,7 +130,7 @@ def test_stations_left_out_of_station_priority_follow_in_file_order(tmp_path):
 def test_observability_on_every_shipped_scenario_works_or_is_one_line():
     """It used to raise KeyError on stations, known spacecraft, departures. CRTBP scenarios get their inputs
     (known participants as given trajectories); dated ones are refused in one line."""
-    from liaison_cli.campaign.observability_study import check_supported, known_inputs, scenario_inputs
+    from liaison_cli.campaign.studies.observability_study import check_supported, known_inputs, scenario_inputs
 
     paths = sorted(p for p in SCENARIOS.rglob("*.yaml") if "links" not in p.parts)
     refusals = 0

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from liaison_cli.report.table3 import paper_table3, tolerances
+from liaison_cli.campaign.studies.table3 import paper_table3, tolerances
 from tests.conftest import SCENARIOS, run_cli_in_process
 
 HALO_LUNAR = ("eml2_lunar", "eml1_lunar")

@@ -1,7 +1,7 @@
 """Formation geometry (001 §6.5): halo pairs with longer periods are less observable."""
 
 
-from liaison_cli.campaign.geometry import geometry_study
+from liaison_cli.campaign.studies.geometry import geometry_study
 
 
 def test_longer_periods_give_less_observable_halo_pairs():

@@ -5,7 +5,7 @@ import re
 import pandas as pd
 
 from tests.conftest import SCENARIOS, run_cli_in_process
-from liaison_cli.campaign.study003 import CASES, case_scenario
+from liaison_cli.campaign.studies.study003 import CASES, case_scenario
 from liaison_cli.scenario.schema import load_scenario
 
 CASSINI = SCENARIOS / "003" / "cassini.yaml"
@@ -47,7 +47,7 @@ def test_study003_runs_and_more_data_means_smaller_covariance(tmp_path):
 
 
 def test_both_readings_of_003s_dsn_noise_set_every_ground_link():
-    from liaison_cli.campaign.study003 import DSN_NOISE_READINGS, with_dsn_noise
+    from liaison_cli.campaign.studies.study003 import DSN_NOISE_READINGS, with_dsn_noise
     from liaison_cli.scenario.schema import load_scenario
 
     scenario, _ = load_scenario(CASSINI)
@@ -66,7 +66,7 @@ def test_a_missions_cases_fly_its_trajectories_once(monkeypatch):
     trajectories once, and a case read from the shared truth gets what it would have flown on its own."""
     import numpy as np
 
-    from liaison_cli.campaign import study003
+    from liaison_cli.campaign.studies import study003
     from liaison_cli.scenario import setup, truth
     from liaison_cli.scenario.schema import apply_overrides
 

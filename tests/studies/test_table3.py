@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from liaison_cli.report.table3 import paper_table3, tolerances
+from liaison_cli.campaign.studies.table3 import paper_table3, tolerances
 from tests.conftest import run_cli_in_process
 
 

@@ -17,7 +17,7 @@ import pyarrow
 import pytest
 import scipy
 
-from liaison_cli.campaign.study_cells import CellStore
+from liaison_cli.campaign.studies.study_cells import CellStore
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep
 from liaison_cli.provenance import ARITHMETIC_VARIABLES, arithmetic_provenance, git_commit
 from liaison_cli.scenario.schema import load_scenario

@@ -5,7 +5,7 @@ import pytest
 
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
-from liaison_cli.campaign.error_budget import consistency, error_budget, monte_carlo_check, part_of, shares
+from liaison_cli.campaign.studies.error_budget import consistency, error_budget, monte_carlo_check, part_of, shares
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
@@ -170,7 +170,7 @@ def test_the_check_gives_the_same_rows_in_this_process_and_in_the_pool(monkeypat
 def test_a_single_source_is_checked_once_and_a_diverged_run_is_one_error():
     """--sources with one source: its rows once (not the group and the source alone, the same runs twice). A
     run that fails stops the check with the run and its sources named."""
-    from liaison_cli.campaign.error_budget import BudgetError
+    from liaison_cli.campaign.studies.error_budget import BudgetError
 
     problem = _matched_smoke(duration_days=0.3)
     budget = error_budget(problem)

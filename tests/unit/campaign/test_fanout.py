@@ -9,7 +9,7 @@ import pytest
 
 from liaison_cli.campaign import backends, runner
 from liaison_cli.campaign.backends import Backend, map_batches
-from liaison_cli.campaign.study_cells import CellStore
+from liaison_cli.campaign.studies.study_cells import CellStore
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
@@ -78,7 +78,7 @@ def test_a_cell_is_reused_only_for_the_same_scenario_runs_and_liaison(tmp_path, 
     cell(scenario, 3)  # another run count
     cell(apply_overrides(scenario, {"monte_carlo.seed": 8}), 2)  # another scenario
     cell(scenario, 2, CellStore(tmp_path / "work", "test", "code-2"))  # the study's code changed
-    monkeypatch.setattr("liaison_cli.campaign.study_cells.__version__", "0.0.0-other")
+    monkeypatch.setattr("liaison_cli.campaign.studies.study_cells.__version__", "0.0.0-other")
     cell(scenario, 2)  # another liaison
     assert len(computed) == 5
 
@@ -103,7 +103,7 @@ def test_backends_module_is_the_only_place_that_starts_workers():
 def test_an_interrupt_that_compiled_code_turned_into_a_system_error_still_says_what_is_saved(tmp_path):
     """numba reports a Ctrl-C inside compiled code as a SystemError chained to the KeyboardInterrupt: the study
     still ends with its own line (cells saved, how to resume); any other SystemError passes through."""
-    from liaison_cli.campaign.study_cells import StudyInterrupted
+    from liaison_cli.campaign.studies.study_cells import StudyInterrupted
 
     store = CellStore(tmp_path / "work", "test", "code")
     with pytest.raises(StudyInterrupted, match=r"interrupted: 0 of 4 cells saved in .*work; rerun the same"):

@@ -10,7 +10,7 @@ from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.measurements.range import geometric_range_gradient
 from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.campaign.observability_study import scenario_inputs
+from liaison_cli.campaign.studies.observability_study import scenario_inputs
 from tests.conftest import SCENARIOS, run_cli_in_process
 
 SIGMA_RANGE = 150.0 / (LU_KM * 1e3)
@@ -131,14 +131,14 @@ def test_vectorised_partials_equal_the_measurement_models():
         assert np.all(rng_r[k, 3:] == 0.0)
 
 
-def test_gamma_figure_of_merit_scales_with_the_noise_ratio(tmp_path):
+def test_gamma_figure_of_merit_scales_with_the_noise_ratio():
     """001 §5.4: gamma = range-rate over range information per epoch, weights included, so dividing the
     range-rate sigma by 10 multiplies gamma by 100; the lunar orbiter gains more from range-rate than EML2."""
-    from liaison_cli.report.observability_report import observability_report
+    from liaison_cli.campaign.studies.observability_study import observability_study
 
-    scenario, text = load_scenario(SCENARIOS / "smoke.yaml")
-    coarse = observability_report(scenario, text, tmp_path / "a", 1e-2, taylor=False)["gamma_range_rate_over_range"]
-    fine = observability_report(scenario, text, tmp_path / "b", 1e-3, taylor=False)["gamma_range_rate_over_range"]
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    coarse = observability_study(scenario, 1e-2, taylor=False).summary["gamma_range_rate_over_range"]
+    fine = observability_study(scenario, 1e-3, taylor=False).summary["gamma_range_rate_over_range"]
     for a, b in zip(coarse, fine):
         assert b["gamma_position_median"] == pytest.approx(100 * a["gamma_position_median"], rel=1e-9)
     by_name = {row["spacecraft"]: row for row in coarse}

@@ -1,4 +1,4 @@
-"""004's claims as data (report/data/study004_claims.yaml) and their checker (campaign.study004.check_claims)
+"""004's claims as data (report/data/study004_claims.yaml) and their checker (campaign.studies.study004.check_claims)
 on small synthetic summary tables: a claim holds, fails, the EKF and LinCov disagree, or it cannot be told."""
 
 import json
@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from liaison_cli.campaign.study004 import check_claims, claims_004, rankings
+from liaison_cli.campaign.studies.study004 import check_claims, claims_004, rankings
 from liaison_cli.report.study004 import format_claims
 
 GROUND, GEO, L1 = "MaunaKea+OwensValley", "GEO130W+GEO170W", "L1A+L1B"

@@ -4,7 +4,7 @@ every rerun fail until the file is deleted by hand."""
 import pandas as pd
 import pytest
 
-from liaison_cli.campaign.study_cells import CellStore
+from liaison_cli.campaign.studies.study_cells import CellStore
 from liaison_cli.scenario.schema import load_scenario
 from tests.conftest import SCENARIOS
 

@@ -1,10 +1,10 @@
-"""Issue 26 item 2: process noise chosen by a stated consistency rule (`liaison tune`, campaign/tuning.py)."""
+"""Issue 26 item 2: process noise chosen by a stated consistency rule (`liaison tune`, campaign/studies/tuning.py)."""
 
 import pandas as pd
 import pytest
 
 from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE as NEES_IN_BAND_MIN
-from liaison_cli.campaign.tuning import (
+from liaison_cli.campaign.studies.tuning import (
     VERDICT_MET,
     VERDICT_NONE,
     choose,
@@ -133,7 +133,7 @@ def test_the_reference_table_covers_every_shipped_scenario_and_the_rule_is_appli
     scenario of scenarios/ and scenarios/003/, its shipped process noise the file's own, and every EKF scenario
     carries the rule's choice except those kept tuned to a paper (report/data/paper_tuned.yaml), whose notes
     are in the Markdown."""
-    from liaison_cli.campaign.tuning import shipped_snc
+    from liaison_cli.campaign.studies.tuning import shipped_snc
     from liaison_cli.report.tuning import paper_tuned_notes
     from tests.conftest import REPO
 

@@ -264,7 +264,8 @@ def test_tables002_consistency_pools_the_runs_that_finished_and_marks_both_sides
 
     import pandas as pd
 
-    from liaison_cli.report.nrho002 import consistency_table, format_consistency
+    from liaison_cli.campaign.studies.tables002 import consistency_table
+    from liaison_cli.report.nrho002 import format_consistency
 
     rows = []
     for run, status, anchor_error in ((0, "ok", 3.0), (1, "ok", 4.0), (2, "diverged", 100.0)):

@@ -9,7 +9,7 @@ from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.scenario.schema import load_scenario
 from liaison_cli.measurements.los import azimuth_elevation, azimuth_elevation_gradients, los_sigma_rad
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.report.compare import compare_rows
+from liaison_cli.campaign.studies.compare import compare_rows
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 

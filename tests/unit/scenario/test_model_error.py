@@ -57,7 +57,7 @@ def test_a_c_r_error_in_the_crtbp_is_one_line(tmp_path):
 
 
 def test_the_error_budget_has_a_part_for_a_drawn_lunar_gm_error():
-    from liaison_cli.campaign.error_budget import error_budget
+    from liaison_cli.campaign.studies.error_budget import error_budget
 
     scenario = apply_overrides(_smoke(moon_gm_sigma=1e-6), {"measurement.light_time": False})
     budget = error_budget(prepare_problem(scenario))
@@ -71,7 +71,7 @@ def test_an_unmodelled_truth_acceleration_is_the_budgets_dynamics_part():
     """model_error.truth_acceleration_m_s2: the truth moves, the filter's model does not; the error budget's
     deterministic dynamics part carries it (on the smoke scenario, 1e-8 m/s^2 along x raises that part's
     RMS over the last epochs of the EML2 halo from millimetres to tens of metres; measured 0.004 m and 41 m)."""
-    from liaison_cli.campaign.error_budget import error_budget
+    from liaison_cli.campaign.studies.error_budget import error_budget
 
     base = apply_overrides(_smoke(), {"measurement.light_time": False})
     pushed = apply_overrides(base, {"model_error.truth_acceleration_m_s2": [1e-8, 0.0, 0.0]})

@@ -4,7 +4,7 @@ default PSD, the per-spacecraft overrides, and what the shipped scenarios and te
 import numpy as np
 import pytest
 
-from liaison_cli.campaign.study003 import process_noise_text
+from liaison_cli.campaign.studies.study003 import process_noise_text
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.errors import ScenarioError
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3, psd_process_noise, spacecraft_process_noise

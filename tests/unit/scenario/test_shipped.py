@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from liaison_cli.campaign.table3 import FORMATIONS
+from liaison_cli.campaign.studies.table3 import FORMATIONS
 from liaison_cli.cli import app
 from liaison_cli.cli.studies import STUDY003_MISSIONS, STUDY004_TRANSMITTERS
 from liaison_cli.cli.sweep import PAPER_FORMATIONS

@@ -2,7 +2,7 @@
 
 Per transmitter and pair:
 - 3-sigma histories of the position and velocity error norms from the filter's covariance along the true
-  trajectory (LinCov with the filter's own gains, campaign.error_budget): the uncertainty 004 plots, the
+  trajectory (LinCov with the filter's own gains, campaign.studies.error_budget): the uncertainty 004 plots, the
   same whether or not an EKF run started 1,000 km off finds the orbit;
 - the EKF Monte Carlo beside it (_monte_carlo): the share of runs that converged and when (two readings),
   and over the converged runs the error RMS against the sigma RMS after the settle time and over the last
@@ -31,11 +31,11 @@ import pandas as pd
 
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.analysis.consistency import campaign_verdict
-from liaison_cli.campaign.error_budget import error_budget
+from liaison_cli.campaign.studies.error_budget import error_budget
 from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
-from liaison_cli.campaign.study003 import StudyError
+from liaison_cli.campaign.studies.study_cells import CellStore, grid_points, source_digest
+from liaison_cli.campaign.studies.study003 import StudyError
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.scenario.schema import Scenario, apply_overrides
 

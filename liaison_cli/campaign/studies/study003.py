@@ -26,10 +26,10 @@ import pandas as pd
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.campaign.backends import LOCAL, Backend, session
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.campaign.study_cells import CellStore, grid_points, source_digest
+from liaison_cli.campaign.studies.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
-from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_UNITS
+from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_UNITS
 from liaison_cli.scenario.schema import DEPARTURE_ORBIT, Scenario, apply_overrides
 
 CASES = ("full", "dsn_only", "liaison_only")
@@ -98,6 +98,11 @@ def with_dsn_noise(scenario: Scenario, reading: str) -> Scenario:
     return apply_overrides(scenario, {"links": links}, f"{scenario.name} (DSN noise: 003 {reading})")
 
 
+def _number_text(value) -> str:
+    """A density or sigma_a as %g, or a RIC triple as [q_R, q_I, q_C]."""
+    return f"[{', '.join(f'{q:g}' for q in value)}]" if isinstance(value, tuple) else f"{value:g}"
+
+
 def process_noise_text(scenario: Scenario) -> str:
     """The process noise in force, with its convention: 'SNC sigma_a 2e-08 m/s^2 (per-step convention, <model>)'
     or 'SNC PSD 1e-12 m^2/s^3 (...)'; where estimated spacecraft differ, each value names its spacecraft."""
@@ -110,10 +115,11 @@ def process_noise_text(scenario: Scenario) -> str:
     parts = []
     for convention, values in by_convention.items():
         unit = PROCESS_NOISE_UNITS[convention]
-        text = ", ".join(f"{value:g} {unit}" + (f" for {', '.join(names)}" if len(values) > 1 or len(
+        text = ", ".join(f"{_number_text(value)} {unit}" + (f" for {', '.join(names)}" if len(values) > 1 or len(
             by_convention) > 1 else "") for value, names in values.items())
         parts.append(f"PSD {text} (isotropic white acceleration, independent of the interval)"
                      if convention == PROCESS_NOISE_PSD else
+                     f"PSD per radial / in-track / cross-track axis {text}" if convention == PROCESS_NOISE_PSD_RIC else
                      f"sigma_a {text} (per-step convention, {flt.process_noise_model})")
     return "SNC " + "; ".join(parts)
 

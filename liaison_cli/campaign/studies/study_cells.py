@@ -32,7 +32,7 @@ from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 # The packages whose code makes a cell's numbers (the setup, the engine, the metrics, the runner).
 PACKAGE_CODE = ("dynamics", "radio", "orbits", "measurements", "estimation", "analysis", "exchange", "scenario",
-                "campaign")
+                "campaign", "campaign/studies", "campaign/exchange")
 CELL_FORMAT = 1  # the files' layout; part of the key, so a new layout never reads an old cell
 
 
@@ -129,3 +129,11 @@ def grid_points(grid: list[tuple[str, list]] | None) -> list[dict]:
 
     axes = grid or []
     return [dict(zip([key for key, _ in axes], values)) for values in itertools.product(*[v for _, v in axes])]
+
+
+def first_grid_point(frame: pd.DataFrame, grid: list[tuple[str, list]] | None) -> pd.DataFrame:
+    """The rows of a study's table at the grid's first point (the figures show it; the tables hold every point);
+    no grid: every row."""
+    for key, values in grid or []:
+        frame = frame[frame[key] == values[0]]
+    return frame

@@ -31,7 +31,7 @@ from liaison_cli.analysis.consistency import verdict
 from liaison_cli.analysis.metrics import fraction, nees_run_band
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.runner import in_task_order, stays_in_process
-from liaison_cli.campaign.worker import draw_run_inputs, true_parameters
+from liaison_cli.campaign.worker import draw_run_inputs, true_empirical_accelerations, true_parameters
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.dynamics.model import literal_entry
@@ -129,6 +129,9 @@ def _per_spacecraft(diag_lu, n_sc):
 
 
 def error_budget(problem: Problem) -> Budget:
+    if problem.filter.ric_noise is not None:
+        raise BudgetError(f"{problem.scenario.name}: process_noise_psd_ric_m2_s3: LinCov takes a fixed process "
+                          "noise per step; allowed: process_noise_psd_m2_s3 or process_noise_accel_m_s2")
     if not problem.scenario.estimator_descriptor().error_budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")
@@ -231,6 +234,10 @@ def _source_inputs(problem: Problem, run: int, model_y: np.ndarray, sources) -> 
     for start, value in _parameter_truths(problem):
         truth[:, start] = value
         x0[start] = 0.0
+    # Empirical accelerations start at their a-priori mean, 0, as in a run (LinCov's truth holds 0 there and
+    # counts the truth's acceleration in the dynamics-model part).
+    for start, _ in true_empirical_accelerations(problem):
+        x0[start : start + 3] = 0.0
     return x0, y, truth
 
 

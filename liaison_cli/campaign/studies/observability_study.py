@@ -1,7 +1,8 @@
 """Observability of a scenario (001 §5, 000 Fig. 16-17), computed: the information matrix of its links
 along the estimated spacecraft's ballistic arcs for range and for range-rate links (SVD, condition
 number, unobservability index, per-epoch effectiveness), range-rate against range information (gamma),
-and the Taylor-series STM against the integrated one. report.observability_report writes and draws it."""
+and the Taylor-series STM against the integrated one. report.observability_report formats and draws it;
+`liaison observability` writes it (campaign.studies.output)."""
 
 from dataclasses import dataclass
 
@@ -11,6 +12,7 @@ import pandas as pd
 from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_errors
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.errors import ScenarioError
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.reference_states import initial_state_lu
 from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.scenario.truth import dynamics_model, link_visibility, measurement_times_s, participant_trajectories
@@ -165,3 +167,15 @@ def _taylor_rows(states0, names, times_s) -> list[dict]:
         for step, (rms, std) in taylor_stm_errors(states0[s], duration_tu, TAYLOR_STEPS_S).items():
             rows.append({"spacecraft": name, "step_s": step, "relative_error_rms": rms, "relative_error_std": std})
     return rows
+
+
+def provenance(study: ObservabilityStudy, scenario_text: str) -> dict:
+    """The metadata of the study's Parquet tables."""
+    return {"package": "liaison", "arithmetic": arithmetic_provenance(), "scenario_yaml": scenario_text,
+            "summary": study.summary}
+
+
+def study_tables(study: ObservabilityStudy) -> dict:
+    """{stem: table} of the Parquet files: effectiveness, singular values and (when computed) the Taylor STM."""
+    return {"effectiveness": study.effectiveness, "singular": study.singular,
+            **({"taylor_stm": study.taylor} if study.taylor is not None else {})}

@@ -3,8 +3,8 @@
 For each pair the information matrix of a single crosslink is accumulated over the longer of the two
 periods (sampled every `interval_s`); its condition number is reported for range and for range-rate links.
 Grids: 7 EML1 x 7 EML2 southern halos, and 7 EML2 southern halos x 7 lunar orbiters (semi-major axis
-varied, the eml2_lunar scenario's e = 0.4, i = 60 deg, starting at perilune). report.geometry writes the
-tables and draws the heat maps.
+varied, the eml2_lunar scenario's e = 0.4, i = 60 deg, starting at perilune). report.geometry draws the
+heat maps; `liaison geometry` writes the tables (campaign.studies.output).
 """
 
 import numpy as np
@@ -15,6 +15,7 @@ from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, SECONDS_
 from liaison_cli.orbits.families import TU_DAYS
 from liaison_cli.orbits.family_store import from_table, load_or_generate
 from liaison_cli.orbits.keplerian import keplerian_period_s, lunar_orbiter_state_lu
+from liaison_cli.provenance import arithmetic_provenance
 
 LUNAR_A_KM = (5000.0, 6500.0, 8000.0, 9000.0, 11000.0, 13000.0, 15000.0)
 
@@ -64,3 +65,13 @@ GRIDS = {
     "l1_l2_halo": ("l1_halo_south", "l2_halo_south", "EML1 halo x EML2 halo (southern families)"),
     "l2_halo_lunar": ("l2_halo_south", "lunar", "EML2 halo x lunar orbiter (e 0.4, i 60 deg, a varied)"),
 }
+
+
+def geometry_tables(count: int = 7, interval_s: float = 600.0) -> dict:
+    """Every grid's table (geometry_study), by GRIDS key."""
+    return {key: geometry_study(first, second, count, interval_s) for key, (first, second, _) in GRIDS.items()}
+
+
+def provenance(count: int, interval_s: float) -> dict:
+    """The metadata of each grid's Parquet (with "study": its GRIDS key)."""
+    return {"package": "liaison", "arithmetic": arithmetic_provenance(), "interval_s": interval_s, "count": count}

@@ -1,6 +1,7 @@
 """Turan et al. (2022) Table 3, computed: the paper's six cases (each formation at 150 and 300 m) run as
 campaigns, our per-spacecraft means beside the paper's values, ours / paper ratios with their tolerance
-verdicts, and the paper's orderings checked. report.table3 writes the tables and the Markdown."""
+verdicts, and the paper's orderings checked. report.table3 formats the Markdown; `liaison table3` writes the
+tables (table3.parquet, summary.parquet, with `provenance`) through campaign.studies.output."""
 
 from dataclasses import dataclass
 from importlib.resources import files
@@ -10,10 +11,12 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from liaison_cli import __version__
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.results import summarise_campaign
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.schema import apply_overrides, load_scenario
 
 
@@ -163,3 +166,10 @@ def compute_table3(scenarios_dir, runs: int, jobs: int, progress: bool, where: B
     table = compare(pd.DataFrame(rows))
     return Table3Computed(table, ordering_checks(table), pd.concat(summaries, ignore_index=True), texts,
                           {f: loaded[f][0].monte_carlo.seed for f in loaded})
+
+
+def provenance(computed: Table3Computed, runs: int) -> dict:
+    """The metadata of table3.parquet and summary.parquet."""
+    return {"package": "liaison", "package_version": __version__, "arithmetic": arithmetic_provenance(),
+            "scenarios_yaml": computed.texts, "runs_per_case": runs, "seeds": computed.seeds,
+            "ordering_checks": computed.checks}

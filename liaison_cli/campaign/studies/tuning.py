@@ -38,10 +38,12 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from liaison_cli import __version__
 from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE, RATIO_LIMIT, campaign_verdict
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
 from liaison_cli.errors import LiaisonError
+from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_SIGMA_A
 from liaison_cli.scenario.schema import Scenario, apply_overrides
 from liaison_cli.storage import resumable_output
@@ -113,11 +115,12 @@ def psd_refusal(label: str, scenario: Scenario) -> str | None:
     if not scenario.estimator_descriptor().process_noise:
         return None
     flt = scenario.filter
-    psd = [sc for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[0] == PROCESS_NOISE_PSD]
+    psd = [sc for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[0] != PROCESS_NOISE_SIGMA_A]
     if not psd:
         return None
-    given = flt.process_noise_psd_m2_s3 is not None or any(sc.process_noise_psd_m2_s3 is not None for sc in psd)
-    return (f"{label}: the process noise of {', '.join(sc.name for sc in psd)} is a PSD ({PROCESS_NOISE_PSD}"
+    keys = {flt.process_noise_of(sc)[0] for sc in psd}
+    given = any(getattr(section, key) is not None for section in (flt, *psd) for key in keys)
+    return (f"{label}: the process noise of {', '.join(sc.name for sc in psd)} is a PSD ({', '.join(sorted(keys))}"
             f"{'' if given else ', the default when no process-noise key is given'}), and `liaison tune` ladders "
             f"the per-step sigma_a only: give filter.{PROCESS_NOISE_SIGMA_A} instead of any PSD to tune this scenario")
 
@@ -247,3 +250,11 @@ def tune(cases: list[TuningCase], ladder, runs: int, work: Path, jobs: int = 1, 
             on_case(case.label)
         frames.append(tune_case(case, ladder, runs, Path(work), jobs, progress, where))
     return pd.concat(frames, ignore_index=True)
+
+
+def provenance(cases: list[TuningCase], ladder, runs: int, command: str) -> dict:
+    """The metadata of the tune table's Parquet."""
+    return {"package": "liaison", "version": __version__, "arithmetic": arithmetic_provenance(), "command": command,
+            "rule": rule_text(ladder, runs),
+            "scenarios_yaml": {case.label: case.text for case in cases},
+            "seeds": {case.label: case.scenario.monte_carlo.seed for case in cases}}
