@@ -117,7 +117,24 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     rejections = _rejection_line(summary, config.filter)
     if rejections:
         typer.echo(rejections)
+    for line in _coverage_lines(out_dir, config.duration_days):
+        typer.echo(line)
     typer.echo(f"results: {out_dir}")
+
+
+def _coverage_lines(out_dir: Path, duration_days: float) -> list[str]:
+    """The links that measured at a small share of the epochs (report.run_text.coverage_lines), from the run's
+    residuals.parquet."""
+    import pyarrow.parquet as pq
+
+    from liaison_cli.report.run_result import link_coverage
+    from liaison_cli.report.run_text import coverage_lines
+
+    path = out_dir / "residuals.parquet"
+    if not path.is_file():
+        return []
+    residuals = pq.read_table(path, columns=["run", "link", "t_s", "innovation"]).to_pandas()
+    return coverage_lines(link_coverage(residuals), duration_days)
 
 
 @app.command()

@@ -19,7 +19,7 @@ class Estimator:
     clock_sync), link-bias states (filter.bias: estimate), Delta-v blocks (it solves for manoeuvres).
     What it supports: the scenario dynamics it runs with, the RTS smoother over its pass (filter.smoother),
     considered biases (filter.bias: consider), the residual gate (filter.residual_gate_sigma), the error
-    budget (estimation.lincov mirrors its gain, so campaign.error_budget can split its error), a start from an
+    budget (estimation.lincov mirrors its gain, so campaign.studies.error_budget can split its error), a start from an
     initial batch solution (filter.initial_batch_hours, estimation.initial_batch), process noise (the SNC that
     `liaison tune` chooses; a batch has none), dynamics-parameter states (filter.estimated_parameters: a
     model's parameter such as C_R carried as a state, estimation.blocks.BLOCK_PARAMETER), empirical

@@ -12,7 +12,7 @@ The error is linear in the sources, so its second moment is the sum of one part 
   random sources as covariances D (initial error, measurement noise, truth process noise),
   biases as sensitivities S = de/db (one column per link; covariance S Sigma_b S^T, mean S b_mean),
   deterministic mismatches as mean errors mu (measurement model, dynamics).
-Pure numerics on plain arrays (compiled); campaign.error_budget builds the inputs from a scenario.
+Pure numerics on plain arrays (compiled); campaign.studies.error_budget builds the inputs from a scenario.
 
 The EKF's residual gate (filter.residual_gate_sigma, filter_loop.gated) is ignored here: whether a
 measurement is edited depends on its realised innovation, which a linear analysis along the truth does not
