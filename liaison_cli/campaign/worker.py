@@ -241,9 +241,7 @@ def _add_parameters(problem: Problem, inputs: RunInputs, history, summary) -> No
     into every row, as the run's): the true
     value, the error and sigma at the last healthy epoch, and the RMS of the error and of sigma over the
     settled epochs (dimensionless, as the states)."""
-    layout = problem.filter.layout
-    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
-    row_of = {name: row for name, row in zip(problem.spacecraft, summary)}
+    layout, settled, row_of = _blocks_and_rows(problem, summary)
     for block, start in zip(layout.blocks, layout.starts):
         if block.kind != BLOCK_PARAMETER:
             continue
@@ -263,12 +261,16 @@ def _add_parameters(problem: Problem, inputs: RunInputs, history, summary) -> No
             row.update(columns)
 
 
+def _blocks_and_rows(problem: Problem, summary):
+    """(the filter's state layout, the settled epochs (m,) bool, {spacecraft name: its summary row})."""
+    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
+    return problem.filter.layout, settled, {name: row for name, row in zip(problem.spacecraft, summary)}
+
+
 def _add_empirical(problem: Problem, history, summary) -> None:
     """Each spacecraft's empirical acceleration (filter.empirical_acceleration) into its row: the RMS over the
     settled epochs of its 3-D error and of its RSS sigma (m/s^2)."""
-    layout = problem.filter.layout
-    settled = problem.times_s >= problem.scenario.settle_days() * SECONDS_PER_DAY
-    row_of = {name: row for name, row in zip(problem.spacecraft, summary)}
+    layout, settled, row_of = _blocks_and_rows(problem, summary)
     for block, start in zip(layout.blocks, layout.starts):
         if block.kind != BLOCK_EMPIRICAL:
             continue

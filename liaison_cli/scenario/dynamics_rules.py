@@ -157,14 +157,8 @@ def check_estimated_parameters(scenario) -> None:
             allowed = ", ".join(dynamics.parameter_names) or "none"
             raise ValueError(f"filter.estimated_parameters.{name}: dynamics: {dynamics.name} has no such parameter; "
                              f"allowed: {allowed}")
-    estimator = scenario.estimator_descriptor()
-    if not estimator.dynamics_parameters:
-        runners = ", ".join(e.name for e in ESTIMATORS.values() if e.dynamics_parameters)
-        raise ValueError(f"filter.estimated_parameters: estimator {estimator.name} does not estimate dynamics "
-                         f"parameters; allowed: estimator {runners}")
-    if scenario.filter.initial_batch_hours is not None:
-        raise ValueError("filter.estimated_parameters with filter.initial_batch_hours: the initial batch solves "
-                         "for the spacecraft states only; allowed: one of the two")
+    _carried_by_the_ekf(scenario, "filter.estimated_parameters", "dynamics_parameters",
+                        "estimate dynamics parameters")
     if "cr" in wanted and scenario.ephemeris.cr * scenario.ephemeris.area_to_mass_m2_kg == 0.0:
         raise ValueError("filter.estimated_parameters.cr with ephemeris.area_to_mass_m2_kg = 0: no solar "
                          "radiation pressure, so no data can reach C_R; allowed: a cannonball with an area")
@@ -178,14 +172,8 @@ def check_empirical_acceleration(scenario) -> None:
     spec = scenario.filter.empirical_acceleration
     if spec is None:
         return
-    estimator = scenario.estimator_descriptor()
-    if not estimator.empirical_accelerations:
-        runners = ", ".join(e.name for e in ESTIMATORS.values() if e.empirical_accelerations)
-        raise ValueError(f"filter.empirical_acceleration: estimator {estimator.name} does not carry empirical "
-                         f"accelerations; allowed: estimator {runners}")
-    if scenario.filter.initial_batch_hours is not None:
-        raise ValueError("filter.empirical_acceleration with filter.initial_batch_hours: the initial batch solves "
-                         "for the spacecraft states only; allowed: one of the two")
+    _carried_by_the_ekf(scenario, "filter.empirical_acceleration", "empirical_accelerations",
+                        "carry empirical accelerations")
     interval_s = scenario.measurement.interval_s
     if spec.time_constant_s < interval_s:
         raise ValueError(f"filter.empirical_acceleration.time_constant_s = {spec.time_constant_s:g} is shorter than "
@@ -200,3 +188,15 @@ def check_ric_process_noise(scenario) -> None:
     if scenario.filter.initial_batch_hours is not None and scenario.filter.uses_ric_process_noise(scenario.spacecraft):
         raise ValueError("process_noise_psd_ric_m2_s3 with filter.initial_batch_hours: the initial batch takes a fixed "
                          "process noise over its window; allowed: one of the two (or process_noise_psd_m2_s3)")
+
+
+def _carried_by_the_ekf(scenario, key: str, supports: str, what: str) -> None:
+    """A setting that adds filter states (`key`): by an estimator whose descriptor flag `supports` is set, and
+    without an initial batch, whose solve keeps the spacecraft states only."""
+    estimator = scenario.estimator_descriptor()
+    if not getattr(estimator, supports):
+        runners = ", ".join(e.name for e in ESTIMATORS.values() if getattr(e, supports))
+        raise ValueError(f"{key}: estimator {estimator.name} does not {what}; allowed: estimator {runners}")
+    if scenario.filter.initial_batch_hours is not None:
+        raise ValueError(f"{key} with filter.initial_batch_hours: the initial batch solves for the spacecraft states "
+                         "only; allowed: one of the two")
