@@ -88,7 +88,7 @@ def main() -> None:
               f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores). Scenario "
               f"`{SCENARIO.relative_to(REPO)}`, its filter's C_R off by N(0, 5 %) per run; settled = after its settle "
               "time (1 d). Means over the healthy runs; err/σ = RMS error / RMS σ over them; NEES shares: settled "
-              "epochs in the single-run 95 % χ² band (the spacecraft's own 6 states; the whole state: 12, 13 with the C_R state, 18 with the empirical accelerations). "
+              "epochs in the single-run 95 % χ² band (the spacecraft's own 6 states; the whole state: 12, 13 with the C_R state; the empirical accelerations are left out of it). "
               "C_R σ final: the filter's 1σ of the C_R correction at the last epoch; RMS z: RMS over the runs of "
               "its final error in units of that σ (1 when consistent).")
     OUTPUT.write_text(header + "\n\n" + "\n".join(lines) + "\n")

@@ -14,7 +14,9 @@
   compensation, estimation.process_noise): transition exp(-dt / tau) on itself and kinematic gains into its
   spacecraft's position and velocity (filter_loop.time_update), process noise coupled with the spacecraft's.
 Process noise is a fixed (n, n) block-diagonal Q built block by block by the problem setup. Consider
-blocks (zero gain, Schmidt-Kalman) come last, so the estimated states are a prefix of the state.
+blocks (zero gain, Schmidt-Kalman) come last, so the estimated states are a prefix of the state; the
+empirical accelerations come last among the estimated blocks, so the states the NEES covers (n_nees) are a
+prefix too.
 """
 
 from dataclasses import dataclass
@@ -61,6 +63,9 @@ class StateLayout:
         considered = [b.consider for b in self.blocks]
         if any(considered) and considered != sorted(considered):
             raise ValueError("consider blocks must come after every estimated block")
+        estimated = [b.kind == BLOCK_EMPIRICAL for b in self.blocks if not b.consider]
+        if estimated != sorted(estimated):
+            raise ValueError("empirical-acceleration blocks must come after every other estimated block")
 
     @property
     def starts(self) -> np.ndarray:
@@ -90,6 +95,13 @@ class StateLayout:
     def n_estimated(self) -> int:
         """States before the first consider block (all of them if none)."""
         return int(sum(b.size for b in self.blocks if not b.consider))
+
+    @property
+    def n_nees(self) -> int:
+        """The states the NEES covers: the estimated ones with a truth of their own, before the empirical
+        accelerations (whose truth is whatever force the model lacks, unknown in general: model_error's
+        acceleration when a study states one, and the settled columns compare against that)."""
+        return int(sum(b.size for b in self.blocks if not b.consider and b.kind != BLOCK_EMPIRICAL))
 
     @property
     def has_consider(self) -> bool:

@@ -34,7 +34,7 @@ def predict_covariance_into(P, Phi, Q, out, tmp, block_kind, block_start, block_
     the block products, then _couple_parameters' rank-one row and column updates.
     An empirical-acceleration block w (3) of spacecraft s has the diagonal m I and the coupling columns
     C = Phi[s, w]: Phi = (I + G) Phi_bd with G = C / m, and its process noise is coupled to s's. The caller
-    passes Q~ = (I + G)^-1 Q (I + G)^-T in place of Q (filter_arrays.coupled_process_noise), so that
+    passes Q~ = (I + G)^-1 Q (I + G)^-T in place of Q (estimation.process_noise.coupled_process_noise), so that
     (I + G) (Phi_bd P Phi_bd^T + Q~) (I + G)^T = Phi P Phi^T + Q exactly, with the same two steps.
     """
     n_blocks = block_kind.shape[0]

@@ -116,7 +116,7 @@ class FilterArrays:
 
     @property
     def n_nees(self) -> int:
-        return self.layout.n_estimated
+        return self.layout.n_nees
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,6 +16,7 @@ from liaison_cli.dynamics.model import (PROPAGATION_SIZE, STM_SIZE, propagate_pa
 from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER,
                                           BLOCK_SPACECRAFT)
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
+from liaison_cli.estimation.process_noise import gauss_markov_gains
 from liaison_cli.estimation.ric_noise import step_process_noise
 from liaison_cli.measurements.registry import predict_for, residual
 
@@ -179,12 +180,10 @@ def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_pa
 @njit(cache=True, inline="always")
 def _empirical_update(x_hat, x_bar, Phi, a, s, dt_tu, tau_tu):
     """The Gauss-Markov acceleration w = x_hat[a : a + 3] of the spacecraft block at s over one step
-    (estimation.process_noise.gauss_markov_gains, written out): w <- m w, and the spacecraft's propagated
+    (estimation.process_noise.gauss_markov_gains): w <- m w, and the spacecraft's propagated
     position and velocity get the kinematic gains times w; the same numbers into Phi (its diagonal m and the
     coupling columns the covariance step reads, ekf._couple_parameters)."""
-    decay = np.exp(-dt_tu / tau_tu)
-    gain_r = tau_tu * dt_tu - tau_tu * tau_tu * (1.0 - decay)
-    gain_v = tau_tu * (1.0 - decay)
+    decay, gain_r, gain_v = gauss_markov_gains(tau_tu, dt_tu)
     for i in range(3):
         w = x_hat[a + i]
         x_bar[a + i] = decay * w

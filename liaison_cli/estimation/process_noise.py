@@ -23,14 +23,16 @@ Gauss-Markov acceleration w per spacecraft, three states on the dynamics model's
 §4.9; Bar-Shalom et al. §8.2), w' = -w / tau + u with u white of PSD 2 sigma^2 / tau, so that w's steady-state
 sigma is sigma whatever tau. Over a step dt its transition is m = exp(-dt / tau) on w, and it moves its
 spacecraft through the kinematic gains position tau dt - tau^2 (1 - m) and velocity tau (1 - m) per unit of
-w (`gauss_markov_gains`; the gravity gradient's share of that coupling over a step is left out: at EML2,
-(GM / r^3) dt^2 ~ 1e-7 of it). `gauss_markov_process_noise` is the exact Q of [r, v, w] over dt for that
+w (`gauss_markov_gains`; the dynamics' share of that coupling over a step is left out: in the CRTBP's rotating
+axes the Coriolis term, Omega dt ~ 5e-4 of it at 187.5 s, and the gravity gradient, (GM / r^3) dt^2 ~ 1e-3 for
+the lunar orbiter at perilune and ~1e-7 at EML2). `gauss_markov_process_noise` is the exact Q of [r, v, w] over dt for that
 linear model (Van Loan's matrix exponential, Van Loan 1978 "Computing integrals involving the matrix
 exponential"), per axis, added to the spacecraft's own SNC.
 Units: blocks are returned in the estimators' scaled units (LU, LU/TU) given the scales.
 """
 
 import numpy as np
+from numba import njit
 from scipy.linalg import expm
 
 PROCESS_NOISE_MODELS = ("continuous_white_acceleration", "velocity_only")
@@ -68,12 +70,24 @@ def spacecraft_process_noise(sigma_a_m_s2: float, dt_s: float, model: str, m_per
     return Q
 
 
-def gauss_markov_gains(tau: float, dt: float) -> tuple[float, float, float]:
+@njit(cache=True)
+def gauss_markov_gains(tau: float, dt: float):
     """(m, position gain, velocity gain) of a first-order Gauss-Markov acceleration over one step dt (module
     docstring): w(t + dt) = m w(t); it adds position gain * w to the position and velocity gain * w to the
-    velocity. Any consistent time unit (tau and dt in the same one; the gains in it and its square)."""
-    decay = np.exp(-dt / tau)
-    return float(decay), float(tau * dt - tau**2 * (1.0 - decay)), float(tau * (1.0 - decay))
+    velocity. Any consistent time unit (tau and dt in the same one; the gains in it and its square).
+
+    With x = dt / tau the gains are tau (1 - e^-x) = -dt expm1(-x) / x and tau^2 (x - 1 + e^-x) = dt^2 g(x),
+    g(x) = (x + expm1(-x)) / x^2. For small x (a long memory, the usual way to ask for a near-constant force)
+    the difference cancels, so g takes its series 1/2 - x/6 + x^2/24 - x^3/120 + x^4/720 below x = 1e-2
+    (next term x^5/5040: 2e-14 of g there); no power of tau is formed, so any tau > 0 is finite."""
+    x = dt / tau
+    decay = np.exp(-x)
+    velocity_gain = -dt * np.expm1(-x) / x if x > 0.0 else dt
+    if x < 1e-2:
+        position_factor = 0.5 - x / 6.0 + x * x / 24.0 - x**3 / 120.0 + x**4 / 720.0
+    else:
+        position_factor = (x + np.expm1(-x)) / (x * x)
+    return decay, dt * dt * position_factor, velocity_gain
 
 
 def gauss_markov_process_noise(sigma_m_s2: float, tau_s: float, dt_s: float, m_per_lu: float,

@@ -46,7 +46,7 @@ def step_process_noise(noise, Q_work, x_hat, k, block_kind, block_start, axes):
 def _ric_axes_into(x, s, primaries_k, axes):
     """Rows R, I, C of the frame of the spacecraft state x[s : s + 6] about the nearer of the two primaries
     (primaries_k (2, 6): positions and velocities), as analysis.ric defines it: R along the relative position,
-    C along r x v, I = C x R."""
+    C along r x v, I = C x R; the model's own axes where r x v vanishes (no plane to define the frame)."""
     nearer, best = 0, np.inf
     for p in range(2):
         d = 0.0
@@ -59,6 +59,11 @@ def _ric_axes_into(x, s, primaries_k, axes):
                   x[s + 5] - primaries_k[nearer, 5])
     c0, c1, c2 = r1 * v2 - r2 * v1, r2 * v0 - r0 * v2, r0 * v1 - r1 * v0
     r_norm, c_norm = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2), np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    if not (c_norm > 0.0 and r_norm > 0.0):  # radial motion (or a state at the primary): no frame; the model's axes
+        for i in range(3):
+            for j in range(3):
+                axes[i, j] = 1.0 if i == j else 0.0
+        return
     axes[0, 0], axes[0, 1], axes[0, 2] = r0 / r_norm, r1 / r_norm, r2 / r_norm
     axes[2, 0], axes[2, 1], axes[2, 2] = c0 / c_norm, c1 / c_norm, c2 / c_norm
     axes[1, 0] = axes[2, 1] * axes[0, 2] - axes[2, 2] * axes[0, 1]

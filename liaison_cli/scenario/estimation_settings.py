@@ -3,12 +3,12 @@ run's initial error is drawn, and the Monte Carlo runs and seed."""
 
 from typing import Annotated, ClassVar, Literal
 
-from pydantic import ConfigDict, Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
 from liaison_cli.scenario.schema_rules import Rule, at_least, check_rules, equals, given, schema_rules, when
-from liaison_cli.scenario.spec_base import ONE_PROCESS_NOISE_CONVENTION, StrictModel, ric_densities
+from liaison_cli.scenario.spec_base import ONE_PROCESS_NOISE_CONVENTION, RicDensities, StrictModel
 
 
 # The two process-noise conventions (FilterSpec.process_noise_of; estimation.process_noise): the filter key
@@ -71,7 +71,7 @@ class FilterSpec(StrictModel):
         None, ge=0, description="per-step sigma_a: q = sigma_a^2 dt, dt the measurement interval — the convention "
         "of 001/003/004's reproductions (the noise per day grows with measurement.interval_s), for every "
         "spacecraft (a spacecraft's own key overrides it). Not with process_noise_psd_m2_s3 (m/s^2)")
-    process_noise_psd_ric_m2_s3: tuple[float, float, float] | None = Field(
+    process_noise_psd_ric_m2_s3: RicDensities | None = Field(
         None, description=RIC_PSD_DESCRIPTION + "; for every spacecraft (a spacecraft's own key overrides it)")
     process_noise_model: Literal["continuous_white_acceleration", "velocity_only"] = Field(
         "continuous_white_acceleration", description="how a per-step sigma_a becomes Q per step dt: continuous "
@@ -157,11 +157,6 @@ class FilterSpec(StrictModel):
     @model_validator(mode="after")
     def _rules(self):
         return check_rules(self, self.RULES)
-
-    @field_validator("process_noise_psd_ric_m2_s3")
-    @classmethod
-    def _ric_densities(cls, value):
-        return ric_densities(value)
 
     def process_noise_of(self, spacecraft) -> tuple[str, float | tuple]:
         """(PROCESS_NOISE_PSD, q in m^2/s^3), (PROCESS_NOISE_PSD_RIC, (q_R, q_I, q_C) in m^2/s^3) or

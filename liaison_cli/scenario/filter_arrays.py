@@ -26,7 +26,7 @@ from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A
 from liaison_cli.scenario.links import link_label
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.scenario.truth import burn_step, link_observables
 
 # The initial batch's Gauss-Newton stops when no position correction exceeds this: far below any hand-over
@@ -90,8 +90,8 @@ def _channels(scenario: Scenario) -> list[Channel]:
 
 def state_layout(scenario: Scenario) -> StateLayout:
     """Spacecraft blocks, then clocks, Delta-v, dynamics parameters (one per filter.estimated_parameters name,
-    shared by the formation), empirical accelerations (one per spacecraft, filter.empirical_acceleration), then
-    link biases (estimated, or considered last)."""
+    shared by the formation), link biases when estimated, empirical accelerations (one per spacecraft,
+    filter.empirical_acceleration), and link biases when considered (consider blocks last)."""
     estimator = scenario.estimator_descriptor()
     blocks = [StateBlock(BLOCK_SPACECRAFT, 6, name) for name in scenario.spacecraft_names()]
     if estimator.carries_clocks:  # else clocks are synchronised apart from the estimator, by clock_sync
@@ -105,14 +105,14 @@ def state_layout(scenario: Scenario) -> StateLayout:
     # errors where the truth has one: measured 54 % of eph_eml1_eml2_dsn's NEES in band against 90 %+ own).
     blocks += [StateBlock(BLOCK_PARAMETER, 1, owner_name(parameter, FORMATION))
                for parameter in scenario.filter.estimated_parameters]
-    if scenario.filter.empirical_acceleration is not None:
-        blocks += [StateBlock(BLOCK_EMPIRICAL, 3, owner_name(ROLE_EMPIRICAL, name))
-                   for name in scenario.spacecraft_names()]
+    empirical = [StateBlock(BLOCK_EMPIRICAL, 3, owner_name(ROLE_EMPIRICAL, name))
+                 for name in scenario.spacecraft_names()] if scenario.filter.empirical_acceleration is not None else []
+    biases, consider = [], scenario.filter.bias == "consider"
     if scenario.filter.bias != "ignore" and estimator.carries_biases:
-        consider = scenario.filter.bias == "consider"
-        blocks += [StateBlock(BLOCK_CONSTANT, 1, owner_name(ROLE_LINK_BIAS, i), consider)
-                   for i in range(len(scenario.links))]
-    return StateLayout(tuple(blocks))
+        biases = [StateBlock(BLOCK_CONSTANT, 1, owner_name(ROLE_LINK_BIAS, i), consider)
+                  for i in range(len(scenario.links))]
+    # The empirical accelerations last among the estimated blocks (StateLayout.n_nees), consider biases after.
+    return StateLayout(tuple(blocks + (empirical + biases if consider else biases + empirical)))
 
 
 def _manoeuvres(scenario: Scenario, layout: StateLayout):

@@ -1,4 +1,4 @@
-"""The scenario's JSON Schema, generated from the loader's model (scenario.schema.Scenario).
+"""The scenario's JSON Schema, generated from the loader's model (scenario.scenario_model.Scenario).
 
 An editor with a YAML language server reads it through the modeline at the top of a scenario
 (`# yaml-language-server: $schema=...`) and offers keys, descriptions, units and allowed names while the file
@@ -35,6 +35,9 @@ LOADER_ONLY_RULES = (
     "injection; only the observables that model supports; measurement.light_time: true only with tdoa / fdoa",
     "estimated parameters: filter.estimated_parameters names parameters of the scenario's dynamics model (cr: "
     "dynamics: ephemeris), with the ekf and without filter.initial_batch_hours",
+    "filter states: filter.empirical_acceleration with the ekf, without filter.initial_batch_hours and with "
+    "time_constant_s at least measurement.interval_s; process_noise_psd_ric_m2_s3 without "
+    "filter.initial_batch_hours",
     "numbers are finite (no .inf or .nan)",
 )
 
@@ -48,7 +51,7 @@ def _description() -> str:
 
 def scenario_json_schema() -> dict:
     """The JSON Schema of a scenario file, with $schema, $id, title and description first."""
-    from liaison_cli.scenario.schema import Scenario
+    from liaison_cli.scenario.scenario_model import Scenario
 
     body = Scenario.model_json_schema()
     body.pop("title", None)

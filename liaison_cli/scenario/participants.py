@@ -16,11 +16,11 @@ from liaison_cli.scenario.schema_rules import (
     Rule, all_of, any_of, check_rules, equals, given, negate, not_given, one_of, schema_rules, together, when)
 from liaison_cli.scenario.spec_base import (
     NAME_PATTERN,
-    UNIQUE,
     ONE_PROCESS_NOISE_CONVENTION,
+    UNIQUE,
+    RicDensities,
     StrictModel,
     allowed_names,
-    ric_densities,
 )
 
 
@@ -234,7 +234,7 @@ class SpacecraftSpec(StrictModel):
         "sigma_a^2 dt, the reproductions' convention); overrides the filter's key of either convention; not with "
         "this spacecraft's process_noise_psd_m2_s3 (m/s^2)"
     )
-    process_noise_psd_ric_m2_s3: tuple[float, float, float] | None = Field(
+    process_noise_psd_ric_m2_s3: RicDensities | None = Field(
         None, description="this spacecraft's SNC as a PSD per radial / in-track / cross-track axis (as "
         "filter.process_noise_psd_ric_m2_s3); overrides the filter's key of any convention; not with this "
         "spacecraft's other process-noise keys (m^2/s^3)")
@@ -261,11 +261,6 @@ class SpacecraftSpec(StrictModel):
     @classmethod
     def _orbit_from_file(cls, data):
         return orbit_file_from_mapping(data)
-
-    @field_validator("process_noise_psd_ric_m2_s3")
-    @classmethod
-    def _ric_densities(cls, value):
-        return ric_densities(value)
 
     @field_validator("orbit")
     @classmethod

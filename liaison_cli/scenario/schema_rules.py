@@ -14,6 +14,8 @@ A key written as `key: null` counts as not given, as the loader reads it (pydant
 from dataclasses import dataclass
 from typing import Callable
 
+from pydantic import BaseModel
+
 
 def given(key: str) -> dict:
     return {"required": [key], "properties": {key: {"not": {"type": "null"}}}}
@@ -87,22 +89,44 @@ def _field(value, key):
     return value.get(key) if isinstance(value, dict) else getattr(value, key, None)
 
 
+def _is_object(value) -> bool:
+    """A section (a model) or a mapping: what JSON Schema's object words (required, properties) apply to."""
+    return isinstance(value, (dict, BaseModel))
+
+
+def _is_array(value) -> bool:
+    return isinstance(value, (list, tuple))
+
+
 def _is_number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def _same(value, option) -> bool:
+    """JSON equality: true and 1 differ, 1 and 1.0 do not."""
+    if isinstance(value, bool) or isinstance(option, bool):
+        return isinstance(value, bool) and isinstance(option, bool) and value == option
+    return value == option
+
+
+def _type(sub, value) -> bool:
+    if sub != "null":  # the rules say "not given" only; another type word would be read wrongly, so it is refused
+        raise ValueError(f"rule word type: {sub!r} is not one check_rules evaluates (only 'null')")
+    return value is None
+
+
 _WORDS = {
-    "required": lambda sub, value: all(_field(value, key) is not None for key in sub),
+    "required": lambda sub, value: not _is_object(value) or all(_field(value, key) is not None for key in sub),
     # A key the section leaves unset (None) is absent to JSON Schema, whose `properties` skip absent keys.
-    "properties": lambda sub, value: all(holds(rule, _field(value, key)) for key, rule in sub.items()
-                                         if _field(value, key) is not None),
+    "properties": lambda sub, value: not _is_object(value) or all(
+        holds(rule, _field(value, key)) for key, rule in sub.items() if _field(value, key) is not None),
     "not": lambda sub, value: not holds(sub, value),
-    "type": lambda sub, value: value is None if sub == "null" else True,
-    "enum": lambda sub, value: any(value == option for option in sub),
-    "const": lambda sub, value: value == sub,
+    "type": _type,
+    "enum": lambda sub, value: any(_same(value, option) for option in sub),
+    "const": lambda sub, value: _same(value, sub),
     "minimum": lambda sub, value: not _is_number(value) or value >= sub,
-    "items": lambda sub, value: value is None or all(holds(sub, item) for item in value),
-    "contains": lambda sub, value: value is not None and any(holds(sub, item) for item in value),
+    "items": lambda sub, value: not _is_array(value) or all(holds(sub, item) for item in value),
+    "contains": lambda sub, value: not _is_array(value) or any(holds(sub, item) for item in value),
     "allOf": lambda sub, value: all(holds(rule, value) for rule in sub),
     "anyOf": lambda sub, value: any(holds(rule, value) for rule in sub),
     "oneOf": lambda sub, value: sum(holds(rule, value) for rule in sub) == 1,

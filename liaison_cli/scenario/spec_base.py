@@ -1,7 +1,9 @@
 """What every scenario section shares: the strict base model (frozen, unknown keys refused with the allowed
 ones named, numbers finite), the name pattern, and the JSON Schema words the sections use."""
 
-from pydantic import BaseModel, ConfigDict, model_validator
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from liaison_cli.scenario.schema_rules import Rule, all_of, given, not_given, when
 
@@ -23,11 +25,9 @@ def allowed_names(schema: dict, what: str) -> None:
 # A section (the filter, or a spacecraft) gives its process noise in at most one convention
 # (estimation.process_noise: a PSD, a PSD per radial / in-track / cross-track axis, or the papers'
 # per-step sigma_a).
-def ric_densities(value):
-    """A process_noise_psd_ric_m2_s3 value: three densities, each non-negative (a field validator's body)."""
-    if value is not None and any(not q >= 0 for q in value):
-        raise ValueError(f"{list(value)}: three densities [radial, in-track, cross-track], each >= 0 (m^2/s^3)")
-    return value
+# A density per radial / in-track / cross-track axis, each >= 0 (m^2/s^3): the type carries the bound, so the
+# JSON Schema and the loader say it from this one declaration.
+RicDensities = tuple[Annotated[float, Field(ge=0)], Annotated[float, Field(ge=0)], Annotated[float, Field(ge=0)]]
 
 
 PROCESS_NOISE_KEYS = ("process_noise_psd_m2_s3", "process_noise_psd_ric_m2_s3", "process_noise_accel_m_s2")

@@ -44,8 +44,9 @@ from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
 from liaison_cli.errors import LiaisonError
 from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_SIGMA_A
-from liaison_cli.scenario.schema import Scenario, apply_overrides
+from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A
+from liaison_cli.scenario.loading import apply_overrides
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.storage import resumable_output
 
 SNC_KEY = "filter.process_noise_accel_m_s2"
@@ -98,12 +99,13 @@ def parse_ladder(text: str | None) -> tuple[float, ...]:
 
 def ladder_grid(scenario: Scenario, ladder) -> list[tuple[str, list]]:
     """The sweep grid of the ladder: the filter's sigma_a over the rungs, every spacecraft's own value and the
-    filter's PSD (when given) removed."""
+    filter's PSDs (when given) removed."""
     grid = [(SNC_KEY, list(ladder))]
-    if scenario.filter.process_noise_psd_m2_s3 is not None:
-        grid.append((f"filter.{PROCESS_NOISE_PSD}", [None]))
+    for key in (PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC):
+        if getattr(scenario.filter, key) is not None:
+            grid.append((f"filter.{key}", [None]))
     for index, spacecraft in enumerate(scenario.spacecraft):
-        for key in (PROCESS_NOISE_SIGMA_A, PROCESS_NOISE_PSD):
+        for key in (PROCESS_NOISE_SIGMA_A, PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC):
             if getattr(spacecraft, key) is not None:
                 grid.append((f"spacecraft.{index}.{key}", [None]))
     return grid

@@ -23,10 +23,13 @@ def _F(tau):
     return np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0 / tau]])
 
 
-def test_gains_are_the_kinematic_transition():
-    """m, and the position and velocity gains, are the third column of exp(F dt)."""
-    decay, gain_r, gain_v = gauss_markov_gains(TAU, DT)
-    Phi = expm(_F(TAU) * DT)
+@pytest.mark.parametrize("tau", [200.0, TAU, 1e6, 1e9, 1e12, 1e300])
+def test_gains_are_the_kinematic_transition(tau):
+    """m, and the position and velocity gains, are the third column of exp(F dt), for a memory from about one
+    step to 'constant': the closed form tau dt - tau^2 (1 - m) had lost its sign by tau = 1e11 s (cancellation)
+    and overflowed at 1e300."""
+    decay, gain_r, gain_v = gauss_markov_gains(tau, DT)
+    Phi = expm(_F(tau) * DT)
     assert np.allclose([gain_r, gain_v, decay], Phi[:, 2], rtol=1e-12, atol=0)
 
 

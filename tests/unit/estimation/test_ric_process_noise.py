@@ -10,7 +10,7 @@ from liaison_cli.analysis.ric import ric_axes
 from liaison_cli.campaign.results import summary_table
 from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.estimation.ric_noise import step_process_noise
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS
 
@@ -72,7 +72,7 @@ def test_one_density_on_every_axis_is_the_inertial_psd():
      "process_noise_psd_ric_m2_s3 with filter.initial_batch_hours"),
     ({"filter": {"process_noise_psd_ric_m2_s3": [1e-12, 1e-12, 1e-12], "process_noise_psd_m2_s3": 1e-12}},
      "not both of any two"),
-    ({"filter": {"process_noise_psd_ric_m2_s3": [1e-12, -1.0, 0.0]}}, "each >= 0"),
+    ({"filter": {"process_noise_psd_ric_m2_s3": [1e-12, -1.0, 0.0]}}, "greater than or equal to 0"),
 ], ids=["initial-batch", "two-conventions", "negative"])
 def test_rules_are_one_line(edits, fragment):
     from liaison_cli.errors import ScenarioError
@@ -92,3 +92,19 @@ def test_the_error_budget_refuses_it_in_one_line():
 
     with pytest.raises(BudgetError, match="LinCov takes a fixed process noise"):
         error_budget(_problem([1e-12, 1e-12, 1e-12]))
+
+
+def test_the_tuning_ladder_removes_a_filter_level_ric_density():
+    """Every spacecraft keeps its own sigma_a, so the filter's RIC density is not in force and `tune` takes the
+    scenario; its ladder must drop that key, or each rung would hold two conventions in the filter section."""
+    from liaison_cli.campaign.studies.tuning import ladder_grid, psd_refusal
+
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    scenario = apply_overrides(scenario, {"filter.process_noise_psd_ric_m2_s3": [1e-12, 1e-12, 1e-12]})
+    assert psd_refusal("smoke", scenario) is None
+    grid = dict(ladder_grid(scenario, [1e-9, 1e-8]))
+    assert grid["filter.process_noise_psd_ric_m2_s3"] == [None]
+    assert apply_overrides(scenario, {"filter.process_noise_accel_m_s2": 1e-9,
+                                      "filter.process_noise_psd_ric_m2_s3": None,
+                                      "spacecraft.0.process_noise_accel_m_s2": None,
+                                      "spacecraft.1.process_noise_accel_m_s2": None}).filter.process_noise_accel_m_s2 == 1e-9

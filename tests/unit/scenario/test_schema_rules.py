@@ -87,3 +87,20 @@ def test_the_loader_reads_each_rule_as_jsonschema_does(section):
 def test_a_word_the_loader_does_not_read_is_refused():
     with pytest.raises(ValueError, match="patternProperties"):
         holds({"patternProperties": {}}, {})
+
+
+@pytest.mark.parametrize("condition, value", [
+    ({"enum": [1]}, True), ({"const": 0}, False), ({"enum": [0.5, 1]}, 1.0), ({"required": ["a"]}, 5),
+    ({"items": {"enum": ["x"]}}, "ab"), ({"contains": {"enum": ["x"]}}, None), ({"contains": {"enum": ["x"]}}, ["x"]),
+    ({"properties": {"a": {"minimum": 2}}}, {"a": 1}), ({"properties": {"a": {"minimum": 2}}}, {"a": "text"}),
+    ({"not": {"type": "null"}}, None), ({"oneOf": [{"enum": [1]}, {"minimum": 0}]}, 1),
+], ids=lambda item: repr(item)[:30])
+def test_the_words_on_values_the_rules_do_not_meet_yet(condition, value):
+    """Corner cases no shipped section reaches today, read as jsonschema reads them: booleans against numbers,
+    object words on a number, array words on a string or None."""
+    assert holds(condition, value) == jsonschema.Draft202012Validator(condition).is_valid(value)
+
+
+def test_a_type_other_than_null_is_refused():
+    with pytest.raises(ValueError, match="only 'null'"):
+        holds({"type": "string"}, 3)
