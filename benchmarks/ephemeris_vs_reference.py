@@ -24,7 +24,7 @@ from liaison_cli.dynamics.ephemeris_model import PARAM_CR_AM, SCALE
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.measurements.range import KIND_RANGE
 from liaison_cli.measurements.range_rate import KIND_RANGE_RATE
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 

@@ -20,7 +20,7 @@ from liaison_cli.campaign.exchange.export import KM_PER_SCALED, export_run, reco
 from liaison_cli.campaign.results import stream_campaign
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.exchange.oem import read_oem
-from liaison_cli.scenario.schema import apply_overrides, load_scenario, validate_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario, validate_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 RUN = 1

@@ -23,7 +23,7 @@ import numpy as np
 from liaison_cli.campaign.studies.error_budget import error_budget, part_of, shares
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.campaign.studies.table3 import FORMATIONS, paper_table3
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"

@@ -15,7 +15,7 @@ import numpy as np
 from liaison_cli.campaign.studies.error_budget import error_budget
 from liaison_cli.campaign.studies.study004 import pair_name, pair_scenario
 from liaison_cli.campaign.worker import RunTask, execute_run
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 SCENARIOS = ("scenarios/004/eml2_halo.yaml", "scenarios/004/dro.yaml", "scenarios/004/low_energy_transfer.yaml")

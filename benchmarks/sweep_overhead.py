@@ -6,8 +6,11 @@ Run it with PYTHONPATH=<another checkout> to measure that code instead (before/a
 Stages, in this process (the sweep's own code, wrapped with timers):
   start    a fresh interpreter importing what `liaison sweep` imports (subprocess, wall)
   truth    the problems of every grid point (prepare_problem with the shared truth cache)
-  warm-up  the parent's one run that loads the compiled core before the workers start
-  fan-out  the pool's work, wall, from the first batch submitted to the last result in the manifest
+  warm-up  the parent's one run that loads the compiled core before the workers start (warm_up_here, its result
+           dropped; since issue 37's fork workers: run_first_here, its result kept)
+  fan-out  the pool's work, wall, from the first batch submitted to the last result in the manifest (since the
+           fork workers the problems after the first are prepared inside it: truth then overlaps fan-out, and
+           `other` comes out negative by that overlap)
   tables   reading the manifest back and writing the Parquet tables
   compute  the sum of every run's compute, measured serially in this process on a sample of each point
 The ideal is compute / jobs + start; `cli` is the whole command, a subprocess, wall. On a shared machine the
@@ -38,19 +41,27 @@ def time_start() -> float:
     return time.perf_counter() - t0
 
 
-def time_cli(runs: int, jobs: int) -> float:
+def time_cli(runs: int, jobs: int) -> tuple[float, float]:
+    """(wall, CPU) seconds of the whole command; CPU: user + system of its process tree (the workers are its
+    children and are waited for), which the load of a shared machine does not inflate as it does the wall."""
+    import resource
+
+    def cpu() -> float:
+        usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return usage.ru_utime + usage.ru_stime
+
     with tempfile.TemporaryDirectory() as folder:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), cpu()
         subprocess.run([sys.executable, "-c", "from liaison_cli.cli import main; main()", "sweep", "--sigma",
                         "50:700", "--runs", str(runs), "--jobs", str(jobs), "--quiet", "--output",
                         f"{folder}/s"], check=True, stdout=subprocess.DEVNULL)
-        return time.perf_counter() - t0
+        return time.perf_counter() - t0, cpu() - c0
 
 
 def _plan(runs: int):
     from liaison_cli.campaign.grid import parse_range
     from liaison_cli.campaign.sweep_plan import SIGMA_KEY, plan_sweep
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.scenario.shipped import scenario_folder
 
     bases = [(*load_scenario(path), str(path)) for path in
@@ -59,7 +70,9 @@ def _plan(runs: int):
 
 
 def _timed(module, name: str, stages: dict, key: str, generator: bool = False):
-    """Wrap module.name so its time (a generator's: until exhausted) adds to stages[key]."""
+    """Wrap module.name so its time (a generator's: until exhausted) adds to stages[key] (absent: nothing)."""
+    if not hasattr(module, name):  # the code measured is older or newer than this benchmark
+        return
     original = getattr(module, name)
 
     def plain(*args, **kwargs):
@@ -86,6 +99,7 @@ def time_stages(runs: int, jobs: int) -> dict:
     stages: dict = {}
     _timed(sweep, "prepare_problem", stages, "truth")
     _timed(sweep, "warm_up_here", stages, "warm-up")
+    _timed(sweep, "run_first_here", stages, "warm-up")
     _timed(sweep, "map_batches", stages, "fan-out", generator=True)
     _timed(sweep, "read_manifest", stages, "tables")
     _timed(sweep, "build_runs_table", stages, "tables")
@@ -132,28 +146,43 @@ def effective_cores(jobs: int) -> float:
     return min(jobs, jobs * alone / wall(jobs))
 
 
+def measure(runs: int, jobs: int) -> dict:
+    """One of everything: the start, the command (wall and CPU), its stages in this process, the compute."""
+    load0 = _load()
+    start = time_start()
+    cli, cli_cpu = time_cli(runs, jobs)
+    stages = time_stages(runs, jobs)
+    compute = time_compute(runs)
+    cores = effective_cores(jobs)
+    in_sweep = stages.pop("run_sweep")
+    return {"load": load0, "load_end": _load(), "start": start, "cli": cli, "cli_cpu": cli_cpu, "stages": stages,
+            "run_sweep": in_sweep, "other": in_sweep - sum(stages.values()), "compute": compute, "cores": cores,
+            "ideal": compute / jobs + start, "ideal_here": compute / cores + start}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--json", action="store_true", help="one JSON line per repeat (benchmarks/sweep_ab.py)")
     args = parser.parse_args()
+    import json
+
     import liaison_cli
 
-    print(f"code: {Path(liaison_cli.__file__).parent}; runs {args.runs} x 42 points, jobs {args.jobs}")
+    if not args.json:
+        print(f"code: {Path(liaison_cli.__file__).parent}; runs {args.runs} x 42 points, jobs {args.jobs}")
     for _ in range(args.repeat):
-        load0 = _load()
-        start, cli = time_start(), time_cli(args.runs, args.jobs)
-        stages = time_stages(args.runs, args.jobs)
-        compute = time_compute(args.runs)
-        cores = effective_cores(args.jobs)
-        ideal, ideal_here = compute / args.jobs + start, compute / cores + start
-        in_sweep = stages.pop("run_sweep")
-        other = in_sweep - sum(stages.values())
-        parts = "  ".join(f"{k} {v:.2f}" for k, v in stages.items())
-        print(f"load {load0:.2f}->{_load():.2f} | start {start:.2f}  {parts}  other {other:.2f}  (run_sweep "
-              f"{in_sweep:.2f}) | compute {compute:.2f} | ideal {ideal:.2f}  cli {cli:.2f}  ratio {cli / ideal:.3f} | "
-              f"effective cores {cores:.2f}: ideal {ideal_here:.2f}  ratio {cli / ideal_here:.3f}")
+        m = measure(args.runs, args.jobs)
+        if args.json:
+            print(json.dumps(m), flush=True)
+            continue
+        parts = "  ".join(f"{k} {v:.2f}" for k, v in m["stages"].items())
+        print(f"load {m['load']:.2f}->{m['load_end']:.2f} | start {m['start']:.2f}  {parts}  other {m['other']:.2f}  "
+              f"(run_sweep {m['run_sweep']:.2f}) | compute {m['compute']:.2f} | ideal {m['ideal']:.2f}  cli "
+              f"{m['cli']:.2f} (CPU {m['cli_cpu']:.2f})  ratio {m['cli'] / m['ideal']:.3f} | effective cores "
+              f"{m['cores']:.2f}: ideal {m['ideal_here']:.2f}  ratio {m['cli'] / m['ideal_here']:.3f}")
 
 
 if __name__ == "__main__":

@@ -89,6 +89,16 @@ def test_observables_table_is_the_registry():
     assert "<!-- liaison:observables -->" in (DOCS / "model.md").read_text()
 
 
+def test_dynamics_table_is_the_registry():
+    from liaison_cli.dynamics.registry import DYNAMICS
+    from tools.docs_hooks import dynamics_markdown
+
+    rows = [line for line in dynamics_markdown().splitlines() if line.startswith("| `")]
+    assert len(rows) == len(DYNAMICS) == 2
+    assert all(p.summary in dynamics_markdown() for d in DYNAMICS.values() for p in d.parameters)
+    assert "<!-- liaison:dynamics -->" in (DOCS / "filter.md").read_text()
+
+
 def test_rule_text_reads_the_schema_shapes():
     from tools.docs_hooks import rule_text
 
@@ -148,11 +158,11 @@ QUOTED = [
                                         ("3.2 σ at", "3.23"), ("in band 93 %", "93 %"), ("is 1.19 σ", "1.19")]),
     ("reproductions/003.md", "study003.md", [("44 m", "44.4"), ("26 m per axis", "[25.6]")]),
     ("reproductions/004.md", "study004.md",
-     [("0.186 against 0.294", "0.186"), ("0.294 km; EKF", "0.294"), ("0.85 against", "0.846"),
-      ("1.99 km", "1.985"), ("0.19 against", "0.187"), ("0.61 km", "0.610"),
+     [("0.186 against 0.294", "0.186"), ("0.294 km; EKF", "0.294"), ("0.845 against", "0.845"),
+      ("1.985 km", "1.985"), ("0.19 against", "0.189"), ("0.61 km", "0.610"),
       ("GEO 0.95", "0.95 / 1.69"), ("1.93", "1.93 / 17.70"), ("5.03 / 22.28", "5.03 / 5.08"),
       ("22.28", "22.28 / 22.96"), ("5.65 d", "5.65 / 6.55"), ("day 0.89", "0.89"), ("0.95 d (EKF)", "0.95"),
-      ("1.76 d (LinCov)", "1.76"), ("DOP 113", "112.65"), ("377", "376.75")]),
+      ("1.76 d (LinCov)", "1.76"), ("DOP 113", "112.66"), ("377", "376.75")]),
     ("reproductions/004.md", "study004_snc.md", [("1.9–4.8", "1.94"), ("–4.8,", "4.76"), ("(81–82 %", "81 %"),
                                                   ("48–58 %", "48 %"), ("28–60 %", "28 %")]),
     ("reproductions/004.md", "study004_plain_ekf.md", [("10, 7, 0", "10/10"), ("7, 0 /", "7/10"),

@@ -3,6 +3,8 @@
 - `<!-- liaison:cli-reference -->` in a page becomes the CLI reference, walked from the click command tree
   of `liaison_cli.cli.app` (typer builds it), so a new command or option appears without editing a page.
 - `<!-- liaison:observables -->` becomes the table of observables in measurements/registry.py.
+- `<!-- liaison:dynamics -->` becomes the table of dynamics models in dynamics/registry.py (what each is,
+  its epochs and frame, the parameters the filter may estimate).
 - `<!-- liaison:scenario-reference -->` becomes the scenario reference, rendered from the JSON Schema that
   `liaison schema` prints (`liaison_cli.scenario.json_schema.scenario_json_schema`).
 - The figures under results/reference/ are added to the site as results/reference/..., so a page shows
@@ -22,6 +24,7 @@ if str(REPO) not in sys.path:  # the `mkdocs` script's sys.path lacks the checko
 CLI_MARKER = "<!-- liaison:cli-reference -->"
 SCENARIO_MARKER = "<!-- liaison:scenario-reference -->"
 OBSERVABLES_MARKER = "<!-- liaison:observables -->"
+DYNAMICS_MARKER = "<!-- liaison:dynamics -->"
 FIGURE_SUFFIXES = (".png", ".svg")
 REFERENCE_DIR = Path("results") / "reference"
 
@@ -221,6 +224,19 @@ def observables_markdown() -> str:
     return "\n".join(rows) + "\n"
 
 
+def dynamics_markdown() -> str:
+    """One row per dynamics model of dynamics/registry.py: what it is, its epochs and frame, and the parameters
+    the filter may estimate (filter.estimated_parameters), each with what it is."""
+    from liaison_cli.dynamics.registry import DYNAMICS
+
+    rows = ["| dynamics | model | epochs | frame | estimable parameters |", "|---|---|---|---|---|"]
+    for name, model in DYNAMICS.items():
+        parameters = "; ".join(f"`{p.name}`: {p.summary}" for p in model.parameters) or "none"
+        rows.append(f"| `{name}` | {_cell(model.summary)} | {'dates (TDB)' if model.dated else 'undated'} | "
+                    f"{'rotating' if model.rotating_frame else 'inertial (ICRF)'} | {_cell(parameters)} |")
+    return "\n".join(rows) + "\n"
+
+
 # --- mkdocs events ---------------------------------------------------------------------------------------
 
 
@@ -240,6 +256,8 @@ def on_page_markdown(markdown, page, config, files):
         markdown = markdown.replace(CLI_MARKER, cli_reference_markdown())
     if OBSERVABLES_MARKER in markdown:
         markdown = markdown.replace(OBSERVABLES_MARKER, observables_markdown())
+    if DYNAMICS_MARKER in markdown:
+        markdown = markdown.replace(DYNAMICS_MARKER, dynamics_markdown())
     if SCENARIO_MARKER in markdown:
         markdown = markdown.replace(SCENARIO_MARKER, scenario_reference_markdown())
     return markdown

@@ -3,7 +3,9 @@
 runner.iter_outcomes and the check runs of `errors` (error_budget) through runner.in_task_order (its ordered
 layer); `sweep` and `tune` directly.
 
-- `joblib` (default): local processes (joblib's loky pool); `jobs=1` runs in this process.
+- `joblib` (default): local processes (joblib's loky pool); `jobs=1` runs in this process. With `fork=True`
+  (the sweep) the workers are forked from this process at the first batch instead (where the platform forks):
+  they start in milliseconds with everything this process has loaded, the compiled kernels included.
 - `dask`: a dask.distributed cluster (`scheduler="tcp://host:8786"`), or a LocalCluster of `jobs`
   workers when no scheduler is given. Shared objects (a scenario's truth arrays) are scattered once.
 
@@ -118,9 +120,10 @@ def probe_scheduler(scheduler: str, timeout_s: float) -> None:
 
 
 def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = LOCAL, jobs: int = 2,
-                window: int | None = None, ordered: bool = False) -> Iterator:
+                window: int | None = None, ordered: bool = False, fork: bool = False) -> Iterator:
     """batches: (key, tasks) pairs, read lazily; yields fn(shared[key], tasks) as they finish, or, with
-    `ordered`, in the order of `batches`.
+    `ordered`, in the order of `batches`. `shared[key]` is looked up as its batch is submitted (a mapping may
+    prepare it then); `fork`: local workers forked from this process (see the module docstring).
 
     At most `window` batches (default: WINDOW_PER_WORKER per worker) are submitted and not yet yielded: in
     order, a finished batch waiting for an earlier one counts too, so what is held here, in the pipes and in
@@ -136,6 +139,8 @@ def map_batches(fn: Callable, shared: dict, batches: Iterable, where: Backend = 
         return _dask(fn, shared, batches, jobs, where, window, ordered)
     if jobs == 1:
         return (fn(shared[key], tasks) for key, tasks in batches)
+    if fork and can_fork():
+        return _forked_processes(fn, shared, batches, jobs, window or WINDOW_PER_WORKER * jobs, ordered)
     return _local_processes(fn, shared, batches, jobs, window or WINDOW_PER_WORKER * jobs, ordered)
 
 
@@ -233,6 +238,113 @@ def _local_processes(fn, shared, batches, jobs, window, ordered):
     finally:
         if not finished:  # killing the pool fails what is queued (cancelling it first trips loky's manager thread)
             executor.shutdown(wait=True, kill_workers=True)  # as joblib aborts: the workers are gone on return
+
+
+def can_fork() -> bool:
+    """Worker processes can be forked here (Linux; not macOS, where forking a process that has loaded system
+    frameworks is unsafe, nor Windows)."""
+    import multiprocessing
+    import sys
+
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+
+
+def _forked_processes(fn, shared, batches, jobs, window, ordered):
+    """`jobs` workers forked from this process at the first batch (concurrent.futures' pool, fork context): no
+    interpreter start, no imports, and the compiled kernels this process has loaded are there already (a
+    spawned worker pays about 1.3 s of CPU for them). Forked with SIGINT blocked (as loky's workers start,
+    `shield_pool_workers`); each worker then ignores it and keeps the BLAS threads a spawned one would. A worker
+    that dies fails the fan-out (BrokenProcessPool) instead of hanging it. A new pool per call: forking costs
+    milliseconds.
+
+    The shared values go through files (_spool), not the pool's pipe: a value of a few hundred kB (a problem
+    and its truth) fills the pipe, and a Ctrl-C that terminates the workers then would leave the pool's feeder
+    thread blocked in its write for ever (and the command with it). Messages stay a few hundred bytes."""
+    import multiprocessing
+    import tempfile
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    blas_threads = int(_worker_environment(jobs)["OPENBLAS_NUM_THREADS"])
+    executor = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_forked_worker_start, initargs=(blas_threads,))
+    folder, spooled = tempfile.TemporaryDirectory(prefix="liaison-fan-out-"), {}
+
+    def submit(key, tasks):
+        if key not in spooled:  # prepared here, maybe now (see map_batches), and written once
+            spooled[key] = _spool(shared[key], folder.name, len(spooled))
+        with sigint_held():  # the first submit forks the workers: they inherit the mask
+            return executor.submit(_run_spooled, fn, spooled[key], tasks)
+
+    futures = _windowed(submit, lambda running: wait(running, return_when=FIRST_COMPLETED), batches, window,
+                        window, ordered)
+    finished = False
+    try:
+        for future, _ in futures:
+            yield future.result()
+        finished = True
+    finally:
+        if not finished:
+            _kill_forked(executor)
+        executor.shutdown(wait=True)
+        folder.cleanup()
+
+
+def _spool(value, folder: str, index: int) -> str:
+    import pickle
+
+    path = os.path.join(folder, f"{index}.pickle")
+    with open(path, "wb") as handle:
+        pickle.dump(value, handle, protocol=pickle.HIGHEST_PROTOCOL)
+    return path
+
+
+_SPOOLED: dict = {}  # in a forked worker: the last shared value read (path -> value); batches come key by key
+
+
+def _run_spooled(fn, path: str, tasks):
+    """Worker side of _forked_processes: fn(the value spooled at `path`, tasks)."""
+    import pickle
+
+    if path not in _SPOOLED:
+        _SPOOLED.clear()
+        with open(path, "rb") as handle:
+            _SPOOLED[path] = pickle.load(handle)
+    return fn(_SPOOLED[path], tasks)
+
+
+def _kill_forked(executor) -> None:
+    """Stop a forked pool at once: the workers are terminated and what is queued is dropped (Python 3.14 has
+    terminate_workers; before, the processes are taken from the pool's own table, which shutdown empties)."""
+    terminate = getattr(executor, "terminate_workers", None)
+    if terminate is not None:
+        terminate()
+        return
+    processes = list((getattr(executor, "_processes", None) or {}).values())
+    for process in processes:
+        process.terminate()
+    executor.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.join()
+
+
+def _forked_worker_start(blas_threads: int) -> None:
+    """A forked worker's first step: SIGINT ignored (the parent stops the pool), and the BLAS thread pool a
+    spawned worker gets from _worker_environment (the parent's, inherited, would oversubscribe the cores)."""
+    import ctypes
+
+    from liaison_cli.interrupts import ignore_in_worker_process
+
+    ignore_in_worker_process()
+    with open("/proc/self/maps") as maps:
+        libraries = {line.split()[-1] for line in maps if "openblas" in os.path.basename(line.split()[-1]).lower()}
+    for path in sorted(libraries):
+        library = ctypes.CDLL(path)
+        for name in ("openblas_set_num_threads", "scipy_openblas_set_num_threads64_",
+                     "scipy_openblas_set_num_threads"):
+            setter = getattr(library, name, None)
+            if setter is not None:
+                setter(blas_threads)
+                break
 
 
 def _dask_client(jobs: int, where: Backend):

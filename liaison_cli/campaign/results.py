@@ -20,7 +20,7 @@ from liaison_cli.campaign.runner import CampaignResult, iter_outcomes
 from liaison_cli.campaign.worker import RunOutcome
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.storage import ParquetStream, write_columns_atomic, write_text_atomic
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from tqdm import tqdm
 
 from liaison_cli.scenario.setup import Problem, prepare_problem
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.campaign.backends import LOCAL, Backend, map_batches
 from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
 from liaison_cli import interrupts

@@ -14,12 +14,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from liaison_cli.campaign.backends import Backend, check_backend, map_batches, start_workers
+from liaison_cli.campaign.backends import Backend, can_fork, check_backend, map_batches, start_workers
 from liaison_cli.campaign.sweep_manifest import Manifest, read_manifest, sweep_lock
 from liaison_cli.campaign.sweep_plan import (SIGMA_KEY, SweepError, SweepInterrupted, SweepPlan, SweepTask,
                                              plan_sweep, scenario_hash)
 from liaison_cli.campaign.sweep_tables import build_curve_table, build_runs_table, write_sweep_tables
-from liaison_cli.campaign.runner import warm_up_here
 from liaison_cli.campaign.sweep_worker import execute_batch  # the workers import that light module, not this one
 from liaison_cli import interrupts
 from liaison_cli.scenario.setup import prepare_problem
@@ -93,25 +92,55 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
                        paths=paths)
 
 
+class _Problems(dict):
+    """The grid points' problems, each prepared when first asked for (as its first batch is submitted: the
+    batches come point by point, so a point's truth is propagated while the workers compute the earlier
+    points' runs, not before any run starts). The truth cache that points of one scenario share is dropped
+    once every point of `points` is prepared."""
+
+    def __init__(self, plan: SweepPlan, points):
+        super().__init__()
+        self.plan, self.left, self.truth_cache = plan, set(points), {}
+
+    def __missing__(self, point: int):
+        problem = self[point] = prepare_problem(self.plan.points[point].scenario, self.truth_cache)
+        self.left.discard(point)
+        if not self.left:
+            self.truth_cache = {}
+        return problem
+
+    def prepare_all(self) -> "_Problems":
+        for point in sorted(self.left):
+            self[point]  # noqa: B018 - prepares it
+        return self
+
+
 def _run_pending(plan: SweepPlan, pending: list[SweepTask], manifest: Manifest, where: Backend, jobs: int,
                  progress: bool, batch_runs: int) -> None:
-    """Fan the pending tasks out; each finished batch is appended to the manifest before the next is taken."""
+    """Fan the pending tasks out; each finished batch is appended to the manifest before the next is taken.
+
+    Local workers are forked once this process has run the first task (its compiled core loaded, or compiled
+    once, not once per worker), and the problems are prepared as their batches go out (_Problems). Where this
+    platform cannot fork, loky's workers are started first, while the first problem is prepared (issue 37).
+    dask gets every problem first (they are scattered to its workers)."""
     from tqdm import tqdm
 
-    if pending:  # the workers start while the truth is propagated below, not after (issue 37)
+    pooled = bool(pending) and not (where.name == "joblib" and jobs == 1)
+    if pooled and not can_fork():
         start_workers(where, jobs, execute_batch.__module__)
-    truth_cache: dict = {}
-    problems = {i: prepare_problem(plan.points[i].scenario, truth_cache) for i in sorted({t.point for t in pending})}
-    del truth_cache
-    if pending and not (where.name == "joblib" and jobs == 1):
-        warm_up_here(problems[pending[0].point], pending[0].run)  # its result is recomputed by its batch
+    problems = _Problems(plan, {t.point for t in pending})
+    if where.name == "dask":
+        problems.prepare_all()
+    if pooled:  # its record is kept: the run is the same wherever it is computed
+        manifest.append(run_first_here(problems[pending[0].point], pending[0]))
+        pending = pending[1:]
     bar = tqdm(total=len(plan.tasks), initial=len(plan.tasks) - len(pending), desc=f"sweep {plan.name}", unit="run",
                disable=not progress, smoothing=0.1)
     # Ctrl-C only raises a flag, checked between batches: a KeyboardInterrupt raised inside compiled code
     # (numba's callbacks) can be swallowed, and a batch cut in half would be recomputed anyway.
     interrupted = []
     previous = _catch_sigint(interrupted)
-    results = map_batches(execute_batch, problems, _batches(pending, batch_runs), where, jobs)
+    results = map_batches(execute_batch, problems, _batches(pending, batch_runs), where, jobs, fork=True)
     try:
         for records in results:
             manifest.append(records)
@@ -126,3 +155,8 @@ def _run_pending(plan: SweepPlan, pending: list[SweepTask], manifest: Manifest, 
     finally:
         bar.close()
         _restore_sigint(previous)
+
+
+def run_first_here(problem, task: SweepTask) -> list[dict]:
+    """The first task's record, computed in this process before any worker starts (see _run_pending)."""
+    return execute_batch(problem, [task])

@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 
 from liaison_cli import core_source_hash
 from liaison_cli.errors import LiaisonError
-from liaison_cli.scenario.schema import Scenario, apply_overrides
+from liaison_cli.scenario.loading import apply_overrides
+from liaison_cli.scenario.scenario_model import Scenario
 
 MANIFEST_FORMAT = 2  # the header's "format": see sweep_manifest's docstring for how older ones are read
 SIGMA_KEY = "noise.sigma_m"

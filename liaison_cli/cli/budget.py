@@ -33,7 +33,7 @@ def budget(
     as_json: bool = json_option(),
 ):
     """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off)."""
-    from liaison_cli.scenario.schema import load_link_file
+    from liaison_cli.scenario.loading import load_link_file
 
     link = load_link_file(link_file)
     if as_json:

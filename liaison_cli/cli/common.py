@@ -83,7 +83,7 @@ def user_errors(func):
 def check_runs(runs, option: str = "--runs") -> None:
     """--runs (errors: --check-runs) obeys the same cap as the scenario's monte_carlo.runs. Every command that
     runs filters calls this first, so it is also where the first-compilation notice is armed."""
-    from liaison_cli.scenario.schema import MAX_RUNS
+    from liaison_cli.scenario.estimation_settings import MAX_RUNS
 
     if runs is not None and runs > MAX_RUNS:
         raise LiaisonError(f"{option} {runs}: at most {MAX_RUNS:,} runs (the cap of monte_carlo.runs)")
@@ -176,21 +176,18 @@ def echo_json(document: dict) -> None:
     typer.echo(to_json_text(document))
 
 
-def jobs_option(help_text: str = "worker processes (joblib) or LocalCluster workers (dask)"):
-    return typer.Option(2, "--jobs", min=1, help=help_text)
-
-
-def backend_option():
-    return typer.Option("joblib", "--backend", help="joblib (local processes) or dask (dask.distributed)")
-
-
-def scheduler_option():
-    return typer.Option(None, "--scheduler", help="dask scheduler address, e.g. tcp://host:8786 (default with "
-                                                  "--backend dask: a LocalCluster of --jobs workers)")
-
-
-def scheduler_timeout_option():
-    return typer.Option(20.0, "--scheduler-timeout", min=0.1, help="seconds to wait for the dask scheduler")
+# --- The fan-out options of every long command (run, compare, table3, sweep, tune, errors, study003/004) -------
+# Declared once, as annotated aliases; each command lists them in this order, with these defaults:
+#     jobs: JobsOption = 2, backend: BackendOption = "joblib", scheduler: SchedulerOption = None,
+#     scheduler_timeout: SchedulerTimeoutOption = 20.0
+# and hands backend, scheduler and scheduler_timeout to `fan_out` (--quiet: QuietOption, below).
+JobsOption = Annotated[int, typer.Option("--jobs", min=1,
+                                         help="worker processes (joblib) or LocalCluster workers (dask)")]
+BackendOption = Annotated[str, typer.Option("--backend", help="joblib (local processes) or dask (dask.distributed)")]
+SchedulerOption = Annotated[str, typer.Option("--scheduler", help="dask scheduler address, e.g. tcp://host:8786 "
+                                              "(default with --backend dask: a LocalCluster of --jobs workers)")]
+SchedulerTimeoutOption = Annotated[float, typer.Option("--scheduler-timeout", min=0.1,
+                                                       help="seconds to wait for the dask scheduler")]
 
 
 def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float, connect: bool = True):

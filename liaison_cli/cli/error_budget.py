@@ -19,10 +19,10 @@ def errors(
     sources: str = typer.Option(None, "--sources", help="comma list of sources to check by Monte Carlo "
                                 "(initial, noise, process, bias, measurement_model, dynamics_model)"),
     check_runs: int = typer.Option(0, "--check-runs", min=0, help="Monte Carlo runs for the check (0: none)"),
-    jobs: int = common.jobs_option(),
-    backend: str = common.backend_option(),
-    scheduler: str = common.scheduler_option(),
-    scheduler_timeout: float = common.scheduler_timeout_option(),
+    jobs: common.JobsOption = 2,
+    backend: common.BackendOption = "joblib",
+    scheduler: common.SchedulerOption = None,
+    scheduler_timeout: common.SchedulerTimeoutOption = 20.0,
     quiet: common.QuietOption = False,
     as_json: bool = json_option(),
 ):
@@ -32,7 +32,7 @@ def errors(
     from liaison_cli.campaign.studies.error_budget import budget_study, select_sources
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.error_budget import draw_budget, format_consistency, format_shares
-    from liaison_cli.scenario.schema import read_scenario_text, validate_scenario
+    from liaison_cli.scenario.loading import read_scenario_text, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
 
     common.check_runs(check_runs, "--check-runs")

@@ -24,7 +24,7 @@ def observability(
                                                                   study_tables)
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.observability_report import draw_effectiveness, summary_json
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     config, text = load_scenario(scenario)
     check_supported(config, str(scenario))

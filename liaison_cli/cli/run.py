@@ -10,17 +10,17 @@ import typer
 
 from liaison_cli.cli.common import (
     EXIT_ALL_DIVERGED,
+    BackendOption,
+    JobsOption,
     QuietOption,
-    backend_option,
+    SchedulerOption,
+    SchedulerTimeoutOption,
     check_runs,
     echo_json,
     fail,
     fan_out,
-    jobs_option,
     json_option,
     refuse_repeated_labels,
-    scheduler_option,
-    scheduler_timeout_option,
     user_errors,
 )
 from liaison_cli.cli.root import app
@@ -43,10 +43,10 @@ log = logging.getLogger("liaison")
 def run(
     scenario: Path = typer.Argument(..., help="scenario YAML file"),
     runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs (default: the scenario's)"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>, "
                                 "replaced by the next run of the same command)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder given by --output"),
@@ -59,7 +59,7 @@ def run(
     Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2"""
     from liaison_cli.campaign.results import stream_campaign
     from liaison_cli.campaign.studies.output import fill_folder
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
@@ -117,34 +117,31 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     rejections = _rejection_line(summary, config.filter)
     if rejections:
         typer.echo(rejections)
-    for line in _coverage_lines(out_dir, config.duration_days):
+    for line in _coverage_lines(problem, config.duration_days):
         typer.echo(line)
     typer.echo(f"results: {out_dir}")
 
 
-def _coverage_lines(out_dir: Path, duration_days: float) -> list[str]:
-    """The links that measured at a small share of the epochs (report.run_text.coverage_lines), from the run's
-    residuals.parquet."""
-    import pyarrow.parquet as pq
+def _coverage_lines(problem, duration_days: float) -> list[str]:
+    """The links that measure at a small share of the epochs (report.run_text.coverage_lines), from the
+    scenario's data (its observed file's, when it reads one)."""
+    import numpy as np
 
-    from liaison_cli.report.run_result import link_coverage
-    from liaison_cli.report.run_text import coverage_lines
+    from liaison_cli.report.run_text import coverage_lines, link_coverage
 
-    path = out_dir / "residuals.parquet"
-    if not path.is_file():
-        return []
-    residuals = pq.read_table(path, columns=["run", "link", "t_s", "innovation"]).to_pandas()
-    return coverage_lines(link_coverage(residuals), duration_days)
+    values = problem.observed.values if problem.observed is not None else problem.measurements_true
+    available = np.isfinite(values[1:])
+    return coverage_lines(link_coverage(available, [ch.link_label for ch in problem.channels]), duration_days)
 
 
 @app.command()
 @user_errors
 def table3(
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per case"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     output: Path = typer.Option(Path("results/table3"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     scenarios: Path = typer.Option(None, "--scenarios", help="folder holding the paper's scenario files "
@@ -174,10 +171,10 @@ def table3(
 def compare(
     scenarios: list[Path] = typer.Argument(..., help="scenario YAML files to run side by side"),
     runs: int = typer.Option(None, "--runs", min=1, help="Monte Carlo runs per scenario (default: each scenario's)"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     output: Path = typer.Option(Path("results/compare"), "--output", help="result folder"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     quiet: QuietOption = False,
@@ -187,7 +184,7 @@ def compare(
     from liaison_cli.campaign.studies.compare import compare_study, provenance
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.compare import to_markdown
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)

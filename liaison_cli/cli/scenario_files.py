@@ -56,7 +56,7 @@ def validate(
     """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each.
 
     Example: liaison validate scenarios/*.yaml"""
-    from liaison_cli.scenario.schema import check_file
+    from liaison_cli.scenario.loading import check_file
 
     results = []
     for path in files:

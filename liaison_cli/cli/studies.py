@@ -6,16 +6,16 @@ from pathlib import Path
 import typer
 
 from liaison_cli.cli.common import (
+    BackendOption,
+    JobsOption,
     QuietOption,
+    SchedulerOption,
+    SchedulerTimeoutOption,
     StudyGridOption,
     StudyOverwriteOption,
-    backend_option,
     check_runs,
     fan_out,
-    jobs_option,
     refuse_repeated_labels,
-    scheduler_option,
-    scheduler_timeout_option,
     user_errors,
 )
 from liaison_cli.cli.root import app
@@ -26,7 +26,7 @@ from liaison_cli.scenario.shipped import scenario_paths
 def _load_study(paths: list[Path]) -> list:
     """[(name = file stem, scenario, text)] of a study's scenario files. The stem labels the study's rows,
     metadata and figures, so two files with one stem would be merged into one label: refused."""
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     refuse_repeated_labels([(Path(path), Path(path).stem) for path in paths], "file stem")
     return [(Path(path).stem, *load_scenario(path)) for path in paths]
@@ -52,10 +52,10 @@ def study003(
                                            "(default: the shipped scenarios/003/cassini, mer_a, msl, read from "
                                            "the installed package whatever the working folder)"),
     runs: int = typer.Option(50, "--runs", min=1, help="Monte Carlo runs per mission and case"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     output: Path = typer.Option(Path("results/study003"), "--output", help="result folder"),
     overwrite: StudyOverwriteOption = False,
     work: Path = work_option(),
@@ -113,10 +113,10 @@ def study004(
                                            "dro, low_energy_transfer, read from the installed package "
                                            "whatever the working folder)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per transmitter and pair"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     output: Path = typer.Option(Path("results/study004"), "--output", help="result folder"),
     overwrite: StudyOverwriteOption = False,
     work: Path = work_option(),

@@ -6,9 +6,9 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from liaison_cli.cli.common import (EXIT_ALL_DIVERGED, QuietOption, backend_option, check_runs, echo_json, fail,
-                                    fan_out, jobs_option, json_option, plain_name, scheduler_option,
-                                    scheduler_timeout_option, user_errors)
+from liaison_cli.cli.common import (EXIT_ALL_DIVERGED, BackendOption, JobsOption, QuietOption, SchedulerOption,
+                                    SchedulerTimeoutOption, check_runs, echo_json, fail, fan_out, json_option,
+                                    plain_name, user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 from liaison_cli.report.run_text import left as _left, right as _right
@@ -75,10 +75,10 @@ def sweep(
     grid: list[str] = typer.Option(None, "--grid", help="KEY=V1,V2,... over any scenario field by dotted path "
                                                         "(may repeat; full factorial)"),
     runs: int = typer.Option(10, "--runs", min=1, help="Monte Carlo runs per grid point"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     name: str = typer.Option(None, "--name", help="sweep name (default: fig15 for the paper's formations)"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/sweep-<name>)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="discard an existing sweep in the folder"),
@@ -95,7 +95,7 @@ def sweep(
     liaison sweep scenarios/eml2_lunar.yaml --grid measurement.interval_s=60,187.5,600 --runs 20"""
     from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
     from liaison_cli.storage import resumable_output
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
 
     check_runs(runs)

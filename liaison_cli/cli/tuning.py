@@ -5,9 +5,8 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli.cli.common import (QuietOption, backend_option, check_file_output, check_runs, fan_out,
-                                    file_starts_with, jobs_option, scheduler_option, scheduler_timeout_option,
-                                    user_errors)
+from liaison_cli.cli.common import (BackendOption, JobsOption, QuietOption, SchedulerOption, SchedulerTimeoutOption,
+                                    check_file_output, check_runs, fan_out, file_starts_with, user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
 from liaison_cli.errors import LiaisonError
@@ -21,10 +20,10 @@ def tune(
     ladder: str = typer.Option(None, "--ladder", help="process-noise rungs in m/s^2, a comma list "
                                "[default: 1e-10,1e-9,1e-8,1e-7,1e-6,1e-5]"),
     runs: int = typer.Option(20, "--runs", min=1, help="Monte Carlo runs per rung"),
-    jobs: int = jobs_option(),
-    backend: str = backend_option(),
-    scheduler: str = scheduler_option(),
-    scheduler_timeout: float = scheduler_timeout_option(),
+    jobs: JobsOption = 2,
+    backend: BackendOption = "joblib",
+    scheduler: SchedulerOption = None,
+    scheduler_timeout: SchedulerTimeoutOption = 20.0,
     work: Path = typer.Option(Path("results/tune"), "--work", help="folder of the rungs' sweeps (resumed, reused)"),
     table: Path = typer.Option(Path("results/tune/consistency.md"), "--table",
                                help="the Markdown table to write; the Parquet goes beside it (.parquet); an earlier "

@@ -14,7 +14,7 @@ from numba import njit
 from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
 from liaison_cli.dynamics.ephemeris_dynamics import (SENSITIVITY_SIZE, STM_SIZE, ephemeris_derivative,
                                                      rk8_ephemeris)
-from liaison_cli.dynamics.registry import DYNAMICS, MODEL_EPHEMERIS  # noqa: F401  (MODEL_EPHEMERIS: its users' import)
+from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
 SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
@@ -165,7 +165,7 @@ class EphemerisDynamicsModel:
                  truth_acceleration_km_s2=(0.0, 0.0, 0.0)):
         """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all);
         truth_acceleration_km_s2 (3,): the truth's unmodelled constant force on the ICRF axes."""
-        self.code = MODEL_EPHEMERIS
+        self.code = self.descriptor.code
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
         self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)

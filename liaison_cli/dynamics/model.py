@@ -18,7 +18,7 @@ from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
-from liaison_cli.dynamics.registry import DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
+from liaison_cli.dynamics.registry import CRTBP, DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
 from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
@@ -175,5 +175,5 @@ class DynamicsModel:
 
 def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0)) -> DynamicsModel:
     """The CRTBP of mass ratio mu; its truth also feels truth_acceleration_m_s2 (3,) on the rotating axes."""
-    return DynamicsModel("crtbp", MODEL_CRTBP, np.array([mu]),
+    return DynamicsModel(CRTBP.name, CRTBP.code, np.array([mu]),
                          np.asarray(truth_acceleration_m_s2, dtype=float) / M_S2_PER_LU_TU2)

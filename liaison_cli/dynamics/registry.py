@@ -28,20 +28,19 @@ class DynamicsParameter:
 
 @dataclass(frozen=True)
 class Dynamics:
-    """name: the scenario's `dynamics` value; code: the compile-time model code of the compiled propagators;
+    """name: the scenario's `dynamics` value; code: the compile-time model code of the compiled propagators
+    (the model objects, dynamics.model.DynamicsModel and EphemerisDynamicsModel, take theirs from here);
     summary: one phrase for the schema. dated: epochs are dates (TDB), so stations turn with the Earth, dated
     orbits and CCSDS dates apply; rotating_frame: the states' frame turns (measurements on a rotating frame,
-    exports in it); filter_propagator / truth_propagator: how each side integrates, in words;
-    parameters: what the filter may estimate of the model; observability: analysis.observability can map its
-    partials with this model's STM (the CRTBP's adaptive DOP853)."""
+    exports in it); parameters: what the filter may estimate of the model; observability:
+    analysis.observability can map its partials with this model's STM (the CRTBP's adaptive DOP853). How each
+    side integrates, with its measured accuracy, is docs/model.md's."""
 
     name: str
     code: int
     summary: str
     dated: bool
     rotating_frame: bool
-    filter_propagator: str
-    truth_propagator: str
     parameters: tuple[DynamicsParameter, ...] = ()
     observability: bool = False
 
@@ -56,14 +55,10 @@ class Dynamics:
 CR = DynamicsParameter(
     "cr", "the solar-radiation-pressure coefficient's relative correction: the filter flies C_R (1 + state)")
 
-CRTBP = Dynamics(
-    "crtbp", MODEL_CRTBP, "the Earth-Moon CRTBP, undated", dated=False, rotating_frame=True,
-    filter_propagator="fixed-step RK4 on state + STM (filter.rk4_substeps per interval)",
-    truth_propagator="fixed-step RK4 of at most 10 s", observability=True)
+CRTBP = Dynamics("crtbp", MODEL_CRTBP, "the Earth-Moon CRTBP, undated", dated=False, rotating_frame=True,
+                 observability=True)
 
-EPHEMERIS = Dynamics(
-    "ephemeris", MODEL_EPHEMERIS, "DE421 point masses + SRP from ephemeris.epoch_utc", dated=True,
-    rotating_frame=False, filter_propagator="fixed-step RK8 on state + STM (+ the C_R column when estimated)",
-    truth_propagator="adaptive DOP853 restarted at every shadow edge", parameters=(CR,))
+EPHEMERIS = Dynamics("ephemeris", MODEL_EPHEMERIS, "DE421 point masses + SRP from ephemeris.epoch_utc", dated=True,
+                     rotating_frame=False, parameters=(CR,))
 
 DYNAMICS = {d.name: d for d in (CRTBP, EPHEMERIS)}

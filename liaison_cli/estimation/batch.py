@@ -12,12 +12,9 @@ Phi comes from the dynamics interface (state + STM over an interval). `jacobian 
 first iteration's Phi (computed on the a-priori reference) for later iterations and propagates only the
 state (modified Gauss-Newton: the same fixed point, since the residuals stay nonlinear; about 3x cheaper).
 
-The normal equations are solved by Cholesky after symmetric equilibration (D^-1/2 Lambda D^-1/2 with
-D = diag(Lambda)): positions (LU) and velocities (LU/TU) differ by orders of magnitude in information,
-and scaling removes that part of the conditioning. The equilibrated condition number is returned with
-every solve; Cholesky loses about log10(cond) of 16 digits, so a solve with cond above
-CONDITION_LIMIT is recorded as ill-conditioned (QR / SRIF on the weighted design would then be the
-remedy; no scenario shipped comes near it).
+The normal equations are solved by Cholesky after symmetric equilibration, refused above an equilibrated
+condition number of 1e12 (estimation.gauss_newton, which also holds the row accumulation, the a-priori
+information and the convergence test this solve shares with the EKF's initial batch).
 
 No residual editing here: the EKF's gate (filter.residual_gate_sigma) judges each measurement by its
 pre-fit innovation against the filter's current covariance, which a batch does not have; a batch edits by
@@ -34,11 +31,12 @@ from liaison_cli.dynamics.model import advance_rk8
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
                                                 channel_states)
+from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, conditioned_solve,
+                                                 negligible_correction, position_indices)
 from liaison_cli.measurements.registry import predict, residual
 
 JACOBIAN_EVERY = 0
 JACOBIAN_FIRST = 1
-CONDITION_LIMIT = 1e12
 
 BATCH_OK = "ok"
 BATCH_NOT_CONVERGED = "not converged"
@@ -135,16 +133,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
             w = 1.0 / (sigma[c] * sigma[c])
             ss[c] += r * r
             count[c] += 1
-            m = 0
-            for i in range(n):
-                if h[i] != 0.0:
-                    nz[m] = i
-                    m += 1
-            for p in range(m):
-                i = nz[p]
-                rhs[i] += h[i] * w * r
-                for q in range(m):
-                    lam[i, nz[q]] += h[i] * w * h[nz[q]]
+            accumulate_row(lam, rhs, h, w, r, nz)
     return lam, rhs, ss, count
 
 
@@ -189,34 +178,6 @@ class BatchSolution:
     corrections: tuple
 
 
-def equilibrated_solve(lam, rhs):
-    """Lambda dx = N by Cholesky after symmetric scaling by D = diag(Lambda) (module docstring): (dx, Lambda^-1),
-    or (None, None) when Lambda is not positive definite."""
-    d = np.sqrt(np.diag(lam))
-    if not np.all(np.isfinite(d)) or np.any(d <= 0.0):
-        return None, None
-    try:
-        L = np.linalg.cholesky(lam / np.outer(d, d))
-    except np.linalg.LinAlgError:
-        return None, None
-    dx = np.linalg.solve(L.T, np.linalg.solve(L, rhs / d)) / d
-    L_inv = np.linalg.solve(L, np.eye(lam.shape[0]))
-    return dx, (L_inv.T @ L_inv) / np.outer(d, d)
-
-
-def _solve_equilibrated(lam, rhs):
-    """equilibrated_solve refused above CONDITION_LIMIT; returns dx, Lambda^-1, cond (equilibrated)."""
-    d = np.sqrt(np.diag(lam))
-    if not np.all(np.isfinite(d)) or np.any(d <= 0.0):
-        return None, None, np.inf
-    eig = np.linalg.eigvalsh(lam / np.outer(d, d))
-    cond = float(eig[-1] / eig[0]) if eig[0] > 0 else np.inf
-    if not np.isfinite(cond) or cond > CONDITION_LIMIT:
-        return None, None, cond
-    dx, cov = equilibrated_solve(lam, rhs)
-    return dx, cov, cond
-
-
 def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, model, dynamics, counts, n_use,
                 use_apriori=False, max_iterations=10, tolerance_lu=1e-9, jacobian=JACOBIAN_FIRST):
     """One batch solve over epochs 0..n_use-1 (epoch 0, at dynamics.t0_tu, is the solve epoch). Shapes:
@@ -238,8 +199,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     phi = np.zeros((m, n_blocks, 6, 6))
     info_apriori = np.linalg.inv(P_apriori) if use_apriori else None
     x = x_apriori.copy()
-    position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind)
-                               if kind == BLOCK_SPACECRAFT])
+    position = position_indices(block_kind, block_start)
     corrections, status, cov, cond, iterations = [], BATCH_NOT_CONVERGED, None, np.nan, 0
     for iterations in range(1, max_iterations + 1):
         # The STM covers every epoch (the span and the prediction after it), so the frozen Phi also maps the
@@ -249,18 +209,17 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
                             with_stm, traj, phi, t0_tu)
         lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use)
         if info_apriori is not None:
-            lam = lam + info_apriori
-            rhs = rhs + info_apriori @ (x_apriori - x)
+            lam, rhs = add_apriori(lam, rhs, info_apriori, x, x_apriori)
         if not (np.all(np.isfinite(lam)) and np.all(np.isfinite(rhs))):
             status = BATCH_NONFINITE
             break
-        dx, cov, cond = _solve_equilibrated(lam, rhs)
+        dx, cov, cond = conditioned_solve(lam, rhs)
         if dx is None:
             status = BATCH_ILL_CONDITIONED
             break
         x = x + dx
         corrections.append(float(np.max(np.abs(dx[position]))))
-        if corrections[-1] < tolerance_lu:
+        if negligible_correction(dx[position], tolerance_lu):
             status = BATCH_OK
             break
     # The converged trajectory over every epoch, for errors and post-fit residuals (Phi as last computed).

@@ -19,6 +19,8 @@ is the batch solution mapped along its reference: a smoothed estimate, as the ba
 Same propagator and measurement row as the EKF (time_update, measurement_row), so the hand-over is to the
 filter's own dynamics at the same epoch. Clock blocks are propagated by their own transition; constant blocks
 (biases, Delta-v) are carried. A manoeuvre inside the window is refused by the scenario (no burn here).
+The row accumulation, the a-priori information, the equilibrated solve and the convergence test are the batch
+estimator's (estimation.gauss_newton, which says why the two loops differ).
 """
 
 from dataclasses import dataclass
@@ -28,9 +30,9 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE, literal_entry
-from liaison_cli.estimation.batch import equilibrated_solve
-from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import measurement_row, time_update
+from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, equilibrated_solve,
+                                                 negligible_correction, position_indices)
 from liaison_cli.measurements.registry import kinds_mask, residual
 
 INITIAL_BATCH_OK = "ok"
@@ -38,7 +40,6 @@ MODEL_ARG, KINDS_ARG = 0, 1  # reference_and_normal_equations' compile-time argu
 
 
 MAX_HALVINGS = 30
-STEP_SIGMA_FRACTION = 1e-3  # a correction below this share of its own sigma is converged (_negligible)
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
     g_receiver = np.empty(6)
     g_transmitter = np.empty(6)
     g_second = np.empty(6)
+    nz = np.empty(n, dtype=np.int64)
     weighted_ss = 0.0
     for i in range(n):
         traj[0, i] = x0[i]
@@ -104,12 +106,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
                 for i in range(n):
                     acc += H[i] * phi[k, i, j]
                 h[j] = acc
-            for i in range(n):
-                if h[i] == 0.0:
-                    continue
-                rhs[i] += h[i] * weight * r
-                for j in range(n):
-                    lam[i, j] += h[i] * weight * h[j]
+            accumulate_row(lam, rhs, h, weight, r, nz)
     return lam, rhs, q_acc, weighted_ss
 
 
@@ -163,8 +160,7 @@ def solve_initial_batch(arrays, x_apriori, y_obs) -> InitialBatchResult:
     one's solution, so Gauss-Newton never linearises a long arc about the a priori (the nonlinearity grows
     with the arc). A window whose solve fails ends the search with that failure."""
     settings = arrays.initial_batch
-    block_kind, block_start = arrays.layout.arrays()[:2]
-    positions = [np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == BLOCK_SPACECRAFT]
+    positions = position_indices(*arrays.layout.arrays()[:2]).reshape(-1, 3)  # one row per spacecraft
     x_start, result = x_apriori, None
     for w in window_lengths(settings):
         result = _solve_window(arrays, w, x_start, x_apriori, y_obs)
@@ -194,8 +190,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     n = x_start.shape[0]
     traj, phi = np.empty((w, n)), np.empty((w, n, n))
     info_apriori = np.linalg.inv(arrays.P0)
-    block_kind, block_start = arrays.layout.arrays()[:2]
-    position = np.concatenate([np.arange(a, a + 3) for a, kind in zip(block_start, block_kind) if kind == BLOCK_SPACECRAFT])
+    position = position_indices(*arrays.layout.arrays()[:2])
     args = [arrays.model, kinds_mask(arrays.channel_kind), x_start, np.ascontiguousarray(y_obs[:w]),
             np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
             arrays.dynamics(), arrays.Q, traj, phi]
@@ -206,7 +201,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         lam, rhs, q_acc, weighted_ss = entry(*args)
         offset = x - x_apriori
         cost = weighted_ss + offset @ info_apriori @ offset
-        return lam + info_apriori, rhs - info_apriori @ offset, q_acc, weighted_ss, cost
+        return (*add_apriori(lam, rhs, info_apriori, x, x_apriori), q_acc, weighted_ss, cost)
 
     x = x_start.copy()
     lam, rhs, q_acc, weighted_ss, cost = linearise(x)
@@ -220,7 +215,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         if dx is None:
             status = "normal equations not positive definite"
             break
-        if _negligible(dx[position], cov, position, settings.tolerance_lu):  # at the minimum: a step this small
+        if _negligible(dx, cov, position, settings.tolerance_lu):  # at the minimum: a step this small
             x = x + dx                                                      # cannot be judged by the cost
             corrections.append(float(np.max(np.abs(dx[position]))))
             lam, rhs, q_acc, weighted_ss, cost = linearise(x)
@@ -238,7 +233,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
         x = x + dx
         lam, rhs, q_acc, weighted_ss, cost = trial
         corrections.append(float(np.max(np.abs(dx[position]))))
-        if _negligible(dx[position], cov, position, settings.tolerance_lu):
+        if _negligible(dx, cov, position, settings.tolerance_lu):
             status = INITIAL_BATCH_OK
             _, cov = equilibrated_solve(lam, rhs)  # the covariance at the solution
             break
@@ -254,9 +249,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
                               traj[-1].copy(), 0.5 * (P_handover + P_handover.T), float(weighted_ss), measured)
 
 
-def _negligible(step, cov, position, tolerance_lu) -> bool:
-    """A position correction below the tolerance, or below STEP_SIGMA_FRACTION of its own 1-sigma: with weak
-    information (a short window) the cost is flat to round-off along the uncertain directions, and a further
-    step there is noise, not progress."""
-    sigma = np.sqrt(np.abs(np.diag(cov)[position]))
-    return bool(np.max(np.abs(step)) < tolerance_lu or np.all(np.abs(step) < STEP_SIGMA_FRACTION * sigma))
+def _negligible(dx, cov, position, tolerance_lu) -> bool:
+    """The position correction of dx below the tolerance, or below a small share of its own 1-sigma from cov
+    (gauss_newton.negligible_correction)."""
+    return negligible_correction(dx[position], tolerance_lu, np.sqrt(np.abs(np.diag(cov)[position])))

@@ -77,13 +77,3 @@ def highlighted_run(result: RunResult, requested: int | None) -> int:
     ok = result.summary[result.summary.status == "ok"]
     return int(ok.run.min()) if len(ok) else runs[0]
 
-
-def link_coverage(residuals: pd.DataFrame) -> dict[str, float]:
-    """Per link, the share of the epochs after t0 at which it delivered a measurement (any of its observables with a
-    finite innovation; one the residual gate refused still counts: it was there), over all runs; {} for a result
-    without residuals. What run_text.coverage_lines reads."""
-    if residuals.empty:
-        return {}
-    measured = residuals.assign(measured=residuals["innovation"].notna())
-    per_epoch = measured.groupby(["run", "link", "t_s"], sort=False)["measured"].any()
-    return {str(link): float(share) for link, share in per_epoch.groupby(level="link").mean().items()}

@@ -196,7 +196,7 @@ def format_smoothed(summary: list[dict], spacecraft) -> str:
 # (sqrt(1e7) ~ 3,000: that combination's σ is ~3,000 times what the diagonal of the information alone implies),
 # and the errors and σ the run prints follow it. Measured on the nrho-batch template (3 runs, position RMS):
 # span 1.5 T (9.885 d) 1.3e5, ~1 m; 1 T 1.6e6, 3-5 m; 5 d 1.5e7, 15-18 m; 4 d 1.3e8, 130-170 m; 3 d 1.9e9,
-# 400-600 m; 2 d refused (estimation.batch.CONDITION_LIMIT, 1e12). The shipped 002 scenarios (1 to 2 periods)
+# 400-600 m; 2 d refused (estimation.gauss_newton.CONDITION_LIMIT, 1e12). The shipped 002 scenarios (1 to 2 periods)
 # lie at 1.9e4 to 1.4e5, two decades below the line, so they print nothing more.
 WEAK_BATCH_CONDITION = 1e7
 
@@ -253,6 +253,23 @@ def rejection_line(summary: list[dict], spec) -> str:
             "per link: residuals.parquet, column rejected")
 
 
+def link_coverage(available, links) -> dict[str, float]:
+    """Per link, the share of the epochs after t0 at which it has a measurement: available (m - 1, C) bool, the
+    channels' data after t0 (the scenario's, the same in every run: a run that diverged or a measurement the
+    residual gate refused does not change it), links (C,) each channel's link label; a link counts an epoch
+    when any of its channels has data. What run_text.coverage_lines reads."""
+    import numpy as np
+
+    available = np.asarray(available, dtype=bool)
+    if available.size == 0:
+        return {}
+    out = {}
+    for link in dict.fromkeys(links):
+        columns = [c for c, name in enumerate(links) if name == link]
+        out[str(link)] = float(np.mean(np.any(available[:, columns], axis=1)))
+    return out
+
+
 # A link measuring at fewer than this share of the epochs leaves much of the arc to its gaps (where a spacecraft
 # no other link reaches rests on its dynamics and a priori), which a table of RMS and err/σ does not show.
 # Measured: the templates' crosslinks 100 %, their GEO TDoA pair 89-93 % (both paths must clear the Earth and
@@ -264,9 +281,14 @@ COVERAGE_FLAG = 0.8
 def coverage_lines(shares: dict, duration_days: float) -> list[str]:
     """One line per link whose share of epochs with a measurement (report.run_result.link_coverage) is below
     COVERAGE_FLAG, saying how much of the arc it covered; none when every link covers the arc."""
-    return [f"{link} measured at {100.0 * share:.0f} % of the epochs (about {share * duration_days:.2g} of "
+    return [f"{link} measured at {100.0 * share:.0f} % of the epochs (about {_days(share * duration_days)} of "
             f"{duration_days:g} d): the figures above include its gaps, where it adds nothing"
             for link, share in sorted(shares.items()) if share < COVERAGE_FLAG]
+
+
+def _days(days: float) -> str:
+    """Two significant figures, never in exponent form (0.42, 3.5, 120)."""
+    return f"{days:.2g}" if days < 10 else f"{days:.0f}"
 
 
 def status_line(summary: list[dict]) -> str:

@@ -19,7 +19,7 @@ from liaison_cli.scenario.filter_arrays import (
     Channel, ClockTruth, clock_truths, estimator_setup, initial_error_sigma, state_layout)
 from liaison_cli.scenario.observed import observed_measurements
 from liaison_cli.scenario.reference_states import initial_state_lu
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.scenario.truth import (
     GEOSTATIONARY_ALTITUDE_M, burn_step, dynamics_model, link_visibility, measurement_times_s,
     participant_trajectories, truth_and_measurements)

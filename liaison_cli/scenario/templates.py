@@ -5,7 +5,7 @@ import re
 from pathlib import Path
 
 from liaison_cli.errors import LiaisonError, OutputExistsError
-from liaison_cli.scenario.schema import NAME_PATTERN
+from liaison_cli.scenario.spec_base import NAME_PATTERN
 from liaison_cli.storage import write_text_atomic
 
 TEMPLATE_DIR = Path(__file__).with_name("templates")

@@ -15,7 +15,7 @@ from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
 from liaison_cli.scenario.reference_states import initial_state_lu
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.scenario_model import Scenario
 
 
 def truth_key(scenario: Scenario) -> str:

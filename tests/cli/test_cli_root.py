@@ -14,7 +14,8 @@ from typer.testing import CliRunner
 from liaison_cli.cli import app
 
 from tests.conftest import REPO
-HEAVY = ["pandas", "numba", "matplotlib", "pyarrow", "scipy", "liaison_cli.campaign", "liaison_cli.scenario.schema"]
+HEAVY = ["pandas", "numba", "matplotlib", "pyarrow", "scipy", "liaison_cli.campaign", "liaison_cli.scenario.loading",
+         "liaison_cli.scenario.scenario_model"]
 
 
 # Typer names the shell from the process tree (shellingham) unless told not to: a suite started detached (a CI

@@ -15,7 +15,7 @@ from liaison_cli.dynamics.constants import M_PER_LU, VU_KM_S
 from liaison_cli.errors import ExchangeFileError
 from liaison_cli.exchange.oem import read_oem
 from liaison_cli.scenario.orbit_files import crtbp_oem_truth_lu
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.cli.crtbp_oem_hook import CRTBP_OEM_PENDING
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process

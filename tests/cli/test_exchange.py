@@ -15,7 +15,7 @@ from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, VU_KM_S
 from liaison_cli.errors import ExchangeFileError
 from liaison_cli.exchange.oem import read_oem
 from liaison_cli.exchange.tdm import read_tdm
-from liaison_cli.scenario.schema import apply_overrides, load_scenario, validate_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario, validate_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
@@ -442,7 +442,7 @@ def test_an_edited_orbit_file_is_another_scenario(tmp_path):
     """Issue 35 fault 3: a sweep over `orbit: {oem: FILE}` reused its old runs after FILE was edited; the files a
     scenario names are part of its hash (campaign.sweep_plan.scenario_hash)."""
     from liaison_cli.campaign.sweep_plan import scenario_hash
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     path, oem = _oem_case(tmp_path, lambda text: text)
     before = scenario_hash(load_scenario(path)[0])

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.errors import ScenarioError
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario
 from tests.conftest import run_cli_in_process as cli
 

@@ -31,7 +31,7 @@ def test_a_worker_re_raises_an_interrupt_from_compiled_code_instead_of_reporting
     """What numba does when Ctrl-C lands inside a compiled filter, replayed: the run must not become an
     'error' outcome (the campaign would go on and print 'ok')."""
     from liaison_cli.campaign import worker
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.scenario.setup import prepare_problem
 
     problem = prepare_problem(load_scenario(SCENARIOS / "smoke.yaml")[0])

@@ -9,7 +9,7 @@ import pytest
 
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import estimate
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS, run_cli_in_process, stderr_lines
 
@@ -231,7 +231,7 @@ def test_a_run_that_loses_track_is_diverged_by_the_nees_rule(tmp_path):
     chi-square quantile for a whole day) calls it diverged; the same filter with the bias estimated stays ok,
     and so does an ignored 3-sigma bias (test_bias: NEES up to about 11 x the quantile)."""
     from liaison_cli.campaign.runner import run_campaign
-    from liaison_cli.scenario.schema import apply_overrides
+    from liaison_cli.scenario.loading import apply_overrides
 
     base, _ = load_scenario(SCENARIOS / "smoke.yaml")
     ignored = apply_overrides(base, {"noise.bias_m": 20_000.0, "duration_days": 2.5}, "test")

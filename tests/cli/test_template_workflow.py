@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from liaison_cli.exchange.oem import read_oem
-from liaison_cli.scenario.schema import read_scenario_text
+from liaison_cli.scenario.loading import read_scenario_text
 from liaison_cli.scenario.templates import TEMPLATES
 from tests.conftest import assert_one_line_error, run_cli_in_process
 from tests.cli.crtbp_oem_hook import CRTBP_OEM_PENDING

@@ -9,7 +9,7 @@ from liaison_cli.campaign.studies.error_budget import error_budget
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU
 from liaison_cli.estimation.estimators import estimate
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 DATED = SCENARIOS / "eph_eml1_eml2_dsn.yaml"

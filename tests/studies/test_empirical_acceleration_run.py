@@ -7,7 +7,7 @@ import numpy as np
 
 from liaison_cli.campaign.results import summary_table
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS
 
 TRUTH_ACCELERATION_M_S2 = [2e-8, -1e-8, 1e-8]

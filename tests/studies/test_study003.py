@@ -6,7 +6,7 @@ import pandas as pd
 
 from tests.conftest import SCENARIOS, run_cli_in_process
 from liaison_cli.campaign.studies.study003 import CASES, case_scenario
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 
 CASSINI = SCENARIOS / "003" / "cassini.yaml"
 
@@ -48,7 +48,7 @@ def test_study003_runs_and_more_data_means_smaller_covariance(tmp_path):
 
 def test_both_readings_of_003s_dsn_noise_set_every_ground_link():
     from liaison_cli.campaign.studies.study003 import DSN_NOISE_READINGS, with_dsn_noise
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     scenario, _ = load_scenario(CASSINI)
     text = with_dsn_noise(scenario, "text")
@@ -68,7 +68,7 @@ def test_a_missions_cases_fly_its_trajectories_once(monkeypatch):
 
     from liaison_cli.campaign.studies import study003
     from liaison_cli.scenario import setup, truth
-    from liaison_cli.scenario.schema import apply_overrides
+    from liaison_cli.scenario.loading import apply_overrides
 
     scenario, _ = load_scenario(CASSINI)
     short = apply_overrides(scenario, {"duration_days": 2})

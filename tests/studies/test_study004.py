@@ -11,7 +11,7 @@ from liaison_cli.campaign import backends
 from liaison_cli.campaign.studies import study004
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 HALO = SCENARIOS / "004" / "eml2_halo.yaml"

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from tests.conftest import SCENARIOS, run_cli_in_process
 
 AUTONOMOUS = ("nrho_gateway_anchors", "nrho_gateway_anchors_norr", "nrho_gateway_anchors_mesh",

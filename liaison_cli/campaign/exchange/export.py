@@ -26,7 +26,8 @@ from liaison_cli.exchange.oem import Ephemeris, oem_message
 from liaison_cli.exchange.tdm import Track, range_convention, tdm_message
 from liaison_cli.exchange.timetags import met_tags, tdb_tags
 from liaison_cli.scenario.observed import channel_track
-from liaison_cli.scenario.schema import Scenario, validate_scenario
+from liaison_cli.scenario.loading import validate_scenario
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.storage import read_metadata, write_text_atomic
 

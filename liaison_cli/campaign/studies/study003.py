@@ -30,7 +30,9 @@ from liaison_cli.campaign.studies.study_cells import CellStore, grid_points, sou
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_UNITS
-from liaison_cli.scenario.schema import DEPARTURE_ORBIT, Scenario, apply_overrides
+from liaison_cli.scenario.loading import apply_overrides
+from liaison_cli.scenario.participants import DEPARTURE_ORBIT
+from liaison_cli.scenario.scenario_model import Scenario
 
 CASES = ("full", "dsn_only", "liaison_only")
 # 003's two statements of its DSN noise (range m, range-rate m/s): the scenario files use Table 2's.

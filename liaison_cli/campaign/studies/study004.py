@@ -37,7 +37,8 @@ from liaison_cli.campaign.runner import run_campaign
 from liaison_cli.campaign.studies.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.campaign.studies.study003 import StudyError
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
-from liaison_cli.scenario.schema import Scenario, apply_overrides
+from liaison_cli.scenario.loading import apply_overrides
+from liaison_cli.scenario.scenario_model import Scenario
 
 
 def pair_name(link) -> str:

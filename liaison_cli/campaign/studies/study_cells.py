@@ -27,7 +27,7 @@ from liaison_cli import __version__, core_source_hash, interrupts
 from liaison_cli.campaign.sweep_plan import scenario_hash
 from liaison_cli.errors import LiaisonError
 from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.scenario.schema import Scenario
+from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 # The packages whose code makes a cell's numbers (the setup, the engine, the metrics, the runner).

@@ -17,7 +17,7 @@ from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.campaign.backends import LOCAL, Backend
 from liaison_cli.campaign.results import summarise_campaign
 from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 
 
 FORMATIONS = ("eml2_lunar", "eml1_lunar", "eml1_eml2")

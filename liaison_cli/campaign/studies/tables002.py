@@ -29,7 +29,7 @@ from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.errors import LiaisonError, UnreadableFileError
 from liaison_cli.measurements.registry import OBSERVABLES
-from liaison_cli.scenario.schema import validate_scenario
+from liaison_cli.scenario.loading import validate_scenario
 
 NRHO_PERIOD_DAYS = 6.59  # 002 Table 1: T, the unit of the paper's time spans
 SPAN_KEY = "batch.span_days"

@@ -15,7 +15,7 @@ from liaison_cli.analysis.consistency import campaign_verdict, direction_columns
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import ekf_with_record
 from liaison_cli.scenario.loading import load_scenario
-from liaison_cli.scenario.schema import apply_overrides
+from liaison_cli.scenario.loading import apply_overrides
 from liaison_cli.scenario.setup import prepare_problem
 from liaison_cli.scenario.shipped import shipped_scenario
 

@@ -10,7 +10,7 @@ from liaison_cli.campaign import results as results_module
 from liaison_cli.campaign import worker as worker_module
 from liaison_cli.storage import read_metadata, write_parquet_atomic
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, run_cli
 
 

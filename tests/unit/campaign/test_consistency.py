@@ -13,7 +13,7 @@ import pytest
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, nees_run_band
 from liaison_cli.campaign import results as results_module
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 MATCHED = {"initial_error.draw": "from_covariance", "measurement.light_time": False,

@@ -6,7 +6,7 @@ import pytest
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 from liaison_cli.campaign.studies.error_budget import consistency, error_budget, monte_carlo_check, part_of, shares
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 

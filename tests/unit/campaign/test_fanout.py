@@ -10,7 +10,7 @@ import pytest
 from liaison_cli.campaign import backends, runner
 from liaison_cli.campaign.backends import Backend, map_batches
 from liaison_cli.campaign.studies.study_cells import CellStore
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
 
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_errors
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.measurements.range import geometric_range_gradient
 from liaison_cli.measurements.range_rate import range_rate, range_rate_gradient

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from liaison_cli.campaign.studies.study_cells import CellStore
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from tests.conftest import SCENARIOS
 
 

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from liaison_cli.campaign.grid import GridError, parse_grid, parse_range
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.campaign.sweep import SweepError, plan_sweep, read_manifest, run_sweep
 from tests.conftest import REPO, SCENARIOS, run_cli
 

@@ -11,7 +11,7 @@ from liaison_cli.campaign.studies.tuning import (
     ladder_grid,
     parse_ladder,
 )
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process as cli
 

@@ -119,7 +119,7 @@ def test_a_2035_epoch_runs_by_the_stated_rule():
 
 
 def test_an_epoch_with_a_utc_offset_is_converted():
-    from liaison_cli.scenario.schema import EphemerisSpec
+    from liaison_cli.scenario.participants import EphemerisSpec
 
     local = EphemerisSpec(epoch_utc="2026-12-01T05:00:00+05:00").epoch()
     assert local == datetime(2026, 12, 1, tzinfo=timezone.utc)

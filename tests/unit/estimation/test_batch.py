@@ -25,7 +25,7 @@ from liaison_cli.measurements.dual_one_way import (
 from liaison_cli.measurements.range import FLAG_LIGHT_TIME
 from liaison_cli.measurements.registry import predict
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 NRHO = SCENARIOS / "nrho_gateway_anchors.yaml"

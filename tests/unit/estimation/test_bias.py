@@ -5,7 +5,7 @@ import pytest
 
 from liaison_cli.campaign.results import bias_table, consistency_table, summary_table
 from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.estimation.ekf import update_scalar
 from tests.conftest import SCENARIOS, run_cli_in_process
 

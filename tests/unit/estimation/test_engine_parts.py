@@ -12,7 +12,7 @@ from liaison_cli.measurements.pseudorange import KIND_PSEUDORANGE
 from liaison_cli.measurements.range import FLAG_LIGHT_TIME
 from liaison_cli.measurements.registry import predict
 from liaison_cli.orbits.catalog import CATALOG
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import LUNAR, SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 

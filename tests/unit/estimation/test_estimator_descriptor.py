@@ -10,7 +10,7 @@ import liaison_cli
 from liaison_cli.estimation.blocks import BLOCK_CLOCK, BLOCK_CONSTANT
 from liaison_cli.estimation.estimators import BATCH, EKF, ESTIMATORS, estimate, get_estimator
 from liaison_cli.scenario.filter_arrays import state_layout
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 
 PACKAGE = Path(liaison_cli.__file__).parent

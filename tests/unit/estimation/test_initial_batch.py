@@ -13,7 +13,7 @@ from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.initial_batch import InitialBatchSettings, solve_initial_batch, window_lengths
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 

@@ -7,7 +7,7 @@ from liaison_cli.campaign.studies.error_budget import error_budget
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.estimation.estimators import estimate
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import burn_step, prepare_problem
 
 BURN = {"epoch_days": 1.0, "delta_v_m_s": [0.3, -0.2, 0.1], "apriori_sigma_m_s": 0.02}

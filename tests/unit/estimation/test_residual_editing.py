@@ -17,7 +17,7 @@ from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, SECONDS_PER_DAY
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.filter_loop import gated
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 

@@ -101,7 +101,7 @@ def test_the_smoother_in_a_campaign_is_consistent_and_better_than_the_filter():
 
     from liaison_cli.campaign import results as results_module
     from liaison_cli.campaign.runner import run_campaign
-    from liaison_cli.scenario.schema import apply_overrides, load_scenario
+    from liaison_cli.scenario.loading import apply_overrides, load_scenario
     from tests.conftest import SCENARIOS
 
     scenario = apply_overrides(load_scenario(SCENARIOS / "smoke.yaml")[0], {

@@ -10,7 +10,7 @@ from liaison_cli.dynamics.dsn_sites import DSN_SITES_ECEF_M, dsn_site_geodetic, 
 from liaison_cli.dynamics.ground_station import geodetic_to_body_km
 from liaison_cli.estimation.ekf import update_scalar
 from liaison_cli.measurements.visibility import not_occulted
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
 # IAU Commission 4 list of DSN coordinates (ITRF2005, epoch 2003.0), metres: an independent source.

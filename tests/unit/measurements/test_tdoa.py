@@ -210,7 +210,7 @@ PAIRS = (("GEO130W", "GEO170W"), ("MaunaKea", "OwensValley"), ("L1A", "L1B"))
 @pytest.fixture(scope="module")
 def dated(tmp_path_factory):
     """The dated scenario's truth: trajectories, noise-free measurements and the filter's tables."""
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.scenario.setup import dynamics_model, prepare_problem
     from liaison_cli.scenario.truth import truth_and_measurements
 

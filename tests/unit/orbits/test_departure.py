@@ -88,7 +88,7 @@ def test_a_departure_scenario_starts_on_its_hyperbola():
     """scenarios/003/msl.yaml: MSL's first state is the derived hyperbola 372.4 s after periapsis."""
     from liaison_cli.dynamics.ephemeris_model import SCALE
     from liaison_cli.scenario.dated import dated_initial_state_lu, dated_model
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
 
     from tests.conftest import SCENARIOS
 

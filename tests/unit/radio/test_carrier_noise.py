@@ -130,7 +130,7 @@ def test_table2_link_tone_ranging_doppler_and_los():
 
 def test_sigma_sweep_over_a_tone_scenario_keeps_the_carrier_sigmas():
     """`--sigma` replaces the tone ranging but the link budget stays for the Doppler / LOS sigmas."""
-    from liaison_cli.scenario.schema import load_scenario
+    from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.campaign.sweep import plan_sweep
     from tests.conftest import SCENARIOS
 

@@ -6,11 +6,9 @@ run_text.coverage_lines)."""
 import math
 
 import numpy as np
-import pandas as pd
 
-from liaison_cli.report.run_result import link_coverage
 from liaison_cli.report.run_text import (COVERAGE_FLAG, WEAK_BATCH_CONDITION, coverage_lines, format_prediction,
-                                         weak_batch_line)
+                                         link_coverage, weak_batch_line)
 
 
 def _batch_rows(condition: float, status: str = "ok") -> list[dict]:
@@ -37,23 +35,13 @@ def test_the_weak_batch_line_reads_only_finished_runs_and_batch_results():
     assert weak_batch_line([{"run": 0, "spacecraft": "EML2", "status": "ok", "rms_position_m": 1.0}]) == ""
 
 
-def _residuals(measured: dict[str, np.ndarray], runs: int = 2) -> pd.DataFrame:
-    """Residual rows as `liaison run` writes them: per run, epoch (t > 0) and channel; NaN where nothing came."""
-    frames = []
-    for link, mask in measured.items():
-        for run in range(runs):
-            for observable in ("tdoa", "fdoa"):
-                frames.append(pd.DataFrame({"run": run, "t_s": 600.0 * np.arange(1, mask.size + 1), "link": link,
-                                            "observable": observable,
-                                            "innovation": np.where(mask, 0.1, np.nan)}))
-    return pd.concat(frames, ignore_index=True)
-
-
 def test_a_link_measuring_a_small_share_of_the_arc_is_named():
     epochs = 216  # 1.5 d at 600 s
     ground = np.zeros(epochs, dtype=bool)
     ground[60:120] = True  # one pass: 60 of 216 epochs, as the Mauna Kea / Owens Valley pair (28 %)
-    shares = link_coverage(_residuals({"MaunaKea/OwensValley->TX": ground, "GEO130W/GEO170W->TX": ground | True}))
+    # Two channels per link (TDoA and FDoA) as the scenario's data has them: available (m - 1, C).
+    available = np.stack([ground, ground, ground | True, ground | True], axis=1)
+    shares = link_coverage(available, ["MaunaKea/OwensValley->TX"] * 2 + ["GEO130W/GEO170W->TX"] * 2)
     assert shares == {"MaunaKea/OwensValley->TX": 60 / 216, "GEO130W/GEO170W->TX": 1.0}
     (line,) = coverage_lines(shares, 1.5)
     assert line.startswith("MaunaKea/OwensValley->TX measured at 28 % of the epochs (about 0.42 of 1.5 d)")
@@ -63,6 +51,10 @@ def test_full_coverage_prints_no_line():
     epochs = 216
     space = np.ones(epochs, dtype=bool)
     space[:15] = False  # occulted at 7 % of the epochs, as the GEO pair: above COVERAGE_FLAG
-    shares = link_coverage(_residuals({"GEO130W/GEO170W->TX": space}))
+    fdoa_only = space.copy()
+    fdoa_only[:30] = False  # a link counts an epoch when any of its channels has data
+    shares = link_coverage(np.stack([space, fdoa_only], axis=1), ["GEO130W/GEO170W->TX"] * 2)
+    assert shares == {"GEO130W/GEO170W->TX": (epochs - 15) / epochs}
     assert shares["GEO130W/GEO170W->TX"] > COVERAGE_FLAG and coverage_lines(shares, 1.5) == []
-    assert link_coverage(pd.DataFrame()) == {}
+    assert link_coverage(np.zeros((0, 2), dtype=bool), ["a", "b"]) == {}
+    assert coverage_lines({"ground": 0.5}, 240.0)[0].startswith("ground measured at 50 % of the epochs (about 120 of 240 d)")

@@ -5,7 +5,7 @@ import pytest
 
 from liaison_cli.campaign.worker import draw_run_inputs
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 

@@ -10,7 +10,7 @@ from liaison_cli.errors import ScenarioError
 from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3, psd_process_noise, spacecraft_process_noise
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_SIGMA_A
 from liaison_cli.scenario.filter_arrays import _matrices, state_layout
-from liaison_cli.scenario.schema import apply_overrides, load_scenario
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.templates import TEMPLATE_DIR, TEMPLATES
 from tests.conftest import SCENARIOS
 

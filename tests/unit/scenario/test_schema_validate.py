@@ -17,7 +17,7 @@ from tests.conftest import REPO, SCENARIOS, assert_one_line_error, run_cli_in_pr
 from liaison_cli.errors import ScenarioError
 from liaison_cli.scenario.json_schema import (
     LOADER_ONLY_RULES, MODELINE_PREFIX, SCHEMA_FILE_NAME, scenario_json_schema, scenario_json_schema_text)
-from liaison_cli.scenario.schema import check_file, load_link_file, read_scenario_text, validate_scenario
+from liaison_cli.scenario.loading import check_file, load_link_file, read_scenario_text, validate_scenario
 
 SCHEMA_FILE = SCENARIOS / SCHEMA_FILE_NAME
 SHIPPED = sorted(SCENARIOS.glob("*.yaml")) + sorted(p for p in SCENARIOS.glob("*/*.yaml") if p.parent.name != "links")

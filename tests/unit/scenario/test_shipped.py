@@ -12,7 +12,7 @@ from liaison_cli.cli import app
 from liaison_cli.cli.studies import STUDY003_MISSIONS, STUDY004_TRANSMITTERS
 from liaison_cli.cli.sweep import PAPER_FORMATIONS
 from liaison_cli.errors import LiaisonError
-from liaison_cli.scenario.schema import load_scenario
+from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.shipped import scenario_folder, scenario_paths, shipped_dir, shipped_scenario
 from tests.conftest import SCENARIOS, stderr_lines
 
