@@ -230,14 +230,22 @@ def _local_processes(fn, shared, batches, jobs, window, ordered):
     # still waiting outside that queue when the pool is killed trips loky's manager thread (a KeyError).
     futures = _windowed(lambda key, tasks: executor.submit(fn, shared[key], tasks),
                         lambda running: wait(running, return_when=FIRST_COMPLETED), batches, window, 2 * jobs, ordered)
+    # On an abort, killing the pool fails what is queued (cancelling it first trips loky's manager thread), as
+    # joblib aborts: the workers are gone on return.
+    yield from _results_or_abort(futures, lambda: executor.shutdown(wait=True, kill_workers=True))
+
+
+def _results_or_abort(futures, abort):
+    """Each finished future's result in turn (futures: _windowed's (future, key) pairs); `abort()` when the
+    fan-out ends before its last result (an error, a Ctrl-C, a consumer that stops reading)."""
     finished = False
     try:
         for future, _ in futures:
             yield future.result()
         finished = True
     finally:
-        if not finished:  # killing the pool fails what is queued (cancelling it first trips loky's manager thread)
-            executor.shutdown(wait=True, kill_workers=True)  # as joblib aborts: the workers are gone on return
+        if not finished:
+            abort()
 
 
 def can_fork() -> bool:
@@ -277,14 +285,9 @@ def _forked_processes(fn, shared, batches, jobs, window, ordered):
 
     futures = _windowed(submit, lambda running: wait(running, return_when=FIRST_COMPLETED), batches, window,
                         window, ordered)
-    finished = False
     try:
-        for future, _ in futures:
-            yield future.result()
-        finished = True
+        yield from _results_or_abort(futures, lambda: _kill_forked(executor))
     finally:
-        if not finished:
-            _kill_forked(executor)
         executor.shutdown(wait=True)
         folder.cleanup()
 
