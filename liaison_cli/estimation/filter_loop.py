@@ -177,7 +177,7 @@ def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_pa
                 Phi[a, a] = 1.0  # its row of the coupled transition (ekf.predict_covariance_into reads it)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: compiled once, not into every time_update (it runs only with DMC blocks)
 def _empirical_update(x_hat, x_bar, Phi, a, s, dt_tu, tau_tu):
     """The Gauss-Markov acceleration w = x_hat[a : a + 3] of the spacecraft block at s over one step
     (estimation.process_noise.gauss_markov_gains): w <- m w, and the spacecraft's propagated
@@ -401,6 +401,7 @@ def run_ekf(model, kinds, x0_hat, P0, noise, truth, y_obs, known_states, channel
         work_block, work_nees, z_nees, work6, z6, u, v = _loop_buffers(n, n_nees)
     direction_stride = directions.stride if directions.nees_spacecraft.shape[0] > 0 else 0
     Q_work, ric_axes = np.empty((n, n)), np.empty((3, 3))  # step_process_noise's, used with RIC noise only
+    ric_steps = noise.primaries.shape[0]
     record_row(0, x_hat, truth, P, n_nees, e, err, sig, nees, (work_nees, z_nees), directions, (work6, z6, u, v))
     storing = store_states.shape[0] > 0
     if storing:
@@ -411,7 +412,8 @@ def run_ekf(model, kinds, x0_hat, P0, noise, truth, y_obs, known_states, channel
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
         time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params,
                     t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
-        Q = step_process_noise(noise, Q_work, x_hat, k - 1, block_kind, block_start, ric_axes)
+        Q = noise.Q if ric_steps == 0 else step_process_noise(noise, Q_work, x_hat, k - 1, block_kind, block_start,
+                                                             ric_axes)
         P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)

@@ -11,7 +11,7 @@ from numba import njit
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: compiled once for every scenario combination (run_ekf skips it without RIC)
 def step_process_noise(noise, Q_work, x_hat, k, block_kind, block_start, axes):
     """The process noise of the step after epoch k: noise.Q when no spacecraft gives its PSD in the radial /
     in-track / cross-track frame, else noise.Q copied into Q_work (n, n) plus, for each such spacecraft block,
