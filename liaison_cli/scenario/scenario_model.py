@@ -1,6 +1,8 @@
-"""The whole scenario (`Scenario`): its sections, and the rules that hold between them (names across
-sections, observables against participants and noise, estimator against dynamics, time spans, bounded
-work). Each section's own rules live with it (participants, links, radio_settings, estimation_settings)."""
+"""The whole scenario (`Scenario`): its sections, and the rules that hold between them. Each section's own rules
+live with it (participants, links, radio_settings, estimation_settings); the rules between sections are grouped
+by the part that owns them: the links' in scenario.link_rules, the estimator's in scenario.estimation_rules, the
+dynamics model's in scenario.dynamics_rules; names across sections, time spans, manoeuvres and bounded work
+stay here."""
 
 from typing import Literal
 
@@ -10,18 +12,20 @@ from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.dynamics.registry import DYNAMICS, Dynamics
 from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimators_that, get_estimator
-from liaison_cli.measurements.registry import OBSERVABLES
-from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
 from liaison_cli.scenario.estimation_settings import (
     BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec)
+from liaison_cli.scenario.estimation_rules import (OWN_SECTIONS, check_batch, check_clock_sync, check_estimator,
+                                                   check_initial_batch, check_smoother)
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
+from liaison_cli.scenario.link_rules import (check_observable, check_repeated_links, check_second_receiver,
+                                             check_station_priority)
 from liaison_cli.scenario.links import LinkSpec, MeasurementSpec, TopologySpec, expand_topology
 from liaison_cli.scenario.dynamics_rules import (check_dynamics, check_empirical_acceleration,
                                                 check_estimated_parameters, check_model_error,
                                                 check_ric_process_noise)
 from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.participants import (
-    DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
+    DATED_ONLY_ORBITS, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
 from liaison_cli.scenario.radio_settings import NoiseSpec
 from liaison_cli.scenario.schema_rules import (
     all_of, any_of, each, equals, given, negate, not_given, schema_rules, together, when)
@@ -35,8 +39,7 @@ MAX_EPOCHS = 500_000
 # The smoother's forward record per run (three n x n matrices per epoch), per worker process: 2 GiB leaves
 # room for two workers and the rest of a run on a 24 GiB machine.
 SMOOTHER_RECORD_MAX_BYTES = 2 * 2**30
-# The JSON Schema's view of the estimators' descriptors: each one's own settings section, and who runs dated.
-_OWN_SECTIONS = [(e.name, e.settings_section) for e in ESTIMATORS.values() if e.settings_section is not None]
+# The JSON Schema's view of the estimators' descriptors: who runs dated (their own sections: OWN_SECTIONS).
 _UNDATED_ESTIMATORS = [e.name for e in ESTIMATORS.values() if "ephemeris" not in e.dynamics]
 
 
@@ -45,7 +48,7 @@ class Scenario(StrictModel):
 
     model_config = ConfigDict(json_schema_extra=schema_rules(
         any_of(given("links"), given("topology")),
-        *(together(equals("estimator", name), section) for name, section in _OWN_SECTIONS),
+        *(together(equals("estimator", name), section) for name, section in OWN_SECTIONS),
         when(equals("dynamics", "ephemeris"),
              all_of(given("ephemeris"), negate(equals("estimator", *_UNDATED_ESTIMATORS)),
                     each("spacecraft", negate(equals("orbit", KEPLERIAN_ORBIT)))),
@@ -99,7 +102,7 @@ class Scenario(StrictModel):
             raise ValueError(f"participant names must be unique; repeated: {', '.join(dupes)}")
         if not any(sc.role == "estimated" for sc in self.spacecraft):
             raise ValueError("no spacecraft to estimate: give at least one spacecraft with role: estimated")
-        self._check_repeated_links()
+        check_repeated_links(self)
         known = {sc.name for sc in self.spacecraft if sc.role == "known"} | {st.name for st in self.ground_stations}
         for i, link in enumerate(self.links):
             for role in ("receiver", "transponder", "second_receiver"):
@@ -112,20 +115,20 @@ class Scenario(StrictModel):
                     )
             if link.receiver == link.transponder:
                 raise ValueError(f"links[{i}] links {link.receiver!r} to itself")
-            self._check_second_receiver(i, link, known)
+            check_second_receiver(self, i, link, known)
             if link.receiver in known and link.transponder in known and link.second_receiver is None:
                 raise ValueError(f"links[{i}] joins two known participants ({link.receiver!r}, {link.transponder!r}): "
                                  "it carries no information on any estimated state")
             receiver = self.participant(link.receiver)
             for observable in link.observables:
-                self._check_observable(i, link, observable, receiver)
-        self._check_station_priority()
-        self._check_estimator()
+                check_observable(self, i, link, observable, receiver)
+        check_station_priority(self)
+        check_estimator(self)
         self._check_manoeuvres()
-        self._check_batch()
-        self._check_smoother()
-        self._check_initial_batch()
-        self._check_clock_sync()
+        check_batch(self)
+        check_smoother(self)
+        check_initial_batch(self)
+        check_clock_sync(self)
         check_dynamics(self)
         check_model_error(self)
         check_estimated_parameters(self)
@@ -164,25 +167,6 @@ class Scenario(StrictModel):
                 f"1.5 kB of memory each): measurement.interval_s >= {span_s / (MAX_EPOCHS - 1):.4g} s for this "
                 "duration, or a shorter duration_days")
 
-    def _check_smoother(self):
-        """The RTS pass smooths the EKF's own forward record: no batch, no consider parameters (their zero-gain
-        covariance is not the record of an optimal filter) and no manoeuvre (its jump is not in the stored
-        transitions)."""
-        if self.filter.smoother == "none":
-            return
-        if not self.estimator_descriptor().smoother:
-            raise ValueError(f"filter.smoother = 'rts' smooths a filter's pass; estimator: {self.estimator} takes no "
-                             f"smoother (allowed with estimator: {' / '.join(estimators_that('smoother'))})")
-        if self.filter.bias == "consider":
-            raise ValueError("filter.smoother = 'rts' with filter.bias = 'consider': not supported (estimate or "
-                             "ignore the bias)")
-        if self.filter.underweighting > 0:
-            raise ValueError(f"filter.smoother = 'rts' with filter.underweighting = {self.filter.underweighting:g}: "
-                             "the RTS recursion assumes the optimal gain; allowed: underweighting 0 with the smoother")
-        moving = [sc.name for sc in self.spacecraft if sc.manoeuvre is not None]
-        if moving:
-            raise ValueError(f"filter.smoother = 'rts' with a manoeuvre ({moving[0]!r}): not supported")
-
     def dynamics_descriptor(self) -> Dynamics:
         """The chosen dynamics model's descriptor: what it is and supports (dynamics.registry)."""
         return DYNAMICS[self.dynamics]
@@ -190,113 +174,6 @@ class Scenario(StrictModel):
     def estimator_descriptor(self) -> Estimator:
         """The chosen estimator's descriptor: what it carries and supports (estimation.estimator)."""
         return get_estimator(self.estimator)
-
-    def _check_estimator(self):
-        """What the chosen estimator carries and supports, asked of its descriptor: its own settings section
-        (given exactly when it is chosen), clock-timed observables, considered biases, the residual gate."""
-        for name, section in _OWN_SECTIONS:
-            given_section = getattr(self, section) is not None
-            if (self.estimator == name) != given_section:
-                raise ValueError(f"key 'estimator' = {self.estimator!r} "
-                                 f"{'with' if given_section else 'without'} a '{section}' section: estimator: {name} "
-                                 f"and a '{section}' section go together (give both or neither)")
-        estimator = self.estimator_descriptor()
-        if not estimator.carries_clocks:
-            self._check_no_clock_states(estimator)
-        if self.filter.bias == "estimate" and not estimator.carries_biases:
-            raise ValueError(f"filter.bias = 'estimate' with estimator: {self.estimator}, which carries no bias "
-                             f"states; allowed with estimator: {' / '.join(estimators_that('carries_biases'))}")
-        if self.filter.bias == "consider" and not estimator.consider:
-            raise ValueError(f"filter.bias = 'consider' with estimator: {self.estimator}, which has no consider "
-                             f"treatment (it would estimate the bias); allowed: bias estimate or ignore, or estimator: "
-                             f"{' / '.join(estimators_that('consider'))}")
-        if self.filter.residual_gate_sigma is not None and not estimator.residual_gate:
-            raise ValueError(f"filter.residual_gate_sigma = {self.filter.residual_gate_sigma:g} gates the EKF's "
-                             f"pre-fit innovations; the {self.estimator} estimator (estimator: {self.estimator}) has "
-                             "no residual gate: remove the key or use estimator: "
-                             f"{' / '.join(estimators_that('residual_gate'))}")
-
-    def _check_no_clock_states(self, estimator: Estimator):
-        for i, link in enumerate(self.links):
-            for observable in link.observables:
-                spec = OBSERVABLES[observable]
-                if spec.needs_receiver_clock or any(
-                        spec.channel_clock_coefficients(c) != (0.0, 0.0) and c != spec.clock_offset_channel
-                        for c in range(len(spec.channels))):
-                    raise ValueError(f"links[{i}] measures {observable!r}, whose value carries clock states: the "
-                                     f"{estimator.name} estimator solves for orbits only; use dual_one_way_derived "
-                                     "(range + clock offset, synchronised by clock_sync) or the "
-                                     f"{' / '.join(estimators_that('carries_clocks'))}")
-
-    def _check_initial_batch(self):
-        """The initial batch window: at least two measurement intervals, inside the scenario, before any
-        manoeuvre (the window's solve has no burn), and only in front of an EKF without a smoother or consider
-        parameters (the smoother would smooth only the EKF's part; consider blocks would be solved for)."""
-        flt = self.filter
-        if flt.initial_batch_hours is None:
-            return
-        longest_h = flt.initial_batch_max_hours or flt.initial_batch_hours
-        shortest_h = 2.0 * self.measurement.interval_s / 3600.0
-        if flt.initial_batch_hours < shortest_h - 1e-9:
-            raise ValueError(f"filter.initial_batch_hours = {flt.initial_batch_hours:g} is shorter than two "
-                             f"measurement intervals; allowed: at least {shortest_h:g} h")
-        scenario_h = self.epochs_end_days() * 24.0
-        if longest_h >= scenario_h - self.measurement.interval_s / 3600.0 + 1e-9:
-            key = "initial_batch_max_hours" if flt.initial_batch_max_hours else "initial_batch_hours"
-            raise ValueError(f"filter.{key} = {longest_h:g} leaves the EKF no data: allowed: shorter than the "
-                             f"scenario's {scenario_h:g} h less one measurement interval")
-        if not self.estimator_descriptor().initial_batch:
-            raise ValueError(f"filter.initial_batch_hours with estimator: {self.estimator}: not supported (allowed "
-                             f"with estimator: {' / '.join(estimators_that('initial_batch'))})")
-        if flt.smoother != "none":
-            raise ValueError("filter.initial_batch_hours with filter.smoother = 'rts': not supported (the smoother "
-                             "would cover only the EKF's part of the arc)")
-        if flt.bias == "consider":
-            raise ValueError("filter.initial_batch_hours with filter.bias = 'consider': not supported (the batch "
-                             "would solve for the considered bias)")
-        for i, sc in enumerate(self.spacecraft):
-            if sc.manoeuvre is not None and sc.manoeuvre.epoch_days * 24.0 < longest_h + 1e-9:
-                raise ValueError(f"spacecraft[{i}].manoeuvre.epoch_days = {sc.manoeuvre.epoch_days:g} falls inside "
-                                 f"the initial batch window ({longest_h:g} h); allowed: after it")
-
-    def _check_batch(self):
-        """The batch section's spans against the scenario's epochs."""
-        if self.batch is None:
-            return
-        end_days = self.batch.end_days()
-        if end_days > self.duration_days + 1e-9:
-            windows = f" over {self.batch.windows} windows" if self.batch.windows > 1 else ""
-            raise ValueError(f"batch.span_days = {self.batch.span_days:g} plus prediction_hours = "
-                             f"{self.batch.prediction_hours:g}{windows} is {end_days:g} d, longer than the "
-                             f"scenario's duration_days = {self.duration_days:g}")
-        if self.batch.renewal_hours is not None and (
-                abs(self.batch.renewal_hours * 3600.0 / self.measurement.interval_s
-                    - round(self.batch.renewal_hours * 3600.0 / self.measurement.interval_s)) > 1e-9):
-            raise ValueError(f"batch.renewal_hours = {self.batch.renewal_hours:g} is not a whole number of "
-                             f"measurement intervals ({self.measurement.interval_s:g} s)")
-        if self.batch.span_days * SECONDS_PER_DAY < 2.0 * self.measurement.interval_s:
-            raise ValueError(f"batch.span_days = {self.batch.span_days:g} is shorter than two measurement "
-                             f"intervals ({self.measurement.interval_s:g} s)")
-
-    def _check_second_receiver(self, i, link, known):
-        """Three-end channels (TDoA, FDoA) and the links that carry them."""
-        differences = [o for o in link.observables if OBSERVABLES[o].needs_second_receiver]
-        if differences and link.second_receiver is None:
-            raise ValueError(f"links[{i}] measures {differences[0]!r}, a difference between two receivers, with one "
-                             f"receiver ({link.receiver!r}): give 'second_receiver'")
-        if link.second_receiver is None:
-            return
-        others = [o for o in link.observables if not OBSERVABLES[o].needs_second_receiver]
-        if others:
-            raise ValueError(f"links[{i}] has a second_receiver, but {others[0]!r} is a two-end observable; "
-                             "a link with a second receiver carries tdoa / fdoa only")
-        if link.second_receiver == link.transponder:
-            raise ValueError(f"links[{i}]: {link.transponder!r} is the transmitter and also a receiver")
-        if link.second_receiver == link.receiver:
-            raise ValueError(f"links[{i}] names {link.receiver!r} as both receivers")
-        if {link.receiver, link.transponder, link.second_receiver} <= known:
-            raise ValueError(f"links[{i}] joins three known participants: it carries no information on any "
-                             "estimated state")
 
     def _check_manoeuvres(self):
         for i, sc in enumerate(self.spacecraft):
@@ -310,45 +187,6 @@ class Scenario(StrictModel):
             if not sc.manoeuvre.epoch_days <= last + 1e-9:
                 raise ValueError(f"spacecraft[{i}].manoeuvre.epoch_days = {sc.manoeuvre.epoch_days:g} is outside the "
                                  f"scenario: allowed after 0 and up to {last:g} d (one interval before its end)")
-
-    def _check_repeated_links(self):
-        """The same measurement listed twice would be counted twice (as if its noise were halved). A link is
-        its ends in their roles; a difference of arrival is the same with its two receivers swapped (the
-        negated value). The reverse direction (B receiving from A beside A from B) is another link."""
-        seen = {}
-        for i, link in enumerate(self.links):
-            if link.second_receiver is None:
-                ends = (link.receiver, link.transponder)
-            else:
-                ends = (link.transponder, frozenset((link.receiver, link.second_receiver)))
-            if ends in seen:
-                j = seen[ends]
-                second = f", second_receiver {link.second_receiver}" if link.second_receiver else ""
-                raise ValueError(f"links[{i}] repeats links[{j}] (receiver {link.receiver}, transponder "
-                                 f"{link.transponder}{second}): it would count the same measurement twice; "
-                                 f"allowed: one link per set of ends, with all its observables in links[{j}]")
-            seen[ends] = i
-
-    def _check_station_priority(self):
-        if self.station_priority is None:
-            return
-        stations = [st.name for st in self.ground_stations]
-        for i, name in enumerate(self.station_priority):
-            if name not in stations:
-                raise ValueError(f"station_priority[{i}] = {name!r} is not a ground station; defined: "
-                                 f"{', '.join(stations) or 'none'}")
-        if len(set(self.station_priority)) != len(self.station_priority):
-            raise ValueError(f"station_priority lists a station twice: {self.station_priority}")
-
-    def _check_clock_sync(self):
-        if self.clock_sync is None:
-            return
-        window_s = self.clock_sync.window_hours * 3600.0
-        if window_s < 2.0 * self.measurement.interval_s:
-            raise ValueError(f"clock_sync.window_hours = {self.clock_sync.window_hours:g} is shorter than two "
-                             f"measurement intervals ({self.measurement.interval_s:g} s)")
-        if not any(OBSERVABLES[o].clock_offset_channel >= 0 for link in self.links for o in link.observables):
-            raise ValueError("clock_sync needs a link that measures clock offsets (observable dual_one_way_derived)")
 
     def cr_error_sigma(self) -> float:
         """The per-run relative sigma of the filter's C_R: model_error.cr_sigma or ephemeris.cr_error_sigma."""
@@ -377,25 +215,6 @@ class Scenario(StrictModel):
         if self.batch is None:
             return self.duration_days
         return min(self.duration_days, self.batch.end_days())
-
-    def _check_observable(self, i, link, observable, receiver):
-        spec = OBSERVABLES[observable]
-        if spec.needs_receiver_baseline and getattr(receiver, "antenna_baseline_m", None) is None:
-            raise ValueError(
-                f"links[{i}] cannot measure {observable!r}: its receiver {link.receiver!r} has no antenna "
-                "array (set antenna_baseline_m on that spacecraft)"
-            )
-        missing = spec.missing_noise(link.noise.applied_to(self.noise) if link.noise is not None else self.noise)
-        if missing:
-            raise ValueError(f"links[{i}] measures {observable}: {missing}")
-        if spec.needs_both_clocks:
-            for who in (link.receiver, link.transponder):
-                if getattr(self.participant(who), "clock", None) is None:
-                    raise ValueError(f"links[{i}] measures {observable!r}, timed by both ends' clocks, but "
-                                     f"{who!r} has no clock model (give it a 'clock' section)")
-        if spec.needs_receiver_clock and getattr(receiver, "clock", None) is None:
-            raise ValueError(f"links[{i}] measures {observable!r}, timed by the receiver's clock, but "
-                             f"{link.receiver!r} has no clock (give that spacecraft a 'clock' section)")
 
     def spacecraft_names(self) -> list[str]:
         """The estimated spacecraft, in scenario order (the filter's spacecraft blocks)."""
