@@ -1,5 +1,6 @@
 """Running studies: one Monte Carlo run as a work unit (worker), the one fan-out every long command uses
-(backends.map_batches: joblib's process pool or dask, a bounded window of work in flight) and its ordered layer
+(backends.map_batches: joblib's process pool, workers forked after the first task for sweeps on Linux, or
+dask; a bounded window of work in flight) and its ordered layer
 for a scenario's runs (runner), seeding, a scenario's campaign as Parquet results (results), resumable sweeps
 (sweep: sweep_plan, sweep_manifest, sweep_tables; grid; its workers' light module sweep_worker) and compiling
 ahead (warmup).

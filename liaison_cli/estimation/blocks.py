@@ -13,7 +13,9 @@
 - empirical (3): a spacecraft's first-order Gauss-Markov acceleration (owner 'accel L1A'; dynamic model
   compensation, estimation.process_noise): transition exp(-dt / tau) on itself and kinematic gains into its
   spacecraft's position and velocity (filter_loop.time_update), process noise coupled with the spacecraft's.
-Process noise is a fixed (n, n) block-diagonal Q built block by block by the problem setup. Consider
+Process noise is a fixed (n, n) Q built block by block by the problem setup (block-diagonal but for the
+empirical accelerations' coupling to their spacecraft; a RIC density adds its spacecraft block at each step,
+estimation.ric_noise). Consider
 blocks (zero gain, Schmidt-Kalman) come last, so the estimated states are a prefix of the state; the
 empirical accelerations come last among the estimated blocks, so the states the NEES covers (n_nees) are a
 prefix too.

@@ -5,7 +5,8 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
   (C, 6) see filter_loop.END_*, flags (C,), mod_index / mod_coeff (C, M) additive modifiers
   value += coeff * x[index] (-1: none), sigma (C,) 1-sigma in filter units;
 - BlockLayout: the state's blocks, kind / start / size (B,) and parameter (B,): a spacecraft block's
-  dynamics-parameter block start, -1 for none (estimation.blocks);
+  dynamics-parameter block start (-1: none), an empirical-acceleration block's spacecraft block start, -1 for
+  every other block (estimation.blocks.StateLayout.arrays);
 - Dynamics: the model's parameter vector, the measurement interval dt_tu, the filter's propagation
   substeps per interval, t0_tu, the time of epoch 0 from the model's origin, and empirical_tau_tu, the time
   constant of the empirical-acceleration blocks (0: none; estimation.process_noise) (the model code itself is

@@ -1,8 +1,10 @@
 """The scenario's rules about its dynamics, written once and grouped here: what the dynamics model
 (dynamics.registry) and the ephemeris section allow, the model_error section against the model, and the
-parameters the filter may estimate (filter.estimated_parameters), each asked of the model's descriptor.
-Scenario._consistent calls check_dynamics, check_model_error and check_estimated_parameters; each raises
-ValueError with one line naming the key, its value and what is allowed."""
+parameters the filter may estimate (filter.estimated_parameters), each asked of the model's descriptor; and the
+filter states and process noise that lean on the model (filter.empirical_acceleration on its axes, a RIC
+process noise about its primaries). Scenario._consistent calls check_dynamics, check_model_error,
+check_estimated_parameters, check_empirical_acceleration and check_ric_process_noise; each raises ValueError
+with one line naming the key, its value and what is allowed."""
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.estimation.estimators import ESTIMATORS
@@ -157,7 +159,7 @@ def check_estimated_parameters(scenario) -> None:
             allowed = ", ".join(dynamics.parameter_names) or "none"
             raise ValueError(f"filter.estimated_parameters.{name}: dynamics: {dynamics.name} has no such parameter; "
                              f"allowed: {allowed}")
-    _carried_by_the_ekf(scenario, "filter.estimated_parameters", "dynamics_parameters",
+    _carried_by_the_estimator(scenario, "filter.estimated_parameters", "dynamics_parameters",
                         "estimate dynamics parameters")
     if "cr" in wanted and scenario.ephemeris.cr * scenario.ephemeris.area_to_mass_m2_kg == 0.0:
         raise ValueError("filter.estimated_parameters.cr with ephemeris.area_to_mass_m2_kg = 0: no solar "
@@ -172,7 +174,7 @@ def check_empirical_acceleration(scenario) -> None:
     spec = scenario.filter.empirical_acceleration
     if spec is None:
         return
-    _carried_by_the_ekf(scenario, "filter.empirical_acceleration", "empirical_accelerations",
+    _carried_by_the_estimator(scenario, "filter.empirical_acceleration", "empirical_accelerations",
                         "carry empirical accelerations")
     interval_s = scenario.measurement.interval_s
     if spec.time_constant_s < interval_s:
@@ -190,7 +192,7 @@ def check_ric_process_noise(scenario) -> None:
                          "process noise over its window; allowed: one of the two (or process_noise_psd_m2_s3)")
 
 
-def _carried_by_the_ekf(scenario, key: str, supports: str, what: str) -> None:
+def _carried_by_the_estimator(scenario, key: str, supports: str, what: str) -> None:
     """A setting that adds filter states (`key`): by an estimator whose descriptor flag `supports` is set, and
     without an initial batch, whose solve keeps the spacecraft states only."""
     estimator = scenario.estimator_descriptor()

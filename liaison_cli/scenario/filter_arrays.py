@@ -217,9 +217,9 @@ def _ric_noise(scenario: Scenario, layout: StateLayout, model: DynamicsModel, ti
         if block.kind == BLOCK_SPACECRAFT:
             convention, densities = flt.process_noise_of(by_name[block.owner])
             if convention == PROCESS_NOISE_PSD_RIC:
-                for axis, q in enumerate(densities):
-                    ric[b, axis] = [q * dt**3 / 3.0 / M_PER_LU**2, q * dt**2 / 2.0 / (M_PER_LU * M_S_PER_VU),
-                                    q * dt / M_S_PER_VU**2]
+                for axis, q in enumerate(densities):  # the isotropic PSD's position, cross and velocity terms
+                    block = psd_process_noise(q, dt, M_PER_LU, M_S_PER_VU)
+                    ric[b, axis] = [block[0, 0], block[0, 3], block[3, 3]]
     positions = primaries_lu(float(model.params[0]), model.body_positions_lu(times_s), times_s)
     step_s = float(times_s[1] - times_s[0]) if len(times_s) > 1 else 1.0
     return ric, np.concatenate([positions, primary_velocities_lu(positions, step_s)], axis=2)
