@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from liaison_cli.campaign.results import summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.dated import BODY_CODES
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 

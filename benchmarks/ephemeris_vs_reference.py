@@ -16,7 +16,7 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, J2000_JD, SECONDS_PER_DAY, de421_path
 from liaison_cli.dynamics.ephemeris_dynamics import AU_KM, P_1AU_N_M2, R_EARTH_KM, R_MOON_KM, R_SUN_KM

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from liaison_cli.campaign.exchange.export import KM_PER_SCALED, export_run, recompute_run
-from liaison_cli.campaign.results import stream_campaign
+from liaison_cli.campaign.engine.results import stream_campaign
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.exchange.oem import read_oem
 from liaison_cli.scenario.loading import apply_overrides, load_scenario, validate_scenario

@@ -14,7 +14,7 @@ import numpy as np
 
 from liaison_cli.campaign.studies.error_budget import error_budget
 from liaison_cli.campaign.studies.study004 import pair_name, pair_scenario
-from liaison_cli.campaign.worker import RunTask, execute_run
+from liaison_cli.campaign.engine.worker import RunTask, execute_run
 from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
 

@@ -35,7 +35,7 @@ def _load() -> float:
 
 def time_start() -> float:
     """A fresh process importing the sweep command's modules (what every `liaison sweep` pays once)."""
-    code = "import liaison_cli.cli, liaison_cli.cli.sweep, liaison_cli.campaign.sweep, liaison_cli.scenario.setup"
+    code = "import liaison_cli.cli, liaison_cli.cli.sweep, liaison_cli.campaign.sweep.run, liaison_cli.scenario.setup"
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], check=True)
     return time.perf_counter() - t0
@@ -59,8 +59,8 @@ def time_cli(runs: int, jobs: int) -> tuple[float, float]:
 
 
 def _plan(runs: int):
-    from liaison_cli.campaign.grid import parse_range
-    from liaison_cli.campaign.sweep_plan import SIGMA_KEY, plan_sweep
+    from liaison_cli.campaign.sweep.grid import parse_range
+    from liaison_cli.campaign.sweep.plan import SIGMA_KEY, plan_sweep
     from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.scenario.shipped import scenario_folder
 
@@ -94,7 +94,7 @@ def _timed(module, name: str, stages: dict, key: str, generator: bool = False):
 
 def time_stages(runs: int, jobs: int) -> dict:
     """run_sweep in this process, its stages timed by wrapping the functions it calls."""
-    import liaison_cli.campaign.sweep as sweep
+    import liaison_cli.campaign.sweep.run as sweep
 
     stages: dict = {}
     _timed(sweep, "prepare_problem", stages, "truth")
@@ -115,7 +115,7 @@ def time_stages(runs: int, jobs: int) -> dict:
 
 def time_compute(runs: int, sample: int = 3) -> float:
     """Sum of every run's compute: `sample` runs of each grid point, serially here, scaled to `runs`."""
-    from liaison_cli.campaign.sweep import execute_batch
+    from liaison_cli.campaign.sweep.worker import execute_batch
     from liaison_cli.scenario.setup import prepare_problem
 
     plan = _plan(runs)

@@ -26,8 +26,8 @@ def core_source_hash(packages=COMPILED_PACKAGES) -> str:
     root = Path(__file__).parent
     memo = _DigestMemo()
     for package in packages:
-        for path in sorted((root / package).glob("*.py")):
-            digest.update(path.name.encode())
+        for path in sorted((root / package).rglob("*.py")):  # sub-packages too (dynamics.integrators)
+            digest.update(path.relative_to(root / package).as_posix().encode())
             digest.update(memo.code_digest(path.read_bytes()).encode())
     memo.save()
     return digest.hexdigest()[:16]

@@ -23,7 +23,7 @@ from pathlib import Path
 VERSIONED = ("numpy", "scipy", "numba", "llvmlite", "pyarrow")
 # Read once, when a library loads: OpenBLAS's kernel choice, numba's target CPU and its features, thread counts
 # (a threaded BLAS can split a sum differently). Unset in the parent, liaison sizes each worker's thread pools
-# itself (campaign.backends: cores / --jobs).
+# itself (campaign.engine.backends: cores / --jobs).
 ARITHMETIC_VARIABLES = ("OPENBLAS_CORETYPE", "NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "OMP_NUM_THREADS",
                         "OPENBLAS_NUM_THREADS")
 # OpenBLAS's name for the kernel set it chose at load time; scipy-openblas builds prefix (and, with 64-bit

@@ -144,20 +144,20 @@ def test_the_checks_catch_a_violating_import(tmp_path):
     package = _write_fake_package(tmp_path, {
         "__init__.py": "",
         "dynamics/__init__.py": "",
-        "dynamics/crtbp.py": "def f():\n    from liaison_cli.campaign import runner\n",
+        "dynamics/crtbp.py": "def f():\n    from liaison_cli.campaign.engine import runner\n",
         "campaign/__init__.py": "",
-        "campaign/runner.py": "from liaison_cli.campaign.sweep import x\n",
-        "campaign/sweep.py": "def g():\n    import liaison_cli.campaign.runner\n",
+        "campaign/engine/runner.py": "from liaison_cli.campaign.sweep.run import x\n",
+        "campaign/sweep/run.py": "def g():\n    import liaison_cli.campaign.engine.runner\n",
     })
     graph = import_graph(package)
-    assert layer_violations(graph) == ["dynamics.crtbp (layer 1) imports campaign.runner (layer 8)"]
-    assert import_cycles(graph) == [["campaign.runner", "campaign.sweep"]]
+    assert layer_violations(graph) == ["dynamics.crtbp (layer 1) imports campaign.engine.runner (layer 8)"]
+    assert import_cycles(graph) == [["campaign.engine.runner", "campaign.sweep.run"]]
 
 
 def test_core_source_imports_no_io_libraries():
     offenders = {}
     for package in CORE_PACKAGES:
-        for path in (PACKAGE / package).glob("*.py"):
+        for path in (PACKAGE / package).rglob("*.py"):
             bad = _imported_roots(path) & FORBIDDEN
             if bad:
                 offenders[str(path.relative_to(PACKAGE))] = sorted(bad)
@@ -166,7 +166,8 @@ def test_core_source_imports_no_io_libraries():
 
 def test_importing_the_core_loads_no_io_libraries():
     # yaml is left out here only because numba itself reads its optional config file with it.
-    modules = [f"liaison_cli.{p}.{f.stem}" for p in CORE_PACKAGES for f in (PACKAGE / p).glob("*.py")]
+    modules = [f"liaison_cli.{_module_name(PACKAGE, f)}" for p in CORE_PACKAGES
+               for f in (PACKAGE / p).rglob("*.py")]
     watched = sorted(FORBIDDEN - {"yaml", "json", "pickle"})
     code = (
         f"import sys\nfor m in {modules!r}: __import__(m)\n"
@@ -266,7 +267,7 @@ def test_every_library_the_package_imports_is_a_declared_dependency():
 # the parts together and prints. Two checks hold the ends of that line.
 
 # What writes a file or a folder: storage's writers, pandas' and matplotlib's, pathlib's. `resumable_output` is
-# not among them: `liaison sweep` hands the folder it settles to the sweep engine (campaign.sweep), which writes.
+# not among them: `liaison sweep` hands the folder it settles to the sweep (campaign.sweep.run), which writes.
 FILE_WRITERS = {"write_parquet_atomic", "write_text_atomic", "write_bytes_atomic", "write_columns_atomic",
                 "write_atomic", "staged_output", "prepare_output_dir", "ParquetStream", "to_parquet", "to_csv",
                 "savefig", "write_text", "write_bytes", "mkdir", "touch", "unlink", "rmtree"}
@@ -350,9 +351,9 @@ def test_report_only_formats_and_draws():
 @pytest.mark.parametrize("text", [
     "from liaison_cli.campaign.studies.table3 import compute_table3\n",
     "def f():\n    from liaison_cli.estimation import ekf\n",
-    "import liaison_cli.campaign.runner\n",
-    "from liaison_cli.campaign import worker\n",
-    "import importlib\nrunner = importlib.import_module('liaison_cli.campaign.runner')\n",
+    "import liaison_cli.campaign.engine.runner\n",
+    "from liaison_cli.campaign.engine import worker\n",
+    "import importlib\nrunner = importlib.import_module('liaison_cli.campaign.engine.runner')\n",
 ])
 def test_the_report_check_catches_a_computation(tmp_path, text):
     package = _write_fake_package(tmp_path, {"__init__.py": "", "report/__init__.py": "", "report/table3.py": text,

@@ -98,7 +98,7 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
         shutil.copytree(session_cache, cache / session_cache.name, ignore=shutil.ignore_patterns("*.tmp*"))
     except shutil.Error:
         pass  # a file that vanished mid-copy is only one more kernel to compile: the notice still comes once
-    taken_out = list((cache / session_cache.name).rglob("crtbp.rk4_states_forced-*"))
+    taken_out = list((cache / session_cache.name).rglob("rk4.rk4_states_forced-*"))
     assert taken_out, "the truth's RK4 is in the cache"
     for path in taken_out:
         path.unlink()
@@ -108,6 +108,6 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
     cold = subprocess.run([*args, "--output", str(tmp_path / "a")], capture_output=True, text=True, env=env)
     assert cold.returncode == 0, cold.stderr
     assert cold.stderr.count(COMPILE_NOTICE) == 1
-    assert list((cache / session_cache.name).rglob("crtbp.rk4_states_forced-*.nbc")), "the cold run cached it again"
+    assert list((cache / session_cache.name).rglob("rk4.rk4_states_forced-*.nbc")), "the cold run cached it again"
     warm = subprocess.run([*args, "--output", str(tmp_path / "b")], capture_output=True, text=True, env=env)
     assert warm.returncode == 0 and warm.stderr == "", warm.stderr

@@ -42,23 +42,23 @@ def test_the_example_runs_and_prints_what_the_page_shows(tmp_path, monkeypatch):
 def test_the_calls_the_page_names_exist_with_their_parameters():
     page = PAGE.read_text()
     modules = {
-        "liaison_cli.campaign.runner": ["run_campaign"],
-        "liaison_cli.campaign.results": ["summary_table", "timeseries_table", "residuals_table", "consistency_table",
-                                         "bias_table", "clock_table", "summarise_campaign", "write_campaign",
-                                         "stream_campaign"],
+        "liaison_cli.campaign.engine.runner": ["run_campaign"],
+        "liaison_cli.campaign.engine.results": ["summary_table", "timeseries_table", "residuals_table",
+                                                "consistency_table", "bias_table", "clock_table", "summarise_campaign",
+                                                "write_campaign", "stream_campaign"],
         "liaison_cli.scenario.schema": ["load_scenario", "apply_overrides"],
         "liaison_cli.scenario.shipped": ["shipped_scenario"],
         "liaison_cli.storage": ["read_metadata"],
-        "liaison_cli.campaign.backends": ["Backend"],
+        "liaison_cli.campaign.engine.backends": ["Backend"],
     }
     for module, names in modules.items():
         assert f"`{module}`" in page or f"from {module} import" in page, module
         for name in names:
             assert hasattr(importlib.import_module(module), name), (module, name)
-    from liaison_cli.campaign.runner import CampaignResult, run_campaign
-    from liaison_cli.campaign.worker import RunOutcome
+    from liaison_cli.campaign.engine.runner import CampaignResult, run_campaign
+    from liaison_cli.campaign.engine.worker import RunOutcome
 
-    from liaison_cli.campaign.backends import LOCAL
+    from liaison_cli.campaign.engine.backends import LOCAL
 
     shown = re.search(r"\*\*`run_campaign\((.*?)\)`\*\*", page, flags=re.S).group(1)
     documented = [part.strip().partition("=")[::2] for part in " ".join(shown.split()).split(",")]

@@ -1,4 +1,4 @@
-"""Write liaison_cli/dynamics/dop853_tableau.py: the 12-stage DOP853 tableau as literal floats.
+"""Write liaison_cli/dynamics/integrators/dop853_tableau.py: the 12-stage DOP853 tableau as literal floats.
 
 The coefficients are copied from scipy's private module scipy.integrate._ivp.dop853_coefficients once, here,
 so that liaison never reads a private scipy file at run time (a scipy release that moves it would otherwise
@@ -12,7 +12,7 @@ import importlib
 import textwrap
 from pathlib import Path
 
-TARGET = Path(__file__).resolve().parents[1] / "liaison_cli" / "dynamics" / "dop853_tableau.py"
+TARGET = Path(__file__).resolve().parents[1] / "liaison_cli" / "dynamics" / "integrators" / "dop853_tableau.py"
 
 
 def _values(row, indent: str) -> str:

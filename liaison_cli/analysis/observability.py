@@ -15,8 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from liaison_cli.dynamics.constants import MU, TU_S
-from liaison_cli.dynamics.crtbp import jacobian, rk4_state_stm
-from liaison_cli.dynamics.propagation import dop853_state_stm
+from liaison_cli.dynamics.crtbp import jacobian
+from liaison_cli.dynamics.integrators.adaptive import dop853_state_stm
+from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm
 from liaison_cli.measurements.registry import OBSERVABLES as REGISTERED
 from liaison_cli.measurements.registry import get_observable, predict_along
 

@@ -191,11 +191,11 @@ SchedulerTimeoutOption = Annotated[float, typer.Option("--scheduler-timeout", mi
 
 
 def fan_out(backend: str, scheduler: str | None, scheduler_timeout_s: float, connect: bool = True):
-    """The backend the options name (campaign.backends.Backend), checked before any work: an unknown backend or
+    """The backend the options name (campaign.engine.backends.Backend), checked before any work: an unknown backend or
     a malformed address is one line, exit 2; a scheduler that does not answer within the timeout, exit 3.
     connect=False skips asking the scheduler, for a command that will not use it this time (`errors`
     without --check-runs)."""
-    from liaison_cli.campaign.backends import Backend, check_backend, check_scheduler_address, probe_scheduler
+    from liaison_cli.campaign.engine.backends import Backend, check_backend, check_scheduler_address, probe_scheduler
 
     check_backend(backend, scheduler)
     if scheduler and connect:

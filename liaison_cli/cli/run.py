@@ -57,7 +57,7 @@ def run(
     """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results.
 
     Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2"""
-    from liaison_cli.campaign.results import stream_campaign
+    from liaison_cli.campaign.engine.results import stream_campaign
     from liaison_cli.campaign.studies.output import fill_folder
     from liaison_cli.scenario.loading import load_scenario
 

@@ -67,7 +67,7 @@ def study003(
     """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures.
 
     Example: liaison study003 --runs 50 --grid filter.underweighting=0,0.2"""
-    from liaison_cli.campaign.grid import check_grid_size, parse_grid
+    from liaison_cli.campaign.sweep.grid import check_grid_size, parse_grid
     from liaison_cli.campaign.studies.output import StudyOutput, study_meta, write_folder
     from liaison_cli.campaign.studies.study003 import DSN_NOISE_READINGS, run_study, tuning
     from liaison_cli.campaign.studies.study_cells import first_grid_point
@@ -126,7 +126,7 @@ def study004(
     """004's study: each transmitter x receiver pair (TDoA + FDoA); LinCov 3σ and the EKF Monte Carlo
     (converged share, time to converge, consistency), rankings, DOP, and 004's claims checked on the EKF's
     settled error with LinCov σ beside it (claims.parquet); table and figures."""
-    from liaison_cli.campaign.grid import check_grid_size, parse_grid
+    from liaison_cli.campaign.sweep.grid import check_grid_size, parse_grid
     from liaison_cli.campaign.studies.study003 import tuning
     from liaison_cli.campaign.studies.output import StudyOutput, study_meta, write_folder
     from liaison_cli.campaign.studies.study004 import check_claims, rankings, run_study

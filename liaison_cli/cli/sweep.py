@@ -93,10 +93,12 @@ def sweep(
 
     Examples: liaison sweep --sigma 50:700 --runs 10 (Fig. 15);
     liaison sweep scenarios/eml2_lunar.yaml --grid measurement.interval_s=60,187.5,600 --runs 20"""
-    from liaison_cli.campaign.grid import check_grid_size, parse_grid, parse_range
+    from liaison_cli.campaign.sweep.grid import check_grid_size, parse_grid, parse_range
     from liaison_cli.storage import resumable_output
     from liaison_cli.scenario.loading import load_scenario
-    from liaison_cli.campaign.sweep import SIGMA_KEY, plan_sweep, run_sweep, sweep_lock
+    from liaison_cli.campaign.sweep.manifest import sweep_lock
+    from liaison_cli.campaign.sweep.plan import SIGMA_KEY, plan_sweep
+    from liaison_cli.campaign.sweep.run import run_sweep
 
     check_runs(runs)
     fan_out(backend, scheduler, scheduler_timeout)  # before the lock and any work: a bad scheduler is one line

@@ -41,7 +41,7 @@ def tune(
     check_runs(runs)
     where = fan_out(backend, scheduler, scheduler_timeout)
     rungs = parse_ladder(ladder)
-    from liaison_cli.campaign.grid import check_grid_size  # the sweeps' caps: bounded work before any run
+    from liaison_cli.campaign.sweep.grid import check_grid_size  # the sweeps' caps: bounded work before any run
 
     check_grid_size([("ladder", list(rungs))], len(scenarios), runs)
     if table.suffix != ".md" or table.is_dir():

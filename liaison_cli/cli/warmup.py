@@ -1,5 +1,5 @@
 """`liaison warm-up`: compile every kernel specialisation the shipped scenarios and templates need, ahead of
-the first run (the work is liaison_cli.campaign.warmup; this module parses, calls and prints)."""
+the first run (the work is liaison_cli.campaign.engine.warmup; this module parses, calls and prints)."""
 
 import os
 import time
@@ -26,7 +26,7 @@ def warm_up(
     of estimator, dynamics and observables; their first runs then load it from the cache. Writes nothing else.
 
     Examples: liaison warm-up --jobs 2; liaison warm-up --list (what it would compile, for which scenarios)"""
-    from liaison_cli.campaign.warmup import WARM_UP_DAYS, plan
+    from liaison_cli.campaign.engine.warmup import WARM_UP_DAYS, plan
 
     n_jobs = _whole_number(jobs, "--jobs")
     specs = plan()
@@ -65,7 +65,7 @@ def _whole_number(text: str, option: str) -> int:
 
 
 def _compile_all(specs, n_sources: int, jobs: int) -> None:
-    from liaison_cli.campaign.warmup import warm_up
+    from liaison_cli.campaign.engine.warmup import warm_up
 
     cache = os.environ.get("NUMBA_CACHE_DIR", "")
     typer.echo(f"warm-up: {len(specs)} combinations for {n_sources} shipped scenarios and templates, "

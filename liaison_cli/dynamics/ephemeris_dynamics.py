@@ -8,6 +8,10 @@ their radii, so nu = 0 in umbra, 1 in sunlight and continuous across the penumbr
 fractions multiply). Variational equations: the gravity gradients of every body and of the SRP term with
 nu held constant (its derivative is non-zero only in penumbra, minutes per eclipse).
 
+Here: the right-hand side (`ephemeris_derivative`), the shadow (`visible_fraction`, `shadow_edges`) and the
+truth (`dop853_ephemeris_states`: integrators.adaptive's DOP853, restarted at every shadow edge). The filter's
+fixed-step RK8 of this field is integrators.rk8.rk8_advance_ephemeris.
+
 Units: km, km/s, TDB seconds past J2000. Bodies come as codes of dynamics.ephemeris with their GM.
 """
 
@@ -19,7 +23,7 @@ from numba import njit
 from liaison_cli.dynamics.constants import (
     AU_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM, SOLAR_FLUX_1AU_W_M2, SPEED_OF_LIGHT_M_S, SUN_RADIUS_KM)
 from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_state
-from liaison_cli.dynamics.rk8 import rk8_combine, rk8_stage_input
+from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
 # Lengths of the integrated vector: the state and its STM (6 + 36), and with the C_R sensitivity column (+ 6).
@@ -151,26 +155,6 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
 
 
 @njit(cache=True)
-def rk8_ephemeris(y, t_s, dt_s, n_steps, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am,
-                  a, b, c):
-    """Advance y (6,), (42,) or (48,) (ephemeris_derivative) in place from t_s over dt_s in n_steps RK8 steps
-    (tableau a, b, c)."""
-    size = y.shape[0]
-    with_stm = size >= STM_SIZE
-    k = np.empty((12, size))
-    tmp = np.empty(size)
-    h = dt_s / n_steps
-    t = t_s
-    for _ in range(n_steps):
-        for s in range(12):
-            rk8_stage_input(y, h, a, k, s, tmp)
-            ephemeris_derivative(t + c[s] * h, tmp, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth,
-                                 cr_am, with_stm, k[s])
-        rk8_combine(y, h, b, k)
-        t += h
-
-
-@njit(cache=True)
 def shadow_edges(r_sat, r_sun, r_body, radius_body):
     """(c - (a + b), c - |a - b|): zero where the satellite enters or leaves the penumbra and the umbra (or
     annular zone) of a body; the conical model's nu has a kink at each, which the truth steps onto."""
@@ -184,17 +168,15 @@ def shadow_edges(r_sat, r_sun, r_body, radius_body):
     return c - (a + b), c - abs(a - b)
 
 
-def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
-                    acceleration_km_s2=None):
-    """Truth states (m, 6) at times_s by scipy's adaptive DOP853 on the compiled derivative, restarted at
-    every shadow edge (penumbra and umbra of the Earth and the Moon, located as events): the conical
-    shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at 864 s: 1.6 m after
-    9 days; DOP853 without the restarts: 0.6 m). Tolerances rtol 1e-12, atol 1e-9 km; after 9 days with one
-    eclipse this truth is within 2.3 cm of itself at rtol 1e-13 (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant
-    extra acceleration on the ICRF axes (the truth's unmodelled force; None: none)."""
-    from scipy.integrate import solve_ivp
-
-    times_s = np.asarray(times_s, dtype=float)
+def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
+                            acceleration_km_s2=None):
+    """Truth states (m, 6) at times_s by scipy's adaptive DOP853 (integrators.adaptive.dop853_samples) on the
+    compiled derivative, restarted at every shadow edge (penumbra and umbra of the Earth and the Moon, located
+    as events): the conical shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at
+    864 s: 1.6 m after 9 days; DOP853 without the restarts: 0.6 m). Tolerances rtol 1e-12, atol 1e-9 km; after
+    9 days with one eclipse this truth is within 2.3 cm of itself at rtol 1e-13
+    (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant extra acceleration on the ICRF
+    axes (the truth's unmodelled force; None: none)."""
     out = np.empty(6)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
 
@@ -217,22 +199,4 @@ def propagate_truth(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rto
         return event
 
     events = [edge(w, b) for w in (0, 1) for b in (BODY_EARTH, BODY_MOON)] if cr_am > 0.0 else []
-    states = np.empty((times_s.size, 6))
-    t, y, done = float(t0_s), np.asarray(x0, dtype=float), 0
-    if times_s[0] == t:
-        states[0], done = y, 1
-    while done < times_s.size:
-        sol = solve_ivp(rhs, (t, times_s[-1]), y, method="DOP853", t_eval=times_s[done:], rtol=rtol, atol=atol,
-                        events=events or None)
-        if not sol.success:
-            raise RuntimeError(f"ephemeris truth propagation failed: {sol.message}")
-        n = len(sol.t)
-        if n:
-            states[done : done + n] = np.asarray(sol.y).T
-        done += n
-        if sol.status == 1:  # stopped on a shadow edge: restart just past it
-            hit = min((te[0], ye[0]) for te, ye in zip(sol.t_events, sol.y_events) if len(te))
-            t, y = hit[0] + 1e-6, hit[1] + 1e-6 * rhs(hit[0], hit[1])
-        elif done < times_s.size:
-            raise RuntimeError("ephemeris truth propagation ended early")
-    return states
+    return dop853_samples(rhs, t0_s, x0, times_s, rtol, atol, events, what="ephemeris truth propagation")

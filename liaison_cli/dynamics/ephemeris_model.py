@@ -12,10 +12,9 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
-from liaison_cli.dynamics.ephemeris_dynamics import (SENSITIVITY_SIZE, STM_SIZE, ephemeris_derivative,
-                                                     rk8_ephemeris)
+from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE, ephemeris_derivative
+from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
 from liaison_cli.dynamics.registry import DYNAMICS
-from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
 
 SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
 HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
@@ -76,8 +75,8 @@ def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
     for i in range(6):
         y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
-    rk8_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records, bodies,
-                  gms, gm_earth, cr_am, RK8_A, RK8_B, RK8_C)
+    rk8_advance_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records,
+                          bodies, gms, gm_earth, cr_am, RK8_A, RK8_B, RK8_C)
     out = np.empty(6)
     phi = np.empty((6, 6))
     for i in range(6):
@@ -102,8 +101,8 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
     for i in range(6):
         y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
-    rk8_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records, bodies,
-                  gms, gm_earth, cr_am * (1.0 + cr_scale), RK8_A, RK8_B, RK8_C)
+    rk8_advance_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records,
+                          bodies, gms, gm_earth, cr_am * (1.0 + cr_scale), RK8_A, RK8_B, RK8_C)
     # The integrated column is d/dlambda at C_R (1 + cr_scale) (1 + lambda): d/dcr_scale is it / (1 + cr_scale).
     for i in range(6):
         y[STM_SIZE + i] /= SCALE[i] * (1.0 + cr_scale)
@@ -190,11 +189,12 @@ class EphemerisDynamicsModel:
 
     def truth_states(self, state0, times_tu) -> np.ndarray:
         """Truth (m, 6), scaled units, from state0 (scaled) at times_tu[0] (TU since the epoch)."""
-        from liaison_cli.dynamics.ephemeris_dynamics import propagate_truth
+        from liaison_cli.dynamics.ephemeris_dynamics import dop853_ephemeris_states
 
         times_s = self.epoch_tdb_s + np.asarray(times_tu, dtype=float) * TU_S
-        km = propagate_truth(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies, self.gms,
-                             self.gm_earth, self.cr_am, acceleration_km_s2=self.truth_acceleration_km_s2)
+        km = dop853_ephemeris_states(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies,
+                                     self.gms, self.gm_earth, self.cr_am,
+                                     acceleration_km_s2=self.truth_acceleration_km_s2)
         return km / SCALE
 
     def trajectory(self, states, times_tu):

@@ -1,10 +1,11 @@
 """The dynamics interface: state + STM over an interval, given an epoch. Estimators see nothing else.
 
 A model is a code and a parameter vector (plain data, so compiled estimators take it as arguments and
-numba can cache them): `propagate_state_stm(model, params, state, t_tu, dt_tu, substeps)`. The CRTBP is
-code 0 (params = [mu]). A dated ephemeris model plugs in as a new code here and a new file beside
-`crtbp.py`; the estimators do not change. `DynamicsModel` is the Python side: truth propagation and the
-frame's trajectories.
+numba can cache them): `propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work)`,
+with a parameter's column `propagate_parameter_into`, and the batch's RK8 `propagate_rk8_in_place`. The
+CRTBP is code 0 (params = [mu]). A dated ephemeris model plugs in as a new code here and a new file beside
+`crtbp.py`; the estimators do not change. The integrators themselves are in dynamics.integrators.
+`DynamicsModel` is the Python side: truth propagation and the frame's trajectories.
 """
 
 from dataclasses import dataclass, field
@@ -15,11 +16,11 @@ from numba.core.errors import TypingError
 from numba.extending import overload
 
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
-from liaison_cli.dynamics.crtbp import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
+from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
+from liaison_cli.dynamics.integrators.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.registry import CRTBP, DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
-from liaison_cli.dynamics.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
 M_S2_PER_LU_TU2 = M_PER_LU / TU_S**2  # acceleration units
@@ -34,33 +35,15 @@ PROPAGATION_SIZE = SENSITIVITY_SIZE
 TRUTH_MAX_STEP_S = 10.0
 
 
-def propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
-    """(6,) state at t_tu -> (state (6,), Phi (6, 6)) at t_tu + dt_tu: the CRTBP by `substeps` fixed RK4
-    steps, the ephemeris model by `substeps` fixed RK8 steps.
+def propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
+    """(6,) state at t_tu -> y (42,) = [state (6), Phi(t_tu + dt_tu, t_tu) row-major (36)], with work (5, 42)
+    the caller's scratch (no allocation per interval where the model allows it): the CRTBP by `substeps` fixed
+    RK4 steps, the ephemeris model by `substeps` fixed RK8 steps.
 
     Compiled code only. The model code must be a compile-time constant: the compiled caller says
     numba.literally(model), and Python calls it through `literal_entry` (no typing pass per process). So
     each scenario compiles its own dynamics and nothing else: the ephemeris field behind a runtime branch
     added 6 s to every cold first run."""
-    raise NotImplementedError("propagate_state_stm is compiled code; call it from a numba function")
-
-
-@overload(propagate_state_stm, inline="always")
-def _propagate_state_stm(model, params, state, t_tu, dt_tu, substeps):
-    if not isinstance(model, types.IntegerLiteral):
-        raise TypingError("propagate_state_stm: the model code must be a compile-time constant (numba.literally)")
-
-    def impl(model, params, state, t_tu, dt_tu, substeps):  # the models are told apart in one place: _into
-        y = np.empty(STM_SIZE)
-        propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, np.empty((5, STM_SIZE)))
-        return y[0:6].copy(), y[6:].copy().reshape(6, 6)
-
-    return impl
-
-
-def propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
-    """propagate_state_stm written into y (42,) = [state (6), Phi row-major (36)], with work (5, 42) the
-    caller's scratch: the filter loops' form (no allocation per interval where the model allows it)."""
     raise NotImplementedError("propagate_state_stm_into is compiled code; call it from a numba function")
 
 
@@ -114,13 +97,13 @@ def literal_entry(dispatcher, args, literal_index):
 
 
 @njit(cache=True, inline="always")
-def advance_rk8(model, params, y, t_tu, dt_tu, n_steps, k, tmp):
+def propagate_rk8_in_place(model, params, y, t_tu, dt_tu, n_steps, k, tmp):
     """In place: y (6,) state or (42,) [state, Phi(t, t0) row-major] from t_tu to t_tu + dt_tu, n_steps RK8
     steps; k (12, len(y)) and tmp (len(y),) are the caller's scratch (no allocation per interval)."""
     if model == MODEL_CRTBP:
         rk8_advance(y, dt_tu, n_steps, params[0], k, tmp)
     else:  # the batch runs with the CRTBP only (its Estimator descriptor); never a silent NaN
-        raise ValueError("advance_rk8: the batch's RK8 integrates the CRTBP only")
+        raise ValueError("propagate_rk8_in_place: the batch's RK8 integrates the CRTBP only")
 
 
 @dataclass(frozen=True, eq=False)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.model import advance_rk8
+from liaison_cli.dynamics.model import propagate_rk8_in_place
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
                                                 channel_states)
@@ -70,7 +70,8 @@ def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts
                 y[6 + 7 * i] = 1.0
         for k in range(n_epochs):
             if k > 0:
-                advance_rk8(model, params, y, t0_tu + (k - 1) * dt_tu, dt_tu, counts[k - 1], k_scratch, tmp)
+                propagate_rk8_in_place(model, params, y, t0_tu + (k - 1) * dt_tu, dt_tu, counts[k - 1], k_scratch,
+                                       tmp)
             for i in range(6):
                 traj[k, a + i] = y[i]
             if with_stm:

@@ -2,7 +2,7 @@
 
 Everything here is plain arrays: no Python objects in the inner loop, so one 10-day run costs tens of
 milliseconds. The loop knows the state only as a layout of blocks (estimation.blocks), the dynamics only
-through `dynamics.model.propagate_state_stm` (a model code + parameters), and the measurements only
+through `dynamics.model.propagate_state_stm_into` (a model code + parameters), and the measurements only
 through `measurements.registry.predict_for` (its scenario's kinds) / `residual` plus each channel's table of
 ends and modifiers. The EKF algebra lives in `estimation.ekf`.
 """
@@ -386,7 +386,7 @@ def run_ekf(model, kinds, x0_hat, P0, noise, truth, y_obs, known_states, channel
     (apply_burns); the named groups as estimation.kernel_args describes them. Returns (err, sigma (m, n), nees
     (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's update, the
     innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
-    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
+    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm_into)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size, block_parameter = layout
     model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics

@@ -177,7 +177,7 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
     (m, n), mu_dyn (m, n). Each epoch is the module docstring's predict (time_update, the covariance
     prediction of Eq. 12 for P and _propagate_parts for the parts) then update (_update_along_truth).
     """
-    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm)
+    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm_into)
     numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size, block_parameter = layout
     params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics

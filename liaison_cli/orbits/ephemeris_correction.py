@@ -47,11 +47,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from liaison_cli.dynamics.constants import MU, TU_S
-from liaison_cli.dynamics.crtbp import rk4_states
 from liaison_cli.dynamics.ephemeris import geocentric_state
-from liaison_cli.dynamics.ephemeris_dynamics import rk8_ephemeris
 from liaison_cli.dynamics.frames import crtbp_to_inertial, inertial_to_crtbp
-from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
+from liaison_cli.dynamics.integrators.rk4 import rk4_states
+from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
 
 POSITION_TOLERANCE_KM = 1e-6  # 003's continuity criterion: 1 mm
 VELOCITY_TOLERANCE_KM_S = 1e-9  # and 1 um/s
@@ -102,8 +101,8 @@ class ForceModel:
             y[:6] = x0
             y[6::7] = 1.0
         w = self.window
-        rk8_ephemeris(y, t_s, dt_s, n_steps, w.coeffs, w.start_s, w.interval_s, w.n_records, self.bodies, self.gms,
-                      self.gm_earth, self.cr_am, RK8_A, RK8_B, RK8_C)
+        rk8_advance_ephemeris(y, t_s, dt_s, n_steps, w.coeffs, w.start_s, w.interval_s, w.n_records, self.bodies,
+                              self.gms, self.gm_earth, self.cr_am, RK8_A, RK8_B, RK8_C)
         return (y[:6].copy(), y[6:].reshape(6, 6).copy()) if with_stm else y
 
     def moon_state(self, t_s):

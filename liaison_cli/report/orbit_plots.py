@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 
 from liaison_cli.dynamics.constants import LU_KM, MU
-from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.dynamics.integrators.adaptive import dop853_states
 from liaison_cli.orbits.families import TU_DAYS
 from liaison_cli.orbits.periodic import lagrange_point_x
 
@@ -24,7 +24,7 @@ def draw_family(name: str, members, out_path) -> Path:
     fig, axes = plt.subplots(1, 3, figsize=(15, 5.2), constrained_layout=True)
     planes = (("x", "y", 0, 1), ("x", "z", 0, 2), ("y", "z", 1, 2))
     for orbit, days in zip(members, periods):
-        states = propagate_states(np.array(orbit.state), np.linspace(0.0, orbit.period_tu, 600), MU)
+        states = dop853_states(np.array(orbit.state), np.linspace(0.0, orbit.period_tu, 600), MU)
         for ax, (_, _, i, j) in zip(axes, planes):
             ax.plot(states[:, i] * LU_KM / 1e3, states[:, j] * LU_KM / 1e3, color=cmap(norm(days)), lw=0.8)
     moon = np.array([1.0 - MU, 0.0, 0.0]) * LU_KM / 1e3

@@ -8,7 +8,7 @@ import pandas as pd
 
 from liaison_cli.errors import LiaisonError, UnreadableFileError
 
-# Written by every `liaison run` (campaign.results.write_outcomes); clocks and bias are empty (no columns)
+# Written by every `liaison run` (campaign.engine.results.write_outcomes); clocks and bias are empty (no columns)
 # when the scenario has no clock states or range biases.
 REQUIRED_TABLES = ("summary", "timeseries", "consistency", "residuals")
 OPTIONAL_TABLES = ("clocks", "bias", "links")

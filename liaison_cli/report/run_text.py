@@ -1,7 +1,7 @@
 """The text `liaison run` prints: per-spacecraft tables of a campaign's summary rows (RMS, containment,
 consistency after the settle time, smoothed figures, batch prediction, residual-gate rejections, run status)
 and the fixed-width cell helpers the CLI's other tables use. Formats only: every number comes from the
-summary rows (campaign.results) or analysis.metrics."""
+summary rows (campaign.engine.results) or analysis.metrics."""
 
 import math
 

@@ -5,7 +5,7 @@ period (dated scenarios map the result into DE421 by multiple shooting)."""
 import numpy as np
 
 from liaison_cli.dynamics.constants import MU
-from liaison_cli.dynamics.crtbp import rk4_states
+from liaison_cli.dynamics.integrators.rk4 import rk4_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
 from liaison_cli.scenario.participants import KEPLERIAN_ORBIT

@@ -34,7 +34,7 @@ def is_ours(path: Path) -> bool:
 
 
 def _liaison_manifest(path: Path) -> bool:
-    """The file's first line is a liaison sweep manifest's header (campaign.sweep_plan.SweepPlan.header): a JSON
+    """The file's first line is a liaison sweep manifest's header (campaign.sweep.plan.SweepPlan.header): a JSON
     object of kind 'header' with a format number, the sweep's name, the code hash and its points."""
     import json
 

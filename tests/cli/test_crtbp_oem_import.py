@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from liaison_cli.campaign.exchange.export import export_run
-from liaison_cli.campaign.results import stream_campaign
+from liaison_cli.campaign.engine.results import stream_campaign
 from liaison_cli.dynamics.constants import M_PER_LU, VU_KM_S
 from liaison_cli.errors import ExchangeFileError
 from liaison_cli.exchange.oem import read_oem

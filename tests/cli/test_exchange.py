@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.campaign.exchange.export import export_run, recompute_run
-from liaison_cli.campaign.results import stream_campaign
+from liaison_cli.campaign.engine.results import stream_campaign
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, VU_KM_S
 from liaison_cli.errors import ExchangeFileError
 from liaison_cli.exchange.oem import read_oem
@@ -440,8 +440,8 @@ def test_an_endless_file_is_refused_without_filling_the_memory(monkeypatch, tmp_
 
 def test_an_edited_orbit_file_is_another_scenario(tmp_path):
     """Issue 35 fault 3: a sweep over `orbit: {oem: FILE}` reused its old runs after FILE was edited; the files a
-    scenario names are part of its hash (campaign.sweep_plan.scenario_hash)."""
-    from liaison_cli.campaign.sweep_plan import scenario_hash
+    scenario names are part of its hash (campaign.sweep.plan.scenario_hash)."""
+    from liaison_cli.campaign.sweep.plan import scenario_hash
     from liaison_cli.scenario.loading import load_scenario
 
     path, oem = _oem_case(tmp_path, lambda text: text)

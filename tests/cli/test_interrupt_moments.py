@@ -130,7 +130,7 @@ def test_a_dask_fan_out_closes_its_cluster_before_handing_over_the_last_result(m
 
     import distributed
 
-    from liaison_cli.campaign import backends
+    from liaison_cli.campaign.engine import backends
 
     events, pool = [], ThreadPoolExecutor(2)
 

@@ -30,7 +30,7 @@ def test_an_interrupt_chained_into_a_system_error_is_recognised():
 def test_a_worker_re_raises_an_interrupt_from_compiled_code_instead_of_reporting_an_error(monkeypatch):
     """What numba does when Ctrl-C lands inside a compiled filter, replayed: the run must not become an
     'error' outcome (the campaign would go on and print 'ok')."""
-    from liaison_cli.campaign import worker
+    from liaison_cli.campaign.engine import worker
     from liaison_cli.scenario.loading import load_scenario
     from liaison_cli.scenario.setup import prepare_problem
 

@@ -7,7 +7,7 @@ import pandas as pd
 import numpy as np
 import pytest
 
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.setup import prepare_problem
@@ -54,7 +54,8 @@ def test_wide_numbers_keep_a_space_between_columns():
 
 
 def test_a_corrupt_manifest_line_in_the_middle_drops_only_itself(tmp_path):
-    from liaison_cli.campaign.sweep import read_manifest, run_sweep
+    from liaison_cli.campaign.sweep.manifest import read_manifest
+    from liaison_cli.campaign.sweep.run import run_sweep
     from tests.unit.campaign.test_sweep import _smoke_plan
 
     plan = _smoke_plan(runs=3)
@@ -85,7 +86,7 @@ def _sweep_args(out, runs=30, jobs=1):
 
 
 def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path):
-    from liaison_cli.campaign.sweep import sweep_lock
+    from liaison_cli.campaign.sweep.manifest import sweep_lock
 
     out = tmp_path / "busy"
     with sweep_lock(out):  # another sweep holds the folder
@@ -183,8 +184,8 @@ def test_streamed_tables_equal_the_in_memory_tables(tmp_path):
     built from every outcome held in memory."""
     import pyarrow.parquet as pq
 
-    from liaison_cli.campaign import results
-    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.engine import results
+    from liaison_cli.campaign.engine.runner import run_campaign
 
     scenario, text = load_scenario(SCENARIOS / "clock_one_way_eml2_lunar.yaml")
     scenario = scenario.model_copy(update={"duration_days": 0.3})
@@ -202,8 +203,8 @@ def test_the_writer_holds_a_bounded_number_of_outcomes(tmp_path):
     """Memory does not grow with the run count: the writer lets each outcome go once its rows are buffered."""
     import weakref
 
-    from liaison_cli.campaign import results
-    from liaison_cli.campaign.worker import RunTask, execute_run
+    from liaison_cli.campaign.engine import results
+    from liaison_cli.campaign.engine.worker import RunTask, execute_run
 
     scenario, text = load_scenario(SCENARIOS / "smoke.yaml")
     scenario = scenario.model_copy(update={"duration_days": 0.2})
@@ -230,7 +231,7 @@ def test_a_run_that_loses_track_is_diverged_by_the_nees_rule(tmp_path):
     are tens of sigmas out for days (NEES about 4,000 x its 99.9 % quantile). The NEES rule (100 x the 99.9 %
     chi-square quantile for a whole day) calls it diverged; the same filter with the bias estimated stays ok,
     and so does an ignored 3-sigma bias (test_bias: NEES up to about 11 x the quantile)."""
-    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.engine.runner import run_campaign
     from liaison_cli.scenario.loading import apply_overrides
 
     base, _ = load_scenario(SCENARIOS / "smoke.yaml")

@@ -84,7 +84,7 @@ def test_after_warm_up_no_shipped_scenario_or_template_compiles(tmp_path):
                           capture_output=True, text=True, timeout=1800)
     assert warm.returncode == 0, warm.stderr
     assert "warm-up: compiled" in warm.stdout and "compiled twice" not in warm.stdout, warm.stdout
-    check = ("from liaison_cli.campaign.warmup import Specialisation, plan, warm_up_one\n"
+    check = ("from liaison_cli.campaign.engine.warmup import Specialisation, plan, warm_up_one\n"
              "for spec in plan():\n"
              "    for source in spec.sources:\n"
              "        one = warm_up_one(Specialisation(*[getattr(spec, f) for f in "

@@ -6,7 +6,7 @@ import pytest
 
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.campaign.studies.error_budget import error_budget
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.loading import apply_overrides, load_scenario

@@ -5,8 +5,8 @@ states find the truth's within their sigma."""
 
 import numpy as np
 
-from liaison_cli.campaign.results import summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS
 

@@ -6,7 +6,7 @@ from benchmarks.reference import reference_ekf
 from liaison_cli.analysis.metrics import summary_rows
 from liaison_cli.scenario.setup import prepare_problem
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.estimation.estimators import estimate
 from tests.conftest import SCENARIOS

@@ -5,8 +5,8 @@ without the state is not (results/reference/cr_estimation.md has the 10-run ladd
 
 import numpy as np
 
-from liaison_cli.campaign.results import summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS
 

@@ -7,7 +7,7 @@ import pytest
 
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from tests.test_docs import ALWAYS, expected_columns
-from liaison_cli.campaign import backends
+from liaison_cli.campaign.engine import backends
 from liaison_cli.campaign.studies import study004
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.dynamics.constants import LU_KM, VU_KM_S
@@ -116,8 +116,9 @@ def test_the_low_energy_transfer_scenario_carries_its_manoeuvre():
     assert layout.n == 9 and layout.blocks[1].owner == "dv TX"
 
 
-# The study's fan-out: resume from finished cells and dask (campaign.studies.study_cells, campaign.backends). Here rather
-# than in tests/unit/campaign/test_fanout.py: one worker of the suite then compiles 004's dated TDoA kernels once.
+# The study's fan-out: resume from finished cells and dask (campaign.studies.study_cells,
+# campaign.engine.backends). Here rather than in tests/unit/campaign/test_fanout.py: one worker of the suite then
+# compiles 004's dated TDoA kernels once.
 def _one_day_halo(tmp_path):
     """004's EML2 halo transmitter over one day (three receiver pairs: three cells)."""
     halo = (SCENARIOS / "004" / "eml2_halo.yaml").read_text()

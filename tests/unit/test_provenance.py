@@ -18,7 +18,8 @@ import pytest
 import scipy
 
 from liaison_cli.campaign.studies.study_cells import CellStore
-from liaison_cli.campaign.sweep import plan_sweep, run_sweep
+from liaison_cli.campaign.sweep.plan import plan_sweep
+from liaison_cli.campaign.sweep.run import run_sweep
 from liaison_cli.provenance import ARITHMETIC_VARIABLES, arithmetic_provenance, git_commit
 from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.storage import read_metadata

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU, TU_S, VU_KM_S
 from liaison_cli.errors import ExchangeFileError, UnreadableFileError
 from liaison_cli.exchange import library

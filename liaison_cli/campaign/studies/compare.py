@@ -1,5 +1,5 @@
 """Side-by-side scenario comparison (`liaison compare`, 001 Tables 6-7), computed: each scenario's campaign
-(campaign.results) reduced to one row, RMS errors averaged over its spacecraft, run counts and the consistency
+(campaign.engine.results) reduced to one row, RMS errors averaged over its spacecraft, run counts and the consistency
 verdict. report.compare formats it; campaign.studies.output writes it."""
 
 import math
@@ -9,8 +9,8 @@ import pandas as pd
 from liaison_cli import __version__
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import campaign_error_to_sigma
-from liaison_cli.campaign.backends import LOCAL, Backend
-from liaison_cli.campaign.results import summarise_campaign
+from liaison_cli.campaign.engine.backends import LOCAL, Backend
+from liaison_cli.campaign.engine.results import summarise_campaign
 from liaison_cli.provenance import arithmetic_provenance
 
 METRICS = ("rms_position_m", "rms_velocity_m_s", "rms_position_after_day1_m", "rms_velocity_after_day1_m_s")

@@ -24,14 +24,13 @@ the Monte Carlo check runs the scenario's EKF, gate included.
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm import tqdm
 
 from liaison_cli import interrupts
 from liaison_cli.analysis.consistency import verdict
 from liaison_cli.analysis.metrics import fraction, nees_run_band
-from liaison_cli.campaign.backends import LOCAL, Backend
-from liaison_cli.campaign.runner import in_task_order, stays_in_process
-from liaison_cli.campaign.worker import draw_run_inputs, true_empirical_accelerations, true_parameters
+from liaison_cli.campaign.engine.backends import LOCAL, Backend
+from liaison_cli.campaign.engine.runner import run_tasks_in_order
+from liaison_cli.campaign.engine.worker import draw_run_inputs, true_empirical_accelerations, true_parameters
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.dynamics.model import literal_entry
@@ -300,10 +299,9 @@ def _check_run(inputs: CheckInputs, group: int, run: int) -> CheckRun:
 def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: float, jobs: int, where: Backend,
                 progress: bool):
     """Yield the CheckRun of every (group, run) in group then run order; the first failed run stops the check
-    (BudgetError). As runner.iter_outcomes: a small check stays in this process (runner.stays_in_process);
-    otherwise the first run is done here, and checked, before the fan-out starts (the compiled EKF is then
-    loaded or compiled once, not once per worker), and the rest go through the fan-out in task order
-    (runner.in_task_order, as a campaign's runs)."""
+    (BudgetError). The runs take a campaign's one path (runner.run_tasks_in_order): a small check stays in this
+    process; otherwise its first run is done here (the compiled EKF is then loaded or compiled once, not once
+    per worker) and the rest go through the fan-out in task order."""
     if problem.clocks:
         raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
     f = problem.filter
@@ -311,29 +309,12 @@ def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: floa
                   f.channel_kind, f.channel_ends, f.channel_flags)
     model_y = literal_entry(filter_model_along_truth, model_args, 0)(*model_args)
     inputs = CheckInputs(problem, model_y, tuple(groups), runs, settle_s)
-    tasks = range(len(groups) * runs)
-    bar = tqdm(total=len(tasks), desc=f"{problem.scenario.name} check", unit="run", disable=not progress,
-               leave=False)
-
-    def checked(results):
-        for result in results:
-            if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the check
-                raise KeyboardInterrupt
-            if result.reason:
-                raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "
-                                  f"{','.join(groups[result.group])} on {result.reason}")
-            bar.update(1)
-            yield result
-
-    try:
-        if stays_in_process(problem, len(tasks), jobs, where):
-            for task in tasks:
-                yield from checked(check_batch(inputs, [task]))
-            return
-        yield from checked(check_batch(inputs, tasks[:1]))
-        yield from checked(in_task_order(check_batch, inputs, tasks[1:], jobs, where))
-    finally:
-        bar.close()
+    for result in run_tasks_in_order(check_batch, inputs, problem, len(groups) * runs, jobs, where, progress,
+                                     f"{problem.scenario.name} check"):
+        if result.reason:
+            raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "
+                              f"{','.join(groups[result.group])} on {result.reason}")
+        yield result
 
 
 class _GroupSums:

@@ -32,8 +32,8 @@ import pandas as pd
 from liaison_cli.analysis.dop import tdoa_dop
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.campaign.studies.error_budget import error_budget
-from liaison_cli.campaign.backends import LOCAL, Backend, session
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.backends import LOCAL, Backend, session
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.campaign.studies.study_cells import CellStore, grid_points, source_digest
 from liaison_cli.campaign.studies.study003 import StudyError
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY

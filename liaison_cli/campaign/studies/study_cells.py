@@ -4,7 +4,7 @@ A study's work is cells (003: grid point x mission x case; 004: grid point x tra
 one Monte Carlo campaign through the fan-out (runner) reduced to a few tables. Each finished cell's tables are
 written atomically (storage) into the study's work folder as `<cell>-<key>.<part>.parquet`, then
 `<cell>-<key>.done` last: a cell counts as finished only once its `.done` is there. The key is a digest of
-everything the cell's numbers depend on: the study, the cell's effective scenario (sweep_plan.scenario_hash, as
+everything the cell's numbers depend on: the study, the cell's effective scenario (sweep.plan.scenario_hash, as
 a sweep's manifest records it), the run count, liaison's version, the code of every package that makes a cell's
 numbers (PACKAGE_CODE: from the dynamics to the campaign, comments and docstrings aside) and the source of the
 study module that reduces the runs, so a changed scenario, run count or code never reuses a stale cell (an
@@ -24,7 +24,7 @@ import pandas as pd
 from pyarrow import ArrowException
 
 from liaison_cli import __version__, core_source_hash, interrupts
-from liaison_cli.campaign.sweep_plan import scenario_hash
+from liaison_cli.campaign.sweep.plan import scenario_hash
 from liaison_cli.errors import LiaisonError
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.scenario_model import Scenario
@@ -32,7 +32,7 @@ from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 
 # The packages whose code makes a cell's numbers (the setup, the engine, the metrics, the runner).
 PACKAGE_CODE = ("dynamics", "radio", "orbits", "measurements", "estimation", "analysis", "exchange", "scenario",
-                "campaign", "campaign/studies", "campaign/exchange")
+                "campaign", "campaign/engine", "campaign/sweep", "campaign/studies", "campaign/exchange")
 CELL_FORMAT = 1  # the files' layout; part of the key, so a new layout never reads an old cell
 
 

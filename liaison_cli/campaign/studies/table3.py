@@ -14,8 +14,8 @@ import yaml
 from liaison_cli import __version__
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import campaign_error_to_sigma
-from liaison_cli.campaign.backends import LOCAL, Backend
-from liaison_cli.campaign.results import summarise_campaign
+from liaison_cli.campaign.engine.backends import LOCAL, Backend
+from liaison_cli.campaign.engine.results import summarise_campaign
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 

@@ -40,8 +40,10 @@ import yaml
 
 from liaison_cli import __version__
 from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE, RATIO_LIMIT, campaign_verdict
-from liaison_cli.campaign.backends import LOCAL, Backend
-from liaison_cli.campaign.sweep import plan_sweep, run_sweep, scenario_hash, sweep_lock
+from liaison_cli.campaign.engine.backends import LOCAL, Backend
+from liaison_cli.campaign.sweep.manifest import sweep_lock
+from liaison_cli.campaign.sweep.plan import plan_sweep, scenario_hash
+from liaison_cli.campaign.sweep.run import run_sweep
 from liaison_cli.errors import LiaisonError
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A

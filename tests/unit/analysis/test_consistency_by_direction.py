@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.analysis.consistency import campaign_verdict, direction_columns, verdict
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.estimation.estimators import ekf_with_record
 from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.scenario.loading import apply_overrides
@@ -108,7 +108,7 @@ def test_ric_components_are_a_rotation_of_the_3d_figures(monkeypatch):
     RMS and sigma RMS of the three axes add in quadrature to the 3-D figures of the same epochs (every epoch
     recorded here: the record's stride set to 1)."""
     from liaison_cli.analysis.ric import primaries_lu, ric_axes
-    from liaison_cli.campaign.worker import execute_run, RunTask
+    from liaison_cli.campaign.engine.worker import execute_run, RunTask
     from liaison_cli.estimation import kernel_args
 
     monkeypatch.setattr(kernel_args, "MAX_DIRECTION_SAMPLES", 10**9)

@@ -6,10 +6,10 @@ import pyarrow.parquet as pq
 import pytest
 
 from liaison_cli import __version__
-from liaison_cli.campaign import results as results_module
-from liaison_cli.campaign import worker as worker_module
+from liaison_cli.campaign.engine import results as results_module
+from liaison_cli.campaign.engine import worker as worker_module
 from liaison_cli.storage import read_metadata, write_parquet_atomic
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, run_cli
 
@@ -45,8 +45,8 @@ def test_smoke_run_writes_results_with_provenance(tmp_path):
 def test_campaigns_below_the_pool_threshold_stay_in_this_process():
     """runner.stays_in_process: joblib campaigns of fewer than POOL_MIN_STATE_EPOCHS state-epochs, and every
     --jobs 1 campaign, run here; larger ones and every dask campaign fan out."""
-    from liaison_cli.campaign.backends import Backend
-    from liaison_cli.campaign.runner import POOL_MIN_STATE_EPOCHS, stays_in_process
+    from liaison_cli.campaign.engine.backends import Backend
+    from liaison_cli.campaign.engine.runner import POOL_MIN_STATE_EPOCHS, stays_in_process
     from liaison_cli.scenario.setup import prepare_problem
 
     problem = prepare_problem(load_scenario(SCENARIOS / "smoke.yaml")[0])
@@ -62,7 +62,7 @@ def test_campaigns_below_the_pool_threshold_stay_in_this_process():
 def test_a_process_pool_gives_the_numbers_of_the_main_process(monkeypatch):
     """Small campaigns stay in the CLI process (runner.POOL_MIN_STATE_EPOCHS); forced into the pool, the same
     runs give bit-identical histories, though the workers import less (no pandas, no pyarrow)."""
-    from liaison_cli.campaign import runner
+    from liaison_cli.campaign.engine import runner
 
     scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
     scenario = apply_overrides(scenario, {"duration_days": 0.3})

@@ -11,8 +11,8 @@ from liaison_cli.analysis.consistency import campaign_verdict
 import pytest
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT, nees_run_band
-from liaison_cli.campaign import results as results_module
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine import results as results_module
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 

@@ -148,7 +148,7 @@ def test_the_check_gives_the_same_rows_in_this_process_and_in_the_pool(monkeypat
     (forced: runner.POOL_MIN_STATE_EPOCHS set to 0, and checked to have been used, so the comparison can fail):
     the same rows, to the bit (each group's runs are summed in run order whatever finishes first). dask takes
     the same path (backends.map_batches; tests/unit/campaign/test_fanout.py compares it for `run`)."""
-    from liaison_cli.campaign import runner
+    from liaison_cli.campaign.engine import runner
 
     problem = _matched_smoke(duration_days=0.3)
     budget = error_budget(problem)

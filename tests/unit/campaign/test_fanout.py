@@ -1,4 +1,4 @@
-"""The one fan-out (campaign.backends.map_batches) and what rides on it: a bounded window of work in flight,
+"""The one fan-out (campaign.engine.backends.map_batches) and what rides on it: a bounded window of work in flight,
 the same bytes from `liaison run` on one process, a process pool and dask, the backend options of the long
 commands, and which study cells are reused (the 004 study's own resume and dask runs are tested beside it, in
 tests/studies/test_study004.py, where its compiled kernels are already loaded)."""
@@ -7,8 +7,8 @@ import operator
 
 import pytest
 
-from liaison_cli.campaign import backends, runner
-from liaison_cli.campaign.backends import Backend, map_batches
+from liaison_cli.campaign.engine import backends, runner
+from liaison_cli.campaign.engine.backends import Backend, map_batches
 from liaison_cli.campaign.studies.study_cells import CellStore
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from tests.conftest import SCENARIOS, assert_one_line_error, run_cli_in_process
@@ -93,11 +93,11 @@ def test_backends_module_is_the_only_place_that_starts_workers():
     """One fan-out path: no other module of the package imports joblib's Parallel or a dask client."""
     from pathlib import Path
 
-    package = Path(backends.__file__).resolve().parents[1]
+    package = Path(backends.__file__).resolve().parents[2]
     starters = ("Parallel(", "get_reusable_executor", "LocalCluster(", "Client(")
     found = sorted(str(path.relative_to(package)) for path in package.rglob("*.py")
                    if any(word in path.read_text() for word in starters))
-    assert found == ["campaign/backends.py"], found
+    assert found == ["campaign/engine/backends.py"], found
 
 
 def test_an_interrupt_that_compiled_code_turned_into_a_system_error_still_says_what_is_saved(tmp_path):

@@ -10,9 +10,11 @@ import time
 import pandas as pd
 import pytest
 
-from liaison_cli.campaign.grid import GridError, parse_grid, parse_range
+from liaison_cli.campaign.sweep.grid import GridError, parse_grid, parse_range
 from liaison_cli.scenario.loading import load_scenario
-from liaison_cli.campaign.sweep import SweepError, plan_sweep, read_manifest, run_sweep
+from liaison_cli.campaign.sweep.manifest import read_manifest
+from liaison_cli.campaign.sweep.plan import SweepError, plan_sweep
+from liaison_cli.campaign.sweep.run import run_sweep
 from tests.conftest import REPO, SCENARIOS, run_cli
 
 

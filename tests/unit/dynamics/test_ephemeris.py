@@ -12,12 +12,11 @@ from liaison_cli.dynamics.ephemeris_dynamics import (
     AU_KM,
     P_1AU_N_M2,
     R_EARTH_KM,
-    propagate_truth,
-    rk8_ephemeris,
+    dop853_ephemeris_states,
     srp_acceleration,
     visible_fraction,
 )
-from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
+from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds, utc_to_tt_seconds
 
 skyfield = pytest.importorskip("skyfield.api")
@@ -99,8 +98,8 @@ def _propagate(window, t0, x0, dt, n, gm_bodies=True, cr_am=0.015, stm=False):
     if stm:
         y[:6] = x0
         y[6::7] = 1.0
-    rk8_ephemeris(y, t0, dt, n, window.coeffs, window.start_s, window.interval_s, window.n_records, bodies, gms,
-                  GM_KM3_S2[399], cr_am, RK8_A, RK8_B, RK8_C)
+    rk8_advance_ephemeris(y, t0, dt, n, window.coeffs, window.start_s, window.interval_s, window.n_records, bodies,
+                          gms, GM_KM3_S2[399], cr_am, RK8_A, RK8_B, RK8_C)
     return y
 
 
@@ -149,17 +148,17 @@ def test_truth_resolves_the_eclipse_that_fixed_steps_smear(msl_window):
     bodies = THIRD_BODIES
     gms = np.array([GM_KM3_S2[int(b)] for b in bodies])
     end = t0 + 9 * 86400.0
-    truth = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.015)[-1]
-    tighter = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.015, rtol=1e-13)[-1]
+    truth = dop853_ephemeris_states(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.015)[-1]
+    tighter = dop853_ephemeris_states(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.015, rtol=1e-13)[-1]
     assert np.linalg.norm(truth[:3] - tighter[:3]) < 1.5e-3
     fixed = _propagate(window, t0, x0, 9 * 86400.0, 900)
     assert np.linalg.norm(fixed[:3] - truth[:3]) > 1e-4  # the eclipse costs the fixed steps > 10 cm
-    no_srp = propagate_truth(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.0)[-1]
+    no_srp = dop853_ephemeris_states(x0, t0, [t0, end], window, bodies, gms, GM_KM3_S2[399], 0.0)[-1]
     assert np.linalg.norm(no_srp[:3] - _propagate(window, t0, x0, 9 * 86400.0, 1800, cr_am=0.0)[:3]) < 2.5e-5
 
 
 def test_ephemeris_model_behind_the_dynamics_interface(msl_window):
-    """MODEL_EPHEMERIS through dynamics.model.propagate_state_stm (compiled with the model code as a constant):
+    """MODEL_EPHEMERIS through dynamics.model.propagate_state_stm_into (compiled with the model code as a constant):
     the same state as the RK8 in km, in the estimators' scaled units, and an STM that matches central
     differences in those units."""
     from liaison_cli.dynamics.constants import LU_KM, TU_S, VU_KM_S
@@ -225,14 +224,17 @@ def test_cr_column_matches_central_differences(msl_window):
 
 
 def _state_stm_step():
-    """dynamics.model.propagate_state_stm behind a compiled caller that makes the model code a constant."""
+    """dynamics.model.propagate_state_stm_into behind a compiled caller that makes the model code a constant:
+    (state (6,), Phi (6, 6))."""
     import numba
 
-    from liaison_cli.dynamics.model import propagate_state_stm
+    from liaison_cli.dynamics.model import STM_SIZE, propagate_state_stm_into
 
     @numba.njit
     def step(model, params, state, t_tu, dt_tu, n):
         numba.literally(model)
-        return propagate_state_stm(model, params, state, t_tu, dt_tu, n)
+        y = np.empty(STM_SIZE)
+        propagate_state_stm_into(model, params, state, t_tu, dt_tu, n, y, np.empty((5, STM_SIZE)))
+        return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
     return step

@@ -8,12 +8,12 @@ import pytest
 
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.analysis.metrics import chi2_quantile
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import allan_deviation_model, simulate_clock
 from liaison_cli.dynamics.clock_presets import CLOCK_PRESETS
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU
-from liaison_cli.dynamics.propagation import dop853_state_stm, propagate_states
-from liaison_cli.dynamics.rk8 import rk8_state, rk8_state_stm
+from liaison_cli.dynamics.integrators.adaptive import dop853_state_stm, dop853_states
+from liaison_cli.dynamics.integrators.rk8 import rk8_state, rk8_state_stm
 from liaison_cli.estimation.clock_sync import fit_clock_polynomial, sync_errors
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.measurements.dual_one_way import (
@@ -114,7 +114,7 @@ def test_rk8_schedule_matches_dop853_and_its_stm_matches_central_differences(nrh
     dt_tu = nrho_problem.filter.dt_tu
     counts = nrho_problem.filter.batch.counts
     times = np.arange(counts.size + 1) * dt_tu
-    reference = propagate_states(x0, times, MU, rtol=1e-13, atol=1e-15)
+    reference = dop853_states(x0, times, MU, rtol=1e-13, atol=1e-15)
     state, worst = x0.copy(), 0.0
     for k, n in enumerate(counts):
         state = rk8_state(state, dt_tu, int(n), MU)
@@ -211,7 +211,7 @@ def test_nrho_table1_states_nearly_close_after_one_period():
     closures = {}
     for name in ("nrho_gateway", "nrho_anchor_1", "nrho_anchor_2"):
         orbit = CATALOG[name]
-        end = propagate_states(orbit.state(), [0.0, orbit.period_tu], MU, rtol=1e-13, atol=1e-15)[-1]
+        end = dop853_states(orbit.state(), [0.0, orbit.period_tu], MU, rtol=1e-13, atol=1e-15)[-1]
         closures[name] = np.linalg.norm(end[:3] - orbit.state()[:3]) * LU_KM
     assert closures["nrho_gateway"] == pytest.approx(66.2, abs=1.0)
     assert max(closures.values()) < 130

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from liaison_cli.campaign.results import bias_table, consistency_table, summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import bias_table, consistency_table, summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.estimation.ekf import update_scalar
 from tests.conftest import SCENARIOS, run_cli_in_process

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from liaison_cli.campaign import results as results_module
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine import results as results_module
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.dynamics.clock import clock_process_noise, clock_transition, simulate_clock
 from liaison_cli.dynamics.constants import EARTH_POSITION_LU, LU_KM, TU_S, WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.dynamics.ground_station import EARTH_RATE_IN_ROTATING_FRAME_RAD_TU, GroundStationTrajectory

@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from liaison_cli.campaign.runner import run_campaign
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.runner import run_campaign
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.initial_batch import InitialBatchSettings, solve_initial_batch, window_lengths

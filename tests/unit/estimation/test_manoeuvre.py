@@ -4,7 +4,7 @@ import numpy as np
 
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process
 from liaison_cli.campaign.studies.error_budget import error_budget
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.scenario.loading import apply_overrides, load_scenario

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import M_PER_LU, SECONDS_PER_DAY
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.filter_loop import gated

@@ -7,8 +7,8 @@ import pytest
 from numba import njit
 
 from liaison_cli.analysis.ric import ric_axes
-from liaison_cli.campaign.results import summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.estimation.ric_noise import step_process_noise
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem

@@ -99,8 +99,8 @@ def test_the_smoother_in_a_campaign_is_consistent_and_better_than_the_filter():
     sigma RMS, and it is below the filter's; at the last epoch smoothing changes nothing."""
     import math
 
-    from liaison_cli.campaign import results as results_module
-    from liaison_cli.campaign.runner import run_campaign
+    from liaison_cli.campaign.engine import results as results_module
+    from liaison_cli.campaign.engine.runner import run_campaign
     from liaison_cli.scenario.loading import apply_overrides, load_scenario
     from tests.conftest import SCENARIOS
 

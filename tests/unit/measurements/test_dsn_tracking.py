@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import SCENARIOS
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.dsn_sites import DSN_SITES_ECEF_M, dsn_site_geodetic, ecef_to_geodetic
 from liaison_cli.dynamics.ground_station import geodetic_to_body_km
 from liaison_cli.estimation.ekf import update_scalar

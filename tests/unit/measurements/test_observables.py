@@ -4,8 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from liaison_cli.campaign.results import summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.measurements.los import azimuth_elevation, azimuth_elevation_gradients, los_sigma_rad
 from liaison_cli.orbits.catalog import CATALOG

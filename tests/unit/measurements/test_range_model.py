@@ -3,7 +3,7 @@
 import numpy as np
 
 from liaison_cli.dynamics.constants import LU_KM, MU, SPEED_OF_LIGHT_LU_TU, TU_S
-from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.dynamics.integrators.adaptive import dop853_states
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 from liaison_cli.measurements.range import KIND_RANGE, OBSERVABLE as RANGE
 from liaison_cli.measurements.registry import predict
@@ -13,8 +13,8 @@ from tests.conftest import LUNAR
 
 def _truth(hours=24.0, n=200):
     times = np.linspace(0.0, hours * 3600.0 / TU_S, n)
-    a = propagate_states(CATALOG["eml2_halo"].state(), times, MU)
-    b = propagate_states(LUNAR, times, MU)
+    a = dop853_states(CATALOG["eml2_halo"].state(), times, MU)
+    b = dop853_states(LUNAR, times, MU)
     return np.stack([a, b], axis=1)  # (m, 2, 6)
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
-from liaison_cli.dynamics.ephemeris_dynamics import propagate_truth
+from liaison_cli.dynamics.ephemeris_dynamics import dop853_ephemeris_states
 from liaison_cli.dynamics.frames import crtbp_to_inertial, inertial_to_crtbp
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
 from liaison_cli.orbits.catalog import CATALOG
@@ -55,7 +55,7 @@ def test_eml1_halo_corrected_into_the_ephemeris_model(cassini_forces):
     for t, node in zip(result.node_times_s, result.nodes):
         rotating = inertial_to_crtbp(node, forces.moon_state(t), MU)
         assert 0.8 < rotating[0] < 0.9 and abs(rotating[1]) < 0.1 and abs(rotating[2]) < 0.1
-    truth = propagate_truth(result.nodes[0], times[0], times, forces.window, forces.bodies, forces.gms,
+    truth = dop853_ephemeris_states(result.nodes[0], times[0], times, forces.window, forces.bodies, forces.gms,
                             forces.gm_earth, forces.cr_am)
     assert np.max(np.linalg.norm(truth[:, :3] - result.nodes[:, :3], axis=1)) < 1e-2
 

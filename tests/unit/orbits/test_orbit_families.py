@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.constants import MU
-from liaison_cli.dynamics.propagation import propagate_states
+from liaison_cli.dynamics.integrators.adaptive import dop853_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.families import FAMILIES, FamilyError, member_by_period
 from liaison_cli.orbits.periodic import correct, lagrange_point_x
@@ -62,7 +62,7 @@ def test_every_member_recloses_and_families_are_continuous(families):
         assert frame.closure_lu.max() < 1e-9, name
         for row in frame.itertuples():  # independent check with the truth propagator
             state0 = np.array([row.x0, row.y0, row.z0, row.vx0, row.vy0, row.vz0])
-            end = propagate_states(state0, np.array([0.0, row.period_tu]), MU)[-1]
+            end = dop853_states(state0, np.array([0.0, row.period_tu]), MU)[-1]
             assert np.max(np.abs(end - state0)) < 1e-9, (name, row.member)
         jacobi = np.asarray(frame.jacobi)
         span = jacobi.max() - jacobi.min()

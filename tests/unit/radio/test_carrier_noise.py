@@ -131,7 +131,7 @@ def test_table2_link_tone_ranging_doppler_and_los():
 def test_sigma_sweep_over_a_tone_scenario_keeps_the_carrier_sigmas():
     """`--sigma` replaces the tone ranging but the link budget stays for the Doppler / LOS sigmas."""
     from liaison_cli.scenario.loading import load_scenario
-    from liaison_cli.campaign.sweep import plan_sweep
+    from liaison_cli.campaign.sweep.plan import plan_sweep
     from tests.conftest import SCENARIOS
 
     path = SCENARIOS / "mt_eml2_lunar_range_rate_los.yaml"

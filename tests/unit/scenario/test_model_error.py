@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from liaison_cli.campaign.worker import draw_run_inputs
+from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem

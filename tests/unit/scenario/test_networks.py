@@ -3,8 +3,8 @@
 import pandas as pd
 import pytest
 
-from liaison_cli.campaign.results import summary_table
-from liaison_cli.campaign.runner import run_campaign
+from liaison_cli.campaign.engine.results import summary_table
+from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import load_scenario
 from liaison_cli.campaign.studies.compare import compare_rows
 from tests.conftest import SCENARIOS, assert_one_line_error, edited_scenario, run_cli_in_process

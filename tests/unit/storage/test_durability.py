@@ -18,7 +18,7 @@ def test_the_vendored_tableau_equals_scipys_exactly():
         scipy_tableau = importlib.import_module("scipy.integrate._ivp.dop853_coefficients")
     except ImportError:
         pytest.skip("scipy moved its private DOP853 coefficients; the vendored copy stands on its own")
-    from liaison_cli.dynamics.rk8 import RK8_A, RK8_B, RK8_C
+    from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C
 
     stages = scipy_tableau.N_STAGES
     assert RK8_A.shape == (stages, stages) and RK8_B.shape == RK8_C.shape == (stages,)
@@ -30,7 +30,7 @@ def test_the_vendored_tableau_equals_scipys_exactly():
 
 def test_the_integrator_imports_without_scipy():
     code = ("import sys\nsys.modules['scipy'] = None  # any scipy import now fails\n"
-            "from liaison_cli.dynamics.rk8 import RK8_A\nprint(RK8_A.shape)")
+            "from liaison_cli.dynamics.integrators.rk8 import RK8_A\nprint(RK8_A.shape)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "(12, 12)", out.stderr
 
@@ -257,7 +257,8 @@ def test_a_stage_in_use_by_a_live_writer_is_left_alone(tmp_path):
 
 
 def test_the_sweep_lock_holds_the_folder_whatever_the_path_spelling(tmp_path):
-    from liaison_cli.campaign.sweep import SweepError, sweep_lock
+    from liaison_cli.campaign.sweep.manifest import sweep_lock
+    from liaison_cli.campaign.sweep.plan import SweepError
 
     real = tmp_path / "results" / "sweep"
     real.mkdir(parents=True)
@@ -275,7 +276,7 @@ def test_the_sweep_lock_holds_the_folder_whatever_the_path_spelling(tmp_path):
 def _written_sweep(tmp_path, runs=2):
     import json
 
-    from liaison_cli.campaign.sweep import run_sweep
+    from liaison_cli.campaign.sweep.run import run_sweep
     from tests.unit.campaign.test_sweep import _smoke_plan
 
     plan = _smoke_plan(runs=runs)
@@ -294,7 +295,8 @@ def _write_lines(path, entries):
 def test_failed_tasks_run_again_on_resume_and_diverged_ones_do_not(tmp_path):
     import pandas as pd
 
-    from liaison_cli.campaign.sweep import read_manifest, run_sweep
+    from liaison_cli.campaign.sweep.manifest import read_manifest
+    from liaison_cli.campaign.sweep.run import run_sweep
 
     plan, full, manifest, header, records = _written_sweep(tmp_path)
     assert header["format"] == 2 and len(records) == 4
@@ -317,7 +319,7 @@ def test_a_format_1_manifest_is_resumed_in_place(tmp_path):
 
     import pandas as pd
 
-    from liaison_cli.campaign.sweep import run_sweep
+    from liaison_cli.campaign.sweep.run import run_sweep
 
     plan, full, manifest, header, records = _written_sweep(tmp_path)
     _write_lines(manifest, [{**header, "format": 1}, *records[:3]])

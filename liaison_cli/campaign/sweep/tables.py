@@ -11,7 +11,7 @@ import pandas as pd
 from liaison_cli import __version__, core_source_hash
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import campaign_error_to_sigma
-from liaison_cli.campaign.sweep_plan import SweepPlan, SweepPoint
+from liaison_cli.campaign.sweep.plan import SweepPlan, SweepPoint
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.storage import write_parquet_atomic, write_text_atomic
 

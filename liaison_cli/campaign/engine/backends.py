@@ -1,7 +1,7 @@
 """The one fan-out of liaison: run `fn(shared[key], tasks)` for every batch and yield results as they finish
-(map_batches). Every long command goes through it: `run`, `compare`, `table3` and the 003 / 004 studies through
-runner.iter_outcomes and the check runs of `errors` (error_budget) through runner.in_task_order (its ordered
-layer); `sweep` and `tune` directly.
+(map_batches). Every long command goes through it: `run`, `compare`, `table3`, the 003 / 004 studies and the
+check runs of `errors` (studies.error_budget) through runner.run_tasks_in_order (its ordered layer); `sweep`,
+`tune` and `warm-up` directly.
 
 - `joblib` (default): local processes (joblib's loky pool); `jobs=1` runs in this process. With `fork=True`
   (the sweep) the workers are forked from this process at the first batch instead (where the platform forks):

@@ -1,15 +1,15 @@
 """A sweep's worker side, in a module of its own: a pool worker imports the module of the function it is sent,
-and sweep.py's imports (pandas, the Parquet tables, tqdm) made each worker's start longer than what a run needs
-(import CPU measured on the 2-core machine: 0.86-0.96 s for sweep.py, 0.55-0.60 s for this module)."""
+and run.py's imports (pandas, the Parquet tables, tqdm) made each worker's start longer than what a run needs
+(import CPU measured on the 2-core machine: 0.86-0.96 s for run.py, 0.55-0.60 s for this module)."""
 
 import numpy as np
 
-from liaison_cli.campaign.worker import RunTask, execute_run
+from liaison_cli.campaign.engine.worker import RunTask, execute_run
 from liaison_cli.interrupts import ignore_in_worker_process
 
 
 def execute_batch(problem, tasks) -> list[dict]:
-    """One JSON-ready record per task (sweep_plan.SweepTask). Never raises (execute_run reports failures)."""
+    """One JSON-ready record per task (plan.SweepTask). Never raises (execute_run reports failures)."""
     ignore_in_worker_process()
     records = []
     for task in tasks:

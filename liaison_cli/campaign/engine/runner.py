@@ -1,7 +1,8 @@
-"""A scenario's Monte Carlo runs in run order: the ordered layer over the one fan-out (backends.map_batches),
-in_task_order, which the error budget's check shares, with a tqdm progress bar and Ctrl-C checks."""
+"""A scenario's Monte Carlo work in task order: the ordered layer over the one fan-out (backends.map_batches).
+run_tasks_in_order is its one path, with a tqdm progress bar and Ctrl-C checks: a scenario's runs
+(iter_outcomes, run_campaign) and the error budget's check runs (studies.error_budget) go through it."""
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import closing
 from dataclasses import dataclass
 
@@ -9,8 +10,8 @@ from tqdm import tqdm
 
 from liaison_cli.scenario.setup import Problem, prepare_problem
 from liaison_cli.scenario.scenario_model import Scenario
-from liaison_cli.campaign.backends import LOCAL, Backend, map_batches
-from liaison_cli.campaign.worker import RunOutcome, RunTask, execute_run
+from liaison_cli.campaign.engine.backends import LOCAL, Backend, map_batches
+from liaison_cli.campaign.engine.worker import RunOutcome, RunTask, execute_run
 from liaison_cli import interrupts
 
 
@@ -44,34 +45,38 @@ def stays_in_process(problem: Problem, n_runs: int, jobs: int, where: Backend) -
                                        < POOL_MIN_STATE_EPOCHS)
 
 
-def warm_up_here(problem: Problem, run: int) -> RunOutcome:
-    """One run in this process before the workers start: the compiled core is then loaded (or, on a cold
-    cache, compiled once, not once per worker), and the workers find it in the cache."""
-    return execute_run(problem, RunTask(run))
-
-
 def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool = True,
-                  description: str | None = None, where: Backend = LOCAL):
-    """Yield the outcomes of runs 0 … n_runs-1 in run order, as they finish.
+                  description: str | None = None, where: Backend = LOCAL) -> Iterator[RunOutcome]:
+    """Yield the outcomes of runs 0 … n_runs-1 in run order, as they finish (run_tasks_in_order).
 
     Memory is bounded by the fan-out's window (batches submitted and not yet consumed, a batch that finished
     ahead of its turn included) times the batch size, not by `n_runs`.
     """
-    bar = tqdm(total=n_runs, desc=description or problem.scenario.name, unit="run", disable=not progress,
-               leave=False)
+    return run_tasks_in_order(execute_batch, problem, problem, n_runs, jobs, where, progress,
+                              description or problem.scenario.name)
+
+
+def run_tasks_in_order(fn: Callable, shared, problem: Problem, n_tasks: int, jobs: int, where: Backend,
+                       progress: bool, description: str) -> Iterator:
+    """Yield the results of tasks 0 … n_tasks-1 of `problem`'s Monte Carlo work in task order, as they finish.
+    `fn(shared, tasks)` is a worker-side batch function: one result per task, in order, never raising for a
+    task that fails (it reports it in its result).
+
+    A small job stays in this process (stays_in_process), one task at a time. Otherwise task 0 is done here
+    first (the compiled core is then loaded, or on a cold cache compiled once, not once per worker, and the
+    workers find it in the cache) and the rest go through the fan-out in task order (in_task_order). The
+    results are the same either way. A Ctrl-C that compiled code swallowed still stops the work."""
+    bar = tqdm(total=n_tasks, desc=description, unit="run", disable=not progress, leave=False)
+    here = range(n_tasks) if stays_in_process(problem, n_tasks, jobs, where) else range(min(n_tasks, 1))
     try:
-        if stays_in_process(problem, n_runs, jobs, where):
-            for run in range(n_runs):
-                outcome = execute_run(problem, RunTask(run))
-                if interrupts.requested():  # a Ctrl-C that compiled code swallowed still stops the campaign
-                    raise KeyboardInterrupt
-                yield outcome
-                bar.update(1)
-            return
-        yield warm_up_here(problem, 0)
-        bar.update(1)
-        for outcome in in_task_order(execute_batch, problem, range(1, n_runs), jobs, where):
-            yield outcome
+        for task in here:
+            (result,) = fn(shared, (task,))
+            if interrupts.requested():
+                raise KeyboardInterrupt
+            yield result
+            bar.update(1)
+        for result in in_task_order(fn, shared, range(len(here), n_tasks), jobs, where):
+            yield result
             bar.update(1)
     finally:
         bar.close()
@@ -81,7 +86,9 @@ def in_task_order(fn, shared, tasks: Sequence, jobs: int, where: Backend):
     """Yield the results of fn(shared, batch) for every task of `tasks` (a sequence: a range keeps memory
     bounded) in task order, through the one fan-out. A few tasks a batch keep the pipes busy without starving a
     progress bar. A Ctrl-C that compiled code swallowed still stops it; an error or Ctrl-C in the caller closes
-    the fan-out at once (its workers stop), not when the traceback is freed."""
+    the fan-out at once (its workers stop), not when the traceback is freed. No tasks: no fan-out."""
+    if not tasks:
+        return
     chunk = max(1, min(8, len(tasks) // (4 * jobs)))
     batches = ((0, tuple(tasks[start : start + chunk])) for start in range(0, len(tasks), chunk))
     with closing(map_batches(fn, {0: shared}, batches, where, jobs, ordered=True)) as results:

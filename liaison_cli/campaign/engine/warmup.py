@@ -176,7 +176,7 @@ def warm_up_one(spec: Specialisation) -> WarmUpResult:
 def _run_smallest(source: Source) -> str:
     """One run (a run's own work unit, not run_campaign: its progress bar would leave a multiprocessing lock in
     a pool worker, which the resource tracker reports as leaked when the pool is stopped). Its error, or ''."""
-    from liaison_cli.campaign.worker import RunTask, execute_run
+    from liaison_cli.campaign.engine.worker import RunTask, execute_run
     from liaison_cli.scenario.setup import prepare_problem
 
     outcome = execute_run(prepare_problem(cut(source.scenario, (WARM_UP_DAYS, float("inf")))), RunTask(0))
@@ -237,7 +237,7 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     """Yield the WarmUpResult of every specialisation as its chain finishes. The first specialisation (the
     most used, whose kernels the others share most) runs alone first, so no two processes compile the common
     kernels at once; then the chains run side by side in up to `jobs` processes."""
-    from liaison_cli.campaign.backends import LOCAL, map_batches
+    from liaison_cli.campaign.engine.backends import LOCAL, map_batches
 
     if not specs:
         return

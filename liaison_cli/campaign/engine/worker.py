@@ -13,7 +13,7 @@ from liaison_cli.analysis.metrics import (
     summary_rows,
     sustained_excess_step,
 )
-from liaison_cli.campaign.seeding import run_rng
+from liaison_cli.campaign.engine.seeding import run_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S2_PER_AU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.estimation.blocks import BLOCK_EMPIRICAL, BLOCK_PARAMETER, FORMATION

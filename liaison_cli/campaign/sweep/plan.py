@@ -1,6 +1,6 @@
 """A sweep's plan: scenarios x a full-factorial grid of overrides x Monte Carlo runs, as grid points and
 tasks with stable ids (the hash of the point's effective scenario plus the run index), and the manifest
-header that names them (sweep_manifest checks it on resume)."""
+header that names them (manifest checks it on resume)."""
 
 import hashlib
 import itertools
@@ -12,7 +12,7 @@ from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.loading import apply_overrides
 from liaison_cli.scenario.scenario_model import Scenario
 
-MANIFEST_FORMAT = 2  # the header's "format": see sweep_manifest's docstring for how older ones are read
+MANIFEST_FORMAT = 2  # the header's "format": see manifest's docstring for how older ones are read
 SIGMA_KEY = "noise.sigma_m"
 
 

@@ -1,17 +1,20 @@
 """Fixed-step 8th-order Runge-Kutta (the 12-stage Dormand-Prince 8(5,3) formula that scipy's DOP853 uses,
-without its error control) for the CRTBP state and STM, with a step count per interval chosen by a
-Sundman-type rule: the step never exceeds STEP_FRACTION of the local Kepler time sqrt(r^3 / GM) about the
-nearer primary. Near the Moon at the perilune of an NRHO (r ~ 3,200 km) that is ~40 s; at apolune
-(70,000 km) ~1 h. The rule needs no adaptive integrator per run: the batch estimator and every Monte
-Carlo run of a scenario reuse one schedule computed on the nominal trajectory. Accuracy against DOP853 at
-rtol 1e-13 is tested in tests/unit/estimation/test_batch.py.
+without its error control): the stage kernels every RK8 here shares (`rk8_stage_input`, `rk8_combine`), the
+CRTBP's state and STM (`rk8_advance` in place, `rk8_state`, `rk8_state_stm`), the dated ephemeris field's
+(`rk8_advance_ephemeris`), and the step count per interval (`step_counts`) chosen by a Sundman-type rule: the
+step never exceeds STEP_FRACTION of the local Kepler time sqrt(r^3 / GM) about the nearer primary. Near the
+Moon at the perilune of an NRHO (r ~ 3,200 km) that is ~40 s; at apolune (70,000 km) ~1 h. The rule needs no
+adaptive integrator per run: the batch estimator and every Monte Carlo run of a scenario reuse one schedule
+computed on the nominal trajectory. Accuracy against DOP853 at rtol 1e-13 is tested in
+tests/unit/estimation/test_batch.py.
 """
 
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics import dop853_tableau as _dop853
 from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs
+from liaison_cli.dynamics.ephemeris_dynamics import STM_SIZE, ephemeris_derivative
+from liaison_cli.dynamics.integrators import dop853_tableau as _dop853
 
 # The tableau is vendored as literal floats (tools/vendor_dop853_tableau.py copied it from scipy's private
 # dop853_coefficients module): reading that file at import tied every command to a scipy internal, and
@@ -92,6 +95,26 @@ def rk8_state_stm(state, dt_tu, n_steps, mu):
         for j in range(6):
             phi[i, j] = y[6 + 6 * i + j]
     return y[0:6].copy(), phi
+
+
+@njit(cache=True)
+def rk8_advance_ephemeris(y, t_s, dt_s, n_steps, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth,
+                          cr_am, a, b, c):
+    """Advance y (6,), (42,) or (48,) (the layouts of dynamics.ephemeris_dynamics.ephemeris_derivative) in place
+    from t_s over dt_s in n_steps RK8 steps (tableau a, b, c)."""
+    size = y.shape[0]
+    with_stm = size >= STM_SIZE
+    k = np.empty((12, size))
+    tmp = np.empty(size)
+    h = dt_s / n_steps
+    t = t_s
+    for _ in range(n_steps):
+        for s in range(12):
+            rk8_stage_input(y, h, a, k, s, tmp)
+            ephemeris_derivative(t + c[s] * h, tmp, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth,
+                                 cr_am, with_stm, k[s])
+        rk8_combine(y, h, b, k)
+        t += h
 
 
 def kepler_time_tu(positions_lu, mu: float) -> np.ndarray:

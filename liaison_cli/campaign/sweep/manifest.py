@@ -6,7 +6,7 @@ A task whose line says 'error' (an exception in the worker: no result) is run ag
 line appended; the last line of a task wins. 'diverged' is a result (the filter's health check tripped) and
 is kept.
 
-Manifest format (the header's "format", sweep_plan.MANIFEST_FORMAT), and the migration rule:
+Manifest format (the header's "format", plan.MANIFEST_FORMAT), and the migration rule:
 - 2 (this version): a task may have several lines (a retried error); the last one counts.
 - 1 (liaison before issue 24): the same header and record fields, each task once. Read as is and resumed
   in place: its header line is kept and new lines are appended as format 2, which a format-1 reader also
@@ -22,7 +22,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from liaison_cli import __version__
-from liaison_cli.campaign.sweep_plan import MANIFEST_FORMAT, SweepError
+from liaison_cli.campaign.sweep.plan import MANIFEST_FORMAT, SweepError
 from liaison_cli.storage import fsync_folder, naming
 
 READABLE_MANIFEST_FORMATS = (1, 2)  # see the module docstring: older formats are read and resumed in place

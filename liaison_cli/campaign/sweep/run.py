@@ -1,10 +1,7 @@
-"""Resumable sweeps: scenarios x a full-factorial grid of overrides x Monte Carlo runs, run through the one
-fan-out (backends.map_batches) on joblib or dask. The work is split by job:
-- sweep_plan: grid points, tasks and their stable ids, the manifest header;
-- sweep_manifest: the manifest (what is done: resume), its format rule, and the folder lock;
-- sweep (here): running the tasks not yet in the manifest;
-- sweep_tables: the runs and curve tables, rebuilt from the manifest.
-The names other modules use are importable from here too.
+"""Running a sweep (run_sweep): the tasks of a plan not yet in its manifest, through the one fan-out
+(engine.backends.map_batches) on joblib or dask, then its tables rewritten from the manifest. The other parts of
+a sweep are beside it in campaign.sweep: plan (grid points, tasks, the manifest header), manifest (what is done,
+and the folder lock), tables (the runs and curve tables) and worker (the workers' side).
 """
 
 import itertools
@@ -14,17 +11,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from liaison_cli.campaign.backends import Backend, can_fork, check_backend, map_batches, start_workers
-from liaison_cli.campaign.sweep_manifest import Manifest, read_manifest, sweep_lock
-from liaison_cli.campaign.sweep_plan import (SIGMA_KEY, SweepError, SweepInterrupted, SweepPlan, SweepTask,
-                                             plan_sweep, scenario_hash)
-from liaison_cli.campaign.sweep_tables import build_curve_table, build_runs_table, write_sweep_tables
-from liaison_cli.campaign.sweep_worker import execute_batch  # the workers import that light module, not this one
+from liaison_cli.campaign.engine.backends import Backend, can_fork, check_backend, map_batches, start_workers
+from liaison_cli.campaign.sweep.manifest import Manifest, read_manifest
+from liaison_cli.campaign.sweep.plan import SweepInterrupted, SweepPlan, SweepTask
+from liaison_cli.campaign.sweep.tables import build_curve_table, build_runs_table, write_sweep_tables
+from liaison_cli.campaign.sweep.worker import execute_batch  # the workers import that light module, not this one
 from liaison_cli import interrupts
 from liaison_cli.scenario.setup import prepare_problem
-
-__all__ = ["SIGMA_KEY", "SweepError", "SweepInterrupted", "SweepResult", "plan_sweep", "read_manifest", "run_sweep",
-           "scenario_hash", "sweep_lock"]
 
 
 def _batches(pending: list[SweepTask], batch_runs: int) -> list[tuple[int, list[SweepTask]]]:

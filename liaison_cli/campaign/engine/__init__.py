@@ -1,0 +1,12 @@
+"""The Monte Carlo engine: what runs a scenario's runs, wherever they run.
+
+- worker: one run as a work unit (draws, estimator, metrics); it never raises, a failure is an outcome;
+- seeding: a run's random generator, from the scenario seed and the run index only;
+- backends: the one fan-out (map_batches: joblib's process pool, forked workers, or dask), with a bounded
+  window of work in flight;
+- runner: its ordered layer (run_tasks_in_order): a small job in this process, else its first task here and the
+  rest through the fan-out in task order; a scenario's runs (iter_outcomes, run_campaign) and the error
+  budget's check runs go through it;
+- results: a scenario's campaign streamed to Parquet with provenance, and its tables as DataFrames;
+- warmup: compiling every kernel specialisation the shipped scenarios need, ahead of the first run.
+"""

@@ -1,0 +1,18 @@
+"""The integrators: every way liaison steps an ordinary differential equation, one module per kind.
+
+- `rk4`: fixed-step classical RK4 for the CRTBP: the filter's state + STM (`rk4_state_stm_into`, and
+  `rk4_state_stm` allocating its result) and the compiled truth's sampled trajectory (`rk4_states`,
+  `rk4_states_forced` with a constant unmodelled acceleration).
+- `rk8`: fixed-step 8th order Runge-Kutta on DOP853's 12-stage tableau (`dop853_tableau`, vendored as literal
+  floats): the stage kernels (`rk8_stage_input`, `rk8_combine`), the CRTBP's (`rk8_advance` in place,
+  `rk8_state`, `rk8_state_stm`), the dated ephemeris field's (`rk8_advance_ephemeris`), and the batch's step
+  schedule (`step_counts`).
+- `adaptive`: scipy's adaptive DOP853 behind one wrapper taking the right-hand side (`dop853_samples`, with
+  restarts at terminal events), and the CRTBP's reference propagations through it (`dop853_states`,
+  `dop853_state_stm`). The dated ephemeris truth (`dynamics.ephemeris_dynamics.dop853_ephemeris_states`)
+  calls the same wrapper with its shadow-edge events.
+
+The right-hand sides stay with their models (`dynamics.crtbp`, `dynamics.ephemeris_dynamics`); the compiled
+kernels call them directly, so numba inlines them (no function arguments in compiled code). A name ending
+in `_into` does its job into the caller's buffers (no allocation); the same name without it allocates.
+"""
