@@ -115,5 +115,10 @@ class StateLayout:
                 return int(start)
         return -1
 
+    def empirical_couplings(self) -> list[tuple[int, int]]:
+        """(spacecraft block start, its empirical-acceleration block start) per empirical block."""
+        return [(self.start_of(BLOCK_SPACECRAFT, b.owner.split(" ", 1)[1]), int(a))
+                for b, a in zip(self.blocks, self.starts) if b.kind == BLOCK_EMPIRICAL]
+
     def spacecraft_owners(self) -> list[str]:
         return [b.owner for b in self.blocks if b.kind == BLOCK_SPACECRAFT]

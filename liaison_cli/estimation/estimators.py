@@ -20,6 +20,7 @@ from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_S
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
                                                 ProcessNoise, SmootherRecord, channels_of, direction_record,
                                                 dynamics_of, process_noise_of)
+from liaison_cli.estimation.process_noise import uncoupled_process_noise
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
 from liaison_cli.measurements.registry import kinds_mask
@@ -84,6 +85,13 @@ class FilterArrays:
 
     def block_layout(self) -> BlockLayout:
         return BlockLayout(*self.layout.arrays())
+
+    def dense_process_noise(self) -> np.ndarray:
+        """Q (n, n) for a dense step P <- Phi P Phi' + Q: Q itself, or, with empirical-acceleration blocks, Q
+        rebuilt from the reduced form the EKF's coupled step takes (process_noise.uncoupled_process_noise)."""
+        if self.empirical_tau_tu == 0.0:
+            return self.Q
+        return uncoupled_process_noise(self.Q, self.layout.empirical_couplings(), self.empirical_tau_tu, self.dt_tu)
 
     def dynamics(self, t0_tu: float = 0.0) -> Dynamics:
         return dynamics_of(self.model_params, self.dt_tu, self.substeps, t0_tu, self.empirical_tau_tu)

@@ -193,7 +193,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     position = position_indices(*arrays.layout.arrays()[:2])
     args = [arrays.model, kinds_mask(arrays.channel_kind), x_start, np.ascontiguousarray(y_obs[:w]),
             np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
-            arrays.dynamics(), arrays.Q, traj, phi]
+            arrays.dynamics(), arrays.dense_process_noise(), traj, phi]
     entry = literal_entry(reference_and_normal_equations, tuple(args), (MODEL_ARG, KINDS_ARG))
 
     def linearise(x):

@@ -39,7 +39,14 @@ def _cells(row, untuned: set) -> list[str]:
     return [_snc(row, untuned), f"{row['error_rms_position_m']:.1f}", f"{row['sigma_rms_position_m']:.1f}",
             _ratio(row["position_error_to_sigma"], row.get("position_error_to_sigma_halfwidth", math.nan)),
             _ratio(row["velocity_error_to_sigma"], row.get("velocity_error_to_sigma_halfwidth", math.nan)),
-            ("-" if not math.isfinite(share) else f"{100 * share:.0f} %") + mark, f"{row['runs_ok']}/{row['runs']}"]
+            _share(share, row.get("nees_in_band_halfwidth", math.nan)) + mark, f"{row['runs_ok']}/{row['runs']}"]
+
+
+def _share(share: float, half_width: float) -> str:
+    """A whole-state NEES share in %, with its interval's half-width when known."""
+    if not math.isfinite(share):
+        return "-"
+    return f"{100 * share:.1f}" + (f"±{100 * half_width:.1f}" if math.isfinite(half_width) else "") + " %"
 
 
 def _verdict(rows: pd.DataFrame, chosen, notes: dict) -> str:
@@ -68,8 +75,8 @@ def format_table(table: pd.DataFrame, rule: str, command: str, settle_note: str,
              f"Statistics after the settle time ({settle_note}), over the runs that finished: error RMS and sigma "
              "RMS of the 3-D position error (m; sigma of the norm, sqrt(sx^2 + sy^2 + sz^2)), their ratio for "
              "position and velocity with its 95 % interval from the run count, and the mean share of epochs whose "
-             "whole-state NEES lies in its single-run 95 % chi-square band (the same for every spacecraft of a "
-             "scenario); ! marks a spacecraft that fails the consistency verdict (the ladder text says which test). "
+             "whole-state NEES lies in its single-run 95 % chi-square band with its 95 % interval from the runs' "
+             "spread (the same for every spacecraft of a scenario); ! marks a spacecraft that fails the consistency verdict (the ladder text says which test). "
              "SNC in m/s^2; a shipped value per spacecraft where they differ.", ""]
     kept = [label for label in table.scenario.unique() if label in notes]
     if kept:
@@ -102,7 +109,8 @@ def format_ladder(table: pd.DataFrame) -> str:
         position = _ratio(row["position_error_to_sigma"], row.get("position_error_to_sigma_halfwidth", math.nan))
         velocity = _ratio(row["velocity_error_to_sigma"], row.get("velocity_error_to_sigma_halfwidth", math.nan))
         lines.append(f"{row['scenario']:<32}{row['spacecraft']:<12}{snc:>10}{position:>13}{velocity:>13}"
-                     f"{('-' if not math.isfinite(share) else f'{100 * share:.0f} %'):>14}"
-                     f"{str(row['runs_ok']) + '/' + str(row['runs']):>9}  {row.get('consistency_failed') or ''}")
+                     f"{_share(share, row.get('nees_in_band_halfwidth', math.nan)):>14}"
+                     f"{str(row['runs_ok']) + '/' + str(row['runs']):>9}  "
+                     f"{row.get('rule_failed') or row.get('consistency_failed') or ''}")
     lines.append("s: shipped settings; *: the rung the rule chose")
     return "\n".join(lines)

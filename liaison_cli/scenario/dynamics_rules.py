@@ -148,8 +148,7 @@ def _check_truth_acceleration(scenario) -> None:
 
 def check_estimated_parameters(scenario) -> None:
     """filter.estimated_parameters: each name a parameter of the scenario's dynamics model (its descriptor's
-    list), by an estimator that carries dynamics parameters, without an initial batch (whose solve keeps the
-    spacecraft states only)."""
+    list), by an estimator that carries dynamics parameters."""
     wanted = scenario.filter.estimated_parameters
     if not wanted:
         return
@@ -167,10 +166,9 @@ def check_estimated_parameters(scenario) -> None:
 
 
 def check_empirical_acceleration(scenario) -> None:
-    """filter.empirical_acceleration: by an estimator that carries it, without an initial batch (whose solve
-    keeps the spacecraft states only), with a time constant of at least one measurement interval (the
-    transition exp(-dt / tau) stays above 1/e; a shorter correlation is white noise, which the process noise
-    already is)."""
+    """filter.empirical_acceleration: by an estimator that carries it, with a time constant of at least one
+    measurement interval (the transition exp(-dt / tau) stays above 1/e; a shorter correlation is white noise,
+    which the process noise already is)."""
     spec = scenario.filter.empirical_acceleration
     if spec is None:
         return
@@ -193,12 +191,9 @@ def check_ric_process_noise(scenario) -> None:
 
 
 def _carried_by_the_estimator(scenario, key: str, supports: str, what: str) -> None:
-    """A setting that adds filter states (`key`): by an estimator whose descriptor flag `supports` is set, and
-    without an initial batch, whose solve keeps the spacecraft states only."""
+    """A setting that adds filter states (`key`): by an estimator whose descriptor flag `supports` is set (an
+    initial batch solves for every filter state, these included)."""
     estimator = scenario.estimator_descriptor()
     if not getattr(estimator, supports):
         runners = ", ".join(e.name for e in ESTIMATORS.values() if getattr(e, supports))
         raise ValueError(f"{key}: estimator {estimator.name} does not {what}; allowed: estimator {runners}")
-    if scenario.filter.initial_batch_hours is not None:
-        raise ValueError(f"{key} with filter.initial_batch_hours: the initial batch solves for the spacecraft states "
-                         "only; allowed: one of the two")

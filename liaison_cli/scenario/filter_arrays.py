@@ -198,9 +198,8 @@ def _matrices(scenario: Scenario, layout: StateLayout):
         else:
             P0[s, s] = (flt.bias_apriori_sigma_m / M_PER_LU) ** 2
     if flt.empirical_acceleration is not None:  # the form of Q the coupled covariance step takes
-        couplings = [(layout.start_of(BLOCK_SPACECRAFT, b.owner.split(" ", 1)[1]), a)
-                     for b, a in zip(layout.blocks, layout.starts) if b.kind == BLOCK_EMPIRICAL]
-        Q = coupled_process_noise(Q, couplings, flt.empirical_acceleration.time_constant_s / TU_S, interval_s / TU_S)
+        Q = coupled_process_noise(Q, layout.empirical_couplings(), flt.empirical_acceleration.time_constant_s / TU_S,
+                                  interval_s / TU_S)
     return P0, Q
 
 

@@ -2,7 +2,7 @@
 
 The rule, for one EKF scenario:
 - Ladder: the SNC white acceleration sigma_a (m/s^2, the per-step convention: q = sigma_a^2 dt) takes each value
-  of a ladder (default DEFAULT_LADDER_M_S2, one value per decade from 1e-10 to 1e-5), the same for every
+  of a ladder (default DEFAULT_LADDER_M_S2: 1, 2 and 5 per decade from 1e-10 to 1e-5), the same for every
   estimated spacecraft: the filter key `filter.process_noise_accel_m_s2` is set and every spacecraft's own
   process-noise key (either convention) removed, as is a filter PSD no estimated spacecraft used.
 - A scenario whose process noise is a PSD (`process_noise_psd_m2_s3`, given or by default, for any estimated
@@ -19,11 +19,20 @@ The rule, for one EKF scenario:
 - A rung passes when every run finished 'ok' and every estimated spacecraft passes the one verdict of
   `run`, `compare`, the sweeps and the studies (analysis.consistency.campaign_verdict): the NEES test (whole
   state and own states, at least NEES_REQUIRED_SHARE in band) and the two-sided ratio test (the interval
-  reaches [1/1.5, 1.5]: a pessimistic filter fails as an optimistic one does). What failed is kept per rung
-  (`consistency_failed`) and printed.
-- Chosen: the smallest rung that passes ('rule met'). When none does, nothing is chosen ('no rung passes')
-  and the shipped value stays: no fallback accepts a filter the NEES rejects. A choice on the ladder's lowest
-  rung says only that a smaller value was not tried.
+  reaches [1/1.5, 1.5]: a pessimistic filter fails as an optimistic one does), with a margin: the
+  whole-state NEES share at least RULE_NEES_SHARE (90 %), so that a chosen rung is not on the verdict's edge,
+  where 20 runs' luck would decide. What failed is kept per rung (`consistency_failed`, or the margin) and printed.
+- Chosen: the smallest rung that passes ('rule met'). The rungs are run a decade at a time from the lowest,
+  and the decades above the first one with a passing rung are not run. When the default ladder's lowest rung
+  fails for being pessimistic (more settled epochs below the NEES band than above it), the ladder extends
+  below it a decade at a time (1, 2, 5 per decade, down to LADDER_FLOOR_M_S2) until a decade has a passing
+  rung or its lowest rung fails otherwise. When no rung reaches the margin, the rung the verdict passes with
+  the largest whole-state share is chosen and says so ('rule met below its margin'): the NEES does not
+  reject it. When the verdict passes no rung, nothing is chosen ('no rung passes') and the shipped value
+  stays: no fallback accepts a filter the NEES rejects. A choice on the ladder's lowest rung says only that a
+  smaller value was not tried (the rung passed: less noise is not needed for consistency).
+- The whole-state share is printed with the half-width of its 95 % interval from the runs' spread
+  (1.96 x their standard deviation / sqrt(runs)): the margin's size against the run count's power.
 - Batch least squares has no process noise: its scenarios get the shipped row only ('batch: no SNC').
 The campaigns are sweeps (campaign.sweep) in a work folder, one per scenario and ladder (plus one for the
 shipped settings when they are not a rung): an interrupted `tune` resumes, and a second one reuses every
@@ -52,11 +61,31 @@ from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.storage import resumable_output
 
 SNC_KEY = "filter.process_noise_accel_m_s2"
-DEFAULT_LADDER_M_S2 = (1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5)
+RULE_NEES_SHARE = 0.90  # the rule's margin over the verdict's NEES_REQUIRED_SHARE (module docstring)
+LADDER_FLOOR_M_S2 = 1e-13  # the default ladder extends no lower than this when its lowest rung is pessimistic
 DEFAULT_RUNS = 20
 VERDICT_MET = "rule met"
 VERDICT_NONE = "no rung passes"
+VERDICT_BELOW_MARGIN = "rule met below its margin"
 VERDICT_BATCH = "batch: no SNC"
+
+
+def one_two_five(low: float, high: float) -> tuple[float, ...]:
+    """The values 1, 2 and 5 times a power of ten from low to high inclusive (both powers of ten), ascending."""
+    first, last = round(np.log10(low)), round(np.log10(high))
+    values = [float(f"{m}e{k}") for k in range(first, last + 1) for m in (1, 2, 5)]
+    return tuple(v for v in values if v <= high * (1 + 1e-12))
+
+
+DEFAULT_LADDER_M_S2 = one_two_five(1e-10, 1e-5)
+
+
+def decades(values) -> list[tuple[float, ...]]:
+    """Ascending values grouped by their power of ten, the groups ascending."""
+    groups: dict[int, list[float]] = {}
+    for value in sorted(values):
+        groups.setdefault(int(np.floor(np.log10(value) + 1e-9)), []).append(value)
+    return [tuple(groups[k]) for k in sorted(groups)]
 
 
 class TuningError(LiaisonError):
@@ -73,9 +102,14 @@ def rule_text(ladder, runs: int) -> str:
             f"spacecraft passes the consistency verdict: the NEES test (at least {NEES_REQUIRED_SHARE:g} of the "
             f"settled epochs' whole-state NEES, and of its own 6-state NEES, in their single-run 95 % chi-square "
             f"bands) and the two-sided ratio test (the 95 % interval of the campaign error RMS / sigma RMS, from "
-            f"the {runs} runs, reaches [{1 / RATIO_LIMIT:.2f}, {RATIO_LIMIT:g}] for position and velocity). Chosen: "
-            f"the smallest rung that passes ('{VERDICT_MET}'); if none does, none ('{VERDICT_NONE}', the shipped "
-            f"value stays). Batch scenarios have no process noise ('{VERDICT_BATCH}').")
+            f"the {runs} runs, reaches [{1 / RATIO_LIMIT:.2f}, {RATIO_LIMIT:g}] for position and velocity), with a "
+            f"margin: the whole-state NEES share at least {RULE_NEES_SHARE:g}. Chosen: the smallest rung that passes "
+            f"('{VERDICT_MET}'); rungs run a decade at a time from the lowest, stopping after the first decade with "
+            f"a passing rung; when the default ladder's lowest rung fails for being pessimistic, the ladder extends "
+            f"below it a decade at a time (1, 2, 5 per decade, down to {LADDER_FLOOR_M_S2:g}) until a decade has a "
+            f"passing rung. If no rung reaches the margin, the rung the verdict passes with the largest whole-state "
+            f"share ('{VERDICT_BELOW_MARGIN}'); if the verdict passes none, none ('{VERDICT_NONE}', the shipped "
+            f"value stays). The share's ± is its 95 % interval from the runs' spread. Batch scenarios have no process noise ('{VERDICT_BATCH}').")
 
 
 def parse_ladder(text: str | None) -> tuple[float, ...]:
@@ -161,6 +195,8 @@ def rung_statistics(runs_table: pd.DataFrame) -> pd.DataFrame:
         for kind in ("position", "velocity"):
             row[f"{kind}_error_to_sigma"] = verdict[f"{kind}_error_to_sigma_settled"]
             row[f"{kind}_error_to_sigma_halfwidth"] = verdict[f"{kind}_error_to_sigma_halfwidth"]
+        shares = ok["frac_nees_in_band_settled"].dropna() if "frac_nees_in_band_settled" in ok else pd.Series([])
+        row["nees_in_band_halfwidth"] = _share_halfwidth(shares)
         for share in ("in_band", "above_band"):
             row[f"nees_{share}_share"] = verdict[f"frac_nees_{share}_settled"]
             row[f"nees_spacecraft_{share}_share"] = verdict[f"frac_nees_spacecraft_{share}_settled"]
@@ -169,18 +205,53 @@ def rung_statistics(runs_table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def passes(stats: pd.DataFrame) -> bool:
-    """One rung's rows (one per estimated spacecraft) pass: every run finished and every spacecraft is
-    consistent (module docstring)."""
+def _share_halfwidth(shares: pd.Series) -> float:
+    """The 95 % interval's half-width of a mean share over runs: 1.96 x their standard deviation / sqrt(runs)."""
+    return float(1.96 * shares.std(ddof=1) / np.sqrt(len(shares))) if len(shares) > 1 else float("nan")
+
+
+def passes_verdict(stats: pd.DataFrame) -> bool:
+    """One rung's rows (one per estimated spacecraft): every run finished and every spacecraft is consistent."""
     finished = bool((stats.runs_ok == stats.runs).all()) and len(stats) > 0
     return finished and bool(stats.consistent.all())
 
 
+def passes(stats: pd.DataFrame) -> bool:
+    """One rung passes the rule: the verdict, with the rule's margin on the whole-state NEES share (module
+    docstring)."""
+    return passes_verdict(stats) and bool((stats.nees_in_band_share >= RULE_NEES_SHARE).all())
+
+
+def rule_failure(row: dict) -> str:
+    """Why one spacecraft's row fails the rule: the verdict's failure, else the margin's, else ''."""
+    if row.get("consistency_failed"):
+        return row["consistency_failed"]
+    share = row["nees_in_band_share"]
+    if not share >= RULE_NEES_SHARE:
+        return f"the rule's margin: state NEES in band {100 * share:.1f} % < {100 * RULE_NEES_SHARE:.0f} %"
+    return ""
+
+
+def pessimistic(stats: pd.DataFrame) -> bool:
+    """A rung that fails with every run finished and, for some spacecraft, more settled epochs below the
+    whole-state NEES band than above it (too much process noise)."""
+    if passes(stats) or not bool((stats.runs_ok == stats.runs).all()) or len(stats) == 0:
+        return False
+    below = 1.0 - stats.nees_in_band_share - stats.nees_above_band_share
+    return bool((below > stats.nees_above_band_share).any())
+
+
 def choose(rungs: list[tuple[float, pd.DataFrame]]) -> tuple[float | None, str]:
-    """(chosen sigma_a or None, verdict) from [(rung value, its statistics)] in ascending order."""
+    """(chosen sigma_a or None, verdict) from [(rung value, its statistics)] in ascending order: the smallest
+    rung that passes; else the verdict-passing rung with the largest whole-state share (the smallest of
+    equals); else none (module docstring)."""
     for value, stats in rungs:
         if passes(stats):
             return value, VERDICT_MET
+    accepted = [(float(stats.nees_in_band_share.min()), -value, value) for value, stats in rungs
+                if passes_verdict(stats)]
+    if accepted:
+        return max(accepted)[2], VERDICT_BELOW_MARGIN
     return None, VERDICT_NONE
 
 
@@ -207,21 +278,17 @@ def _run_point_sweep(case: TuningCase, base: Scenario, grid, runs: int, folder: 
 def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False,
               where: Backend = LOCAL) -> pd.DataFrame:
     """The table rows of one scenario: per estimated spacecraft, the shipped settings' statistics and the
-    rule-chosen rung's (module docstring), with every rung's statistics in the 'ladder' rows."""
+    rule-chosen rung's (module docstring), with every rung run in the 'ladder' rows."""
     scenario = case.scenario
     estimated = [sc.name for sc in scenario.spacecraft if sc.role == "estimated"]
     folder = work / case.label
     ladder_stats, shipped_stats = [], None
     if scenario.estimator_descriptor().process_noise:
-        plan, table = _run_point_sweep(case, ladder_base(scenario, ladder), [(SNC_KEY, list(ladder))], runs, folder,
-                                       jobs, progress, where)
-        stats = rung_statistics(table)
-        shipped_hash = scenario_hash(scenario)
-        for point in plan.points:
-            mine = stats[(stats.point == point.index) & stats.spacecraft.isin(estimated)]
-            ladder_stats.append((dict(point.overrides)[SNC_KEY], mine))
-            if point.point_hash == shipped_hash:  # the shipped settings are this rung: no second campaign
-                shipped_stats = mine
+        def run_rungs(values):
+            return _rung_sweep(case, ladder_base(scenario, ladder), values, estimated, runs, folder, jobs, progress,
+                               where)
+
+        ladder_stats, shipped_stats = _climb(run_rungs, ladder, extend_below=tuple(ladder) == DEFAULT_LADDER_M_S2)
     if shipped_stats is None:
         _, table = _run_point_sweep(case, scenario, [], runs, folder, jobs, progress, where)
         shipped_stats = rung_statistics(table)
@@ -236,9 +303,46 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
             rows.append({"scenario": case.label, "setting": setting, "spacecraft": row["spacecraft"],
                          "snc_m_s2": snc, "settle_days": scenario.settle_days(), "chosen": setting == "rung" and value == chosen, "verdict": verdict,
                          "shipped_passes_rule": shipped_passes,
-                         "lowest_rung": setting == "rung" and value == min(ladder),
+                         "lowest_rung": setting == "rung" and value == ladder_stats[0][0],
+                         "rule_failed": rule_failure(row),
                          **{k: v for k, v in row.items() if k not in ("point", "spacecraft")}})
     return pd.DataFrame(rows)
+
+
+def _rung_sweep(case: TuningCase, base: Scenario, values, estimated, runs: int, folder: Path, jobs: int,
+                progress: bool, where: Backend):
+    """One sweep over the rungs `values` -> ([(rung, its estimated spacecraft's statistics)], the statistics of
+    the rung that is the shipped scenario itself, or None)."""
+    plan, table = _run_point_sweep(case, base, [(SNC_KEY, list(values))], runs, folder, jobs, progress, where)
+    stats = rung_statistics(table)
+    shipped_hash, rungs, shipped = scenario_hash(case.scenario), [], None
+    for point in plan.points:
+        mine = stats[(stats.point == point.index) & stats.spacecraft.isin(estimated)]
+        rungs.append((dict(point.overrides)[SNC_KEY], mine))
+        if point.point_hash == shipped_hash:  # the shipped settings are this rung: no second campaign
+            shipped = mine
+    return rungs, shipped
+
+
+def _climb(run_rungs, ladder, extend_below: bool):
+    """The rungs the rule needs, ascending, and the shipped scenario's statistics if it was one of them:
+    the ladder a decade at a time up to the first decade with a passing rung; then, when extend_below and
+    the lowest rung is pessimistic, the decades below it down to LADDER_FLOOR_M_S2 until one has a passing
+    rung or its lowest rung is not pessimistic (module docstring)."""
+    evaluated, shipped = [], None
+    for decade in decades(ladder):
+        rungs, found = run_rungs(decade)
+        evaluated, shipped = evaluated + rungs, shipped if found is None else found
+        if any(passes(stats) for _, stats in rungs):
+            break
+    if extend_below and pessimistic(evaluated[0][1]):
+        below = [v for v in one_two_five(LADDER_FLOOR_M_S2, min(ladder)) if v < min(ladder)]
+        for decade in reversed(decades(below)):
+            rungs, found = run_rungs(decade)
+            evaluated, shipped = rungs + evaluated, shipped if found is None else found
+            if any(passes(stats) for _, stats in rungs) or not pessimistic(rungs[0][1]):
+                break
+    return evaluated, shipped
 
 
 def tune(cases: list[TuningCase], ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False,

@@ -98,15 +98,35 @@ def test_coupled_prediction_is_the_dense_product():
     assert np.all(np.abs(np.diag(Q_reduced)[:3] / np.diag(Q)[:3] - 1) > 0.5)
 
 
+def test_the_dense_process_noise_undoes_the_reduction():
+    """The initial batch's dense step P <- Phi P Phi' + Q takes the physical Q back from the reduced form the
+    EKF's coupled step takes: (I + G) (I - G) = I since G^2 = 0, so the round trip is exact to rounding."""
+    from liaison_cli.dynamics.constants import TU_S
+    from liaison_cli.estimation.process_noise import uncoupled_process_noise
+
+    layout = StateLayout((StateBlock(BLOCK_SPACECRAFT, 6, "A"), StateBlock(BLOCK_SPACECRAFT, 6, "B"),
+                          StateBlock(BLOCK_EMPIRICAL, 3, owner_name(ROLE_EMPIRICAL, "B"))))
+    assert layout.empirical_couplings() == [(6, 12)]
+    rng = np.random.default_rng(7)
+    root = rng.normal(size=(15, 15))
+    Q = root @ root.T
+    tau, dt = TAU / TU_S, DT / TU_S  # the filter's time unit, as the EKF and the initial batch take them
+    Q[:12, 12:] *= 1e-3  # accelerations (LU/TU^2) are small next to positions and velocities
+    Q[12:, :12] *= 1e-3
+    Q[12:, 12:] *= 1e-6
+    reduced = coupled_process_noise(Q, layout.empirical_couplings(), tau, dt)
+    assert np.max(np.abs(reduced - Q)) > 1e-6 * np.max(np.abs(Q))  # the reduction moves Q (here by 1.4e-6)
+    back = uncoupled_process_noise(reduced, layout.empirical_couplings(), tau, dt)
+    assert np.max(np.abs(back - Q)) < 1e-12 * np.max(np.abs(Q))
+
+
 @pytest.mark.parametrize("edits, fragment", [
     ({"filter": {"empirical_acceleration": {"sigma_m_s2": 1e-8, "time_constant_s": 60}}},
      "time_constant_s = 60 is shorter than measurement.interval_s = 187.5"),
-    ({"filter": {"empirical_acceleration": {"sigma_m_s2": 1e-8, "time_constant_s": 86400},
-                 "initial_batch_hours": 6.0}}, "the initial batch solves for the spacecraft states only"),
     ({"filter": {"empirical_acceleration": {"sigma_m_s2": 1e-8, "time_constant_s": 86400}},
       "estimator": "batch", "batch": {"span_days": 1.0}}, "estimator batch does not carry empirical accelerations"),
     ({"filter": {"empirical_acceleration": {"sigma_m_s2": 1e-3, "time_constant_s": 86400}}}, "sigma_m_s2"),
-], ids=["tau-below-interval", "initial-batch", "batch", "too-large"])
+], ids=["tau-below-interval", "batch", "too-large"])
 def test_rules_are_one_line(edits, fragment):
     from liaison_cli.errors import ScenarioError
     from liaison_cli.scenario.loading import read_scenario_text, validate_scenario

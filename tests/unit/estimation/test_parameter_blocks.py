@@ -69,8 +69,8 @@ def test_a_parameter_the_model_lacks_is_one_line(edits, fragment):
 
 
 @pytest.mark.parametrize("edits, fragment", [
-    ({"filter.initial_batch_hours": 6.0}, "the initial batch solves for the spacecraft states only"),
-], ids=["initial-batch"])
+    ({"ephemeris.area_to_mass_m2_kg": 0.0}, "no solar radiation pressure, so no data can reach C_R"),
+], ids=["no-srp"])
 def test_dated_parameter_rules(edits, fragment):
     from liaison_cli.errors import ScenarioError
     from liaison_cli.scenario.loading import read_scenario_text
