@@ -46,7 +46,8 @@ def _share(share: float, half_width: float) -> str:
     """A whole-state NEES share in %, with its interval's half-width when known."""
     if not math.isfinite(share):
         return "-"
-    return f"{100 * share:.1f}" + (f"±{100 * half_width:.1f}" if math.isfinite(half_width) else "") + " %"
+    shown = math.isfinite(half_width) and half_width > 0.0  # runs that all agree have no spread to show
+    return f"{100 * share:.1f}" + (f"±{100 * half_width:.1f}" if shown else "") + " %"
 
 
 def _verdict(rows: pd.DataFrame, chosen, notes: dict) -> str:
@@ -100,7 +101,7 @@ def format_table(table: pd.DataFrame, rule: str, command: str, settle_note: str,
 def format_ladder(table: pd.DataFrame) -> str:
     """Plain text for the terminal: every rung's ratios and NEES share, per scenario and spacecraft."""
     lines = [f"{'scenario':<32}{'S/C':<12}{'SNC m/s^2':>10}{'pos err/σ':>13}{'vel err/σ':>13}{'NEES in band':>14}"
-             f"{'runs ok':>9}  why not consistent"]
+             f"{'runs ok':>9}  why the rung fails the rule"]
     untuned = _untuned(table)
     for row in table.to_dict("records"):
         value = _snc(row, untuned)

@@ -1,7 +1,8 @@
 """Fixed-step classical RK4 for the CRTBP (dynamics.crtbp's right-hand sides, inlined).
 
-The filter's state + STM over one measurement interval (`rk4_state_stm_into`, no allocation; `rk4_state_stm`
-allocates its result), and the compiled truth: one trajectory sampled at given times by steps of at most
+The filter's state + STM over one measurement interval, the STM on a coarser grid than the state
+(`rk4_state_stm_into`, no allocation; `rk4_state_stm` allocates its result), the state + STM with every step
+(`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by steps of at most
 max_step_tu (`rk4_states`; `rk4_states_forced` with a constant unmodelled acceleration). All numba-compiled
 and cached on disk.
 """
@@ -9,39 +10,59 @@ and cached on disk.
 import numpy as np
 from numba import njit
 
+from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp import derivative, derivative_into, state_stm_rhs
 
 
 @njit(cache=True)
 def rk4_state_stm(state, dt_tu, substeps, mu):
-    """Propagate one state (6,) and its STM over dt_tu with `substeps` fixed RK4 steps.
-
-    Returns (state_end (6,), phi (6, 6)) with phi = Phi(t + dt, t) (rk4_state_stm_into: the STM by fewer
-    steps, as extra equations alongside a coarser state, so the linearisation follows the trajectory).
-    """
+    """Propagate one state (6,) and its STM over dt_tu: (state_end (6,), phi (6, 6)) with
+    phi = Phi(t + dt, t), as the filter does (rk4_state_stm_into: the state by `substeps` RK4 steps, the STM
+    by fewer, as extra equations alongside a coarser state, so the linearisation follows the trajectory)."""
     y = np.empty(42)
     rk4_state_stm_into(state, dt_tu, substeps, mu, y, np.empty((5, 42)))
     return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
 
-STM_STEP_RATIO = 4  # the STM takes one RK4 step per STM_STEP_RATIO of the state's (rk4_state_stm_into)
+@njit(cache=True)
+def rk4_variational(state, dt_tu, steps, mu):
+    """(state_end (6,), phi (6, 6)) by `steps` RK4 steps of the 42 state + STM equations together: every step
+    on the STM too (a reference for the coarse STM, and the scheme of the filter before it)."""
+    y = np.empty(42)
+    rk4_variational_into(state, dt_tu, steps, mu, y, np.empty((5, 42)))
+    return y[0:6].copy(), y[6:].copy().reshape(6, 6)
+
+
+STM_STEP_RATIO = 4  # the STM takes one RK4 step per STM_STEP_RATIO of the state's (rk4_state_stm_into) ...
+STM_MAX_STEP_TU = 200.0 / TU_S  # ... and none longer than 200 s, whatever the interval
+
+
+@njit(cache=True, inline="always")
+def stm_steps(dt_tu, substeps):
+    """The STM's RK4 steps over an interval: a quarter of the state's substeps (at least one), more when a
+    step would exceed STM_MAX_STEP_TU, never more than the state's."""
+    coarse = max(substeps // STM_STEP_RATIO, int(np.ceil(abs(dt_tu) / STM_MAX_STEP_TU - 1e-9)), 1)
+    return min(coarse, substeps)
 
 
 @njit(cache=True, inline="always")
 def rk4_state_stm_into(state, dt_tu, substeps, mu, y, work):
     """rk4_state_stm without allocation: y (42,) <- [state_end (6), Phi(t + dt, t) row-major (36)];
-    work (5, 42) scratch (the filter calls this for every spacecraft at every epoch: no allocation).
+    work (5, 42) scratch (the filter calls this for every spacecraft at every epoch: no allocation). `state`
+    must not share memory with y or work: it is read again after they are written.
 
     The STM on a coarser grid than the state: the state by `substeps` RK4 steps of its own 6 equations (bit
-    for bit the state of `substeps` steps of the 42 state + STM equations), Phi by
-    max(1, substeps // STM_STEP_RATIO) steps of the 42 equations, whose coarser state only places the
-    Jacobian along the way. 16 + 4 evaluations per interval instead of 16 of the 42 equations; the state's
-    6 cost about a third of them. On eml2_lunar (187.5 s, 4 substeps) Phi is within 5e-8 of DOP853 at rtol
-    1e-13 (relative to its largest entry; 2e-10 with every substep), near the NRHO's perilune within 1e-6,
-    far inside what the EKF already accepts: it takes Phi at its estimate, and a 1-sigma move of the state
-    (300 m; 20 m for the lunar orbiter) changes Phi at least 57 times (NRHO: 190 times) more than the
-    coarse step does, interval by interval (benchmarks/bare_loop.py: stm_accuracy)."""
-    rk4_variational_into(state, dt_tu, max(1, substeps // STM_STEP_RATIO), mu, y, work)
+    for bit the state of `substeps` steps of the 42 state + STM equations), Phi by stm_steps(dt, substeps)
+    steps of the 42 equations (a quarter of the substeps, steps of at most 200 s), whose coarser state only
+    places the Jacobian along the way. At 187.5 s and 4 substeps: 16 + 4 evaluations per interval instead of
+    16 of the 42 equations; the state's 6 cost about a third of them. There Phi is within 5e-8 of DOP853 at
+    rtol 1e-13 (relative to its largest entry; 2e-10 with every substep) for eml2_lunar's lunar orbiter and
+    within 1e-6 near the NRHO's perilune, far inside what the EKF already accepts: it takes Phi at its
+    estimate, and a 1-sigma move of the state (300 m; 20 m for the lunar orbiter) changes Phi at least 57
+    times (NRHO: 190 times) more than the coarse step does, interval by interval (benchmarks/bare_loop.py
+    --accuracy). The 200 s bound keeps longer intervals there: without it the orbiter's Phi was 5e-6 off at
+    600 s and 4e-5 at 1,000 s."""
+    rk4_variational_into(state, dt_tu, stm_steps(dt_tu, substeps), mu, y, work)
     _state_steps(state, dt_tu, substeps, mu, y, work)
 
 

@@ -97,3 +97,27 @@ def test_a_manoeuvre_inside_the_window_is_one_line(tmp_path):
                            "initial_batch_max_hours: 1200")
     assert_one_line_error(run_cli_in_process("validate", path), path,
                           ["spacecraft[0].manoeuvre.epoch_days = 47.6", "inside the initial batch window (1200 h)"])
+
+
+def test_the_batch_carries_the_physical_process_noise_of_empirical_accelerations(monkeypatch):
+    """Smoke with Gauss-Markov accelerations (sigma 1e-8 m/s^2, tau 1 d) and no data over 200 intervals: the
+    hand-over covariance is the prediction alone, Phi P0 Phi' plus the process noise accumulated by the dense
+    step, and equals the EKF's (whose coupled step takes Q in its reduced form) to 1e-9 in every sigma. The
+    reduced form itself in the dense step would be wrong by far more (checked)."""
+    from liaison_cli.estimation.estimators import FilterArrays
+
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    dmc = {"filter.empirical_acceleration": {"sigma_m_s2": 1e-8, "time_constant_s": 86400.0}}
+    problem = prepare_problem(apply_overrides(scenario, {**NO_PROCESS_NOISE, **dmc}))
+    e = 200
+    arrays = replace(problem.filter, initial_batch=InitialBatchSettings(e + 1, e + 1, 1.0, 30, 1e-6 / M_PER_LU))
+    inputs = draw_run_inputs(problem, 0)
+    no_data = np.full_like(inputs.y_obs, np.nan)
+    plain = estimate("ekf", problem.filter, inputs.x0_hat, no_data, inputs.truth)
+    solution = solve_initial_batch(arrays, inputs.x0_hat, no_data)
+    assert solution.status == "ok" and solution.measurements == 0
+    sigma = np.sqrt(np.diag(solution.P_handover))
+    assert np.abs(sigma / plain.sigma[e] - 1.0).max() < 1e-9
+    monkeypatch.setattr(FilterArrays, "dense_process_noise", lambda self: self.Q)  # the reduced form instead
+    wrong = np.sqrt(np.diag(solve_initial_batch(arrays, inputs.x0_hat, no_data).P_handover))
+    assert np.abs(wrong / plain.sigma[e] - 1.0).max() > 1e-4
