@@ -56,8 +56,9 @@ def rk4_state_stm_into(state, dt_tu, substeps, mu, y, work):
     steps of the 42 equations (a quarter of the substeps, steps of at most 200 s), whose coarser state only
     places the Jacobian along the way. At 187.5 s and 4 substeps: 16 + 4 evaluations per interval instead of
     16 of the 42 equations; the state's 6 cost about a third of them. There Phi is within 5e-8 of DOP853 at
-    rtol 1e-13 (relative to its largest entry; 2e-10 with every substep) for eml2_lunar's lunar orbiter and
-    within 1e-6 near the NRHO's perilune, far inside what the EKF already accepts: it takes Phi at its
+    rtol 1e-13 (relative to its largest entry; 2e-10 with every substep) for eml2_lunar's lunar orbiter,
+    within 1e-6 near c5_star_eml2_nrho's NRHO perilune and 2.7e-6 near the Gateway NRHO's 3,250 km one (the
+    fastest a shipped scenario flies), far inside what the EKF already accepts: it takes Phi at its
     estimate, and a 1-sigma move of the state (300 m; 20 m for the lunar orbiter) changes Phi at least 57
     times (NRHO: 190 times) more than the coarse step does, interval by interval (benchmarks/bare_loop.py
     --accuracy). The 200 s bound keeps longer intervals there: without it the orbiter's Phi was 5e-6 off at
