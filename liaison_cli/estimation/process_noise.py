@@ -115,17 +115,19 @@ def coupled_process_noise(Q: np.ndarray, couplings, tau: float, dt: float) -> np
     rows, the acceleration's columns), the kinematic gains over the decay m (gauss_markov_gains; G^2 = 0).
     couplings: (spacecraft block start, acceleration block start) pairs; tau, dt in the state's time unit
     (TU: the gains are in LU per LU/TU^2 and LU/TU per LU/TU^2)."""
-    G = _coupling_matrix(Q.shape, couplings, tau, dt)
-    reduced = Q - G @ Q - Q @ G.T + G @ Q @ G.T
-    return 0.5 * (reduced + reduced.T)
+    return _congruence(Q, -_coupling_matrix(Q.shape, couplings, tau, dt))
 
 
 def uncoupled_process_noise(Q_reduced: np.ndarray, couplings, tau: float, dt: float) -> np.ndarray:
     """The inverse of coupled_process_noise: Q = (I + G) Q~ (I + G)^T, the process noise of a dense step
     P <- Phi P Phi' + Q (the initial batch's accumulation)."""
-    G = _coupling_matrix(Q_reduced.shape, couplings, tau, dt)
-    full = Q_reduced + G @ Q_reduced + Q_reduced @ G.T + G @ Q_reduced @ G.T
-    return 0.5 * (full + full.T)
+    return _congruence(Q_reduced, _coupling_matrix(Q_reduced.shape, couplings, tau, dt))
+
+
+def _congruence(Q: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """(I + G) Q (I + G)^T, expanded and symmetrised."""
+    out = Q + G @ Q + Q @ G.T + G @ Q @ G.T
+    return 0.5 * (out + out.T)
 
 
 def _coupling_matrix(shape, couplings, tau: float, dt: float) -> np.ndarray:

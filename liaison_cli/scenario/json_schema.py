@@ -34,10 +34,9 @@ LOADER_ONLY_RULES = (
     "the IERS Earth orientation table (from 1973-01-02); a departure mission's epoch is within 3 h after its "
     "injection; only the observables that model supports; measurement.light_time: true only with tdoa / fdoa",
     "estimated parameters: filter.estimated_parameters names parameters of the scenario's dynamics model (cr: "
-    "dynamics: ephemeris), with the ekf and without filter.initial_batch_hours",
-    "filter states: filter.empirical_acceleration with the ekf, without filter.initial_batch_hours and with "
-    "time_constant_s at least measurement.interval_s; process_noise_psd_ric_m2_s3 without "
-    "filter.initial_batch_hours",
+    "dynamics: ephemeris), with the ekf",
+    "filter states: filter.empirical_acceleration with the ekf and with time_constant_s at least "
+    "measurement.interval_s; process_noise_psd_ric_m2_s3 without filter.initial_batch_hours",
     "numbers are finite (no .inf or .nan)",
 )
 

@@ -22,7 +22,8 @@ The rule, for one EKF scenario:
   reaches [1/1.5, 1.5]: a pessimistic filter fails as an optimistic one does), with a margin: the
   whole-state NEES share at least RULE_NEES_SHARE (90 %, the share the consistency issue asks of every
   shipped scenario). The margin is a preference, not a test: over 20 runs a share's 95 % interval is ±3-8
-  points, so a rung at 90.7 % is not shown better than one at 89.9 %. What failed is kept per rung (`consistency_failed`, or the margin) and printed.
+  points, so a rung at 90.7 % is not shown better than one at 89.9 %. What failed is kept per rung
+  (`consistency_failed`, or the margin: `rule_failed`) and printed.
 - Chosen: the smallest rung that passes ('rule met'). The rungs are run a decade at a time from the lowest.
   When the default ladder's lowest decade has no passing rung and its lowest rung fails for being
   pessimistic (more settled epochs below the NEES band than above it), the ladder first extends below it a
@@ -31,9 +32,10 @@ The rule, for one EKF scenario:
   with a passing rung are not run. When no rung reaches the margin, the smallest rung the verdict passes
   whose share lies within the 95 % interval of the best such share is chosen, and says so ('rule met below
   its margin'): the NEES does not reject it, and a larger rung that beats it by less than the runs resolve
-  is not preferred to less noise. When the verdict passes no rung, nothing is chosen ('no rung passes') and the shipped value
-  stays: no fallback accepts a filter the NEES rejects. A choice on the ladder's lowest rung says only that a
-  smaller value was not tried (the rung passed: less noise is not needed for consistency).
+  is not preferred to less noise. When the verdict passes no rung, nothing is chosen ('no rung passes') and
+  the shipped value stays: no fallback accepts a filter the NEES rejects. A choice on the ladder's lowest
+  rung says only that a smaller value was not tried (the rung passed: less noise is not needed for
+  consistency).
 - The whole-state share is printed with the half-width of its 95 % interval from the runs' spread
   (1.96 x their standard deviation / sqrt(runs)): the margin's size against the run count's power.
 - Batch least squares has no process noise: its scenarios get the shipped row only ('batch: no SNC').
@@ -114,7 +116,8 @@ def rule_text(ladder, runs: int) -> str:
             f"rung reaches the margin, the smallest rung the verdict passes whose share is within the 95 % "
             f"interval of the best such share ('{VERDICT_BELOW_MARGIN}'); if the verdict passes none, none "
             f"('{VERDICT_NONE}', the shipped value stays). The share's ± is its 95 % interval from the runs' "
-            f"spread (normal approximation): the margin is a preference, not a test at that precision. Batch scenarios have no process noise ('{VERDICT_BATCH}').")
+            f"spread (normal approximation): the margin is a preference, not a test at that precision. Batch "
+            f"scenarios have no process noise ('{VERDICT_BATCH}').")
 
 
 def parse_ladder(text: str | None) -> tuple[float, ...]:
@@ -292,9 +295,10 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
     folder = work / case.label
     ladder_stats, shipped_stats = [], None
     if scenario.estimator_descriptor().process_noise:
+        base = ladder_base(scenario, ladder)
+
         def run_rungs(values):
-            return _rung_sweep(case, ladder_base(scenario, ladder), values, estimated, runs, folder, jobs, progress,
-                               where)
+            return _rung_sweep(case, base, values, estimated, runs, folder, jobs, progress, where)
 
         ladder_stats, shipped_stats = _climb(run_rungs, ladder, extend_below=tuple(ladder) == DEFAULT_LADDER_M_S2)
     if shipped_stats is None:
@@ -309,7 +313,8 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
         for row in stats.to_dict("records"):
             snc = shipped[row["spacecraft"]] if setting == "shipped" else value
             rows.append({"scenario": case.label, "setting": setting, "spacecraft": row["spacecraft"],
-                         "snc_m_s2": snc, "settle_days": scenario.settle_days(), "chosen": setting == "rung" and value == chosen, "verdict": verdict,
+                         "snc_m_s2": snc, "settle_days": scenario.settle_days(),
+                         "chosen": setting == "rung" and value == chosen, "verdict": verdict,
                          "shipped_passes_rule": shipped_passes,
                          "lowest_rung": setting == "rung" and value == ladder_stats[0][0],
                          "rule_failed": rule_failure(row),

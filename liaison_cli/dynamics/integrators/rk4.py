@@ -2,9 +2,9 @@
 
 The filter's state + STM over one measurement interval, the STM on a coarser grid than the state
 (`rk4_state_stm_into`, no allocation; `rk4_state_stm` allocates its result), the state + STM with every step
-(`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by steps of at most
-max_step_tu (`rk4_states`; `rk4_states_forced` with a constant unmodelled acceleration). All numba-compiled
-and cached on disk.
+(`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by
+steps of at most max_step_tu (`rk4_states`; `rk4_states_forced` with a constant unmodelled acceleration).
+All numba-compiled and cached on disk.
 """
 
 import numpy as np
