@@ -169,24 +169,28 @@ def shadow_edges(r_sat, r_sun, r_body, radius_body):
 
 
 def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
-                            acceleration_km_s2=None):
+                            acceleration_km_s2=None, acceleration_table_km_s2=None):
     """Truth states (m, 6) at times_s by scipy's adaptive DOP853 (integrators.adaptive.dop853_samples) on the
     compiled derivative, restarted at every shadow edge (penumbra and umbra of the Earth and the Moon, located
     as events): the conical shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at
     864 s: 1.6 m after 9 days; DOP853 without the restarts: 0.6 m). Tolerances rtol 1e-12, atol 1e-9 km; after
     9 days with one eclipse this truth is within 2.3 cm of itself at rtol 1e-13
     (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant extra acceleration on the ICRF
-    axes (the truth's unmodelled force; None: none)."""
+    axes (the truth's unmodelled force; None: none); acceleration_table_km_s2 (m, 3): one more, given at
+    times_s and linear between them (a Gauss-Markov force drawn per run; None: none)."""
     out = np.empty(6)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
 
     forced = acceleration_km_s2 is not None and np.any(np.asarray(acceleration_km_s2) != 0.0)
+    table = None if acceleration_table_km_s2 is None else _LinearTable(times_s, acceleration_table_km_s2)
 
     def rhs(t, y):
         ephemeris_derivative(t, y, *args, bodies, gms, gm_earth, cr_am, False, out)
         rate = out.copy()
         if forced:
             rate[3:] += acceleration_km_s2
+        if table is not None:
+            rate[3:] += table(t)
         return rate
 
     def edge(which, body):
@@ -200,3 +204,15 @@ def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr
 
     events = [edge(w, b) for w in (0, 1) for b in (BODY_EARTH, BODY_MOON)] if cr_am > 0.0 else []
     return dop853_samples(rhs, t0_s, x0, times_s, rtol, atol, events, what="ephemeris truth propagation")
+
+
+class _LinearTable:
+    """values (m, k) given at ascending times (m,), linear between them and held past either end."""
+
+    def __init__(self, times, values):
+        self.times, self.values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+
+    def __call__(self, t: float) -> np.ndarray:
+        i = min(max(int(np.searchsorted(self.times, t, side="right")) - 1, 0), len(self.times) - 2)
+        fraction = min(max((t - self.times[i]) / (self.times[i + 1] - self.times[i]), 0.0), 1.0)
+        return self.values[i] + (self.values[i + 1] - self.values[i]) * fraction

@@ -187,14 +187,16 @@ class EphemerisDynamicsModel:
                                           self.epoch_tdb_s + float(t))[:3] for t in np.asarray(times_s, dtype=float)])
         return {"earth_lu": np.zeros(3), "moon_lu": moon / LU_KM}
 
-    def truth_states(self, state0, times_tu) -> np.ndarray:
-        """Truth (m, 6), scaled units, from state0 (scaled) at times_tu[0] (TU since the epoch)."""
+    def truth_states(self, state0, times_tu, extra_acceleration_lu_tu2=None) -> np.ndarray:
+        """Truth (m, 6), scaled units, from state0 (scaled) at times_tu[0] (TU since the epoch); with
+        extra_acceleration_lu_tu2 (m, 3) an unmodelled force at the samples and linear between them (ICRF)."""
         from liaison_cli.dynamics.ephemeris_dynamics import dop853_ephemeris_states
 
         times_s = self.epoch_tdb_s + np.asarray(times_tu, dtype=float) * TU_S
+        table = None if extra_acceleration_lu_tu2 is None else np.asarray(extra_acceleration_lu_tu2) * AU_KM_S2
         km = dop853_ephemeris_states(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies,
                                      self.gms, self.gm_earth, self.cr_am,
-                                     acceleration_km_s2=self.truth_acceleration_km_s2)
+                                     acceleration_km_s2=self.truth_acceleration_km_s2, acceleration_table_km_s2=table)
         return km / SCALE
 
     def trajectory(self, states, times_tu):

@@ -120,10 +120,16 @@ class DynamicsModel:
         """What the model is and supports (dynamics.registry)."""
         return DYNAMICS[self.name]
 
-    def truth_states(self, state0, times_tu) -> np.ndarray:
-        """High-accuracy truth (m, 6) at times_tu from state0 at times_tu[0]."""
-        return rk4_states_forced(np.asarray(state0, dtype=float), np.asarray(times_tu, dtype=float),
-                                 TRUTH_MAX_STEP_S / TU_S, self.params[0], self.truth_acceleration_lu_tu2)
+    def truth_states(self, state0, times_tu, extra_acceleration_lu_tu2=None) -> np.ndarray:
+        """High-accuracy truth (m, 6) at times_tu from state0 at times_tu[0]; the truth's constant unmodelled
+        acceleration, plus extra_acceleration_lu_tu2 (m, 3) at the samples and linear between them (a
+        Gauss-Markov force drawn per run; None: none), on the rotating axes."""
+        times_tu = np.asarray(times_tu, dtype=float)
+        forcing = np.broadcast_to(self.truth_acceleration_lu_tu2, (times_tu.shape[0], 3))
+        if extra_acceleration_lu_tu2 is not None:
+            forcing = forcing + extra_acceleration_lu_tu2
+        return rk4_states_forced(np.asarray(state0, dtype=float), times_tu, TRUTH_MAX_STEP_S / TU_S,
+                                 self.params[0], np.ascontiguousarray(forcing, dtype=float))
 
     def body_positions_lu(self, times_s) -> dict:
         """Occulting bodies' centres for measurements.visibility.not_occulted: the CRTBP's are fixed (its

@@ -121,26 +121,56 @@ def check_model_error(scenario) -> None:
         raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
                          "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
     if any(error.truth_acceleration_m_s2):
-        _check_truth_acceleration(scenario)
+        _check_truth_acceleration(scenario, "truth_acceleration_m_s2", scenario.spacecraft)
+    if error.truth_acceleration_sigma_m_s2 > 0.0:
+        _check_random_truth_acceleration(scenario)
+    elif error.truth_acceleration_time_constant_s is not None:
+        raise ValueError(f"model_error.truth_acceleration_time_constant_s = "
+                         f"{error.truth_acceleration_time_constant_s:g} without truth_acceleration_sigma_m_s2: "
+                         "no random acceleration to correlate; allowed: both, or neither")
 
 
-def _check_truth_acceleration(scenario) -> None:
+def _check_random_truth_acceleration(scenario) -> None:
+    """The random truth acceleration needs its time constant, no shorter than the measurement interval (the
+    process is sampled at the epochs), simulated measurements (a file's have their own truth), and estimated
+    spacecraft whose truth liaison propagates."""
+    error, interval_s = scenario.model_error, scenario.measurement.interval_s
+    tau = error.truth_acceleration_time_constant_s
+    if tau is None or tau < interval_s:
+        raise ValueError(f"model_error.truth_acceleration_time_constant_s = {tau}: with "
+                         "truth_acceleration_sigma_m_s2 it is needed, and allowed from measurement.interval_s = "
+                         f"{interval_s:g} s up (the process is sampled at the measurement epochs)")
+    if scenario.measurements is not None:
+        raise ValueError("model_error.truth_acceleration_sigma_m_s2 with measurements: {tdm: ...}: the file's "
+                         "measurements come from their own truth, which no drawn acceleration moves; allowed: "
+                         "simulated measurements")
+    estimated = [sc for sc in scenario.spacecraft if sc.role == "estimated"]
+    _check_truth_acceleration(scenario, "truth_acceleration_sigma_m_s2", estimated)
+    stationary = [sc.name for sc in estimated if sc.longitude_deg is not None]
+    if stationary:
+        raise ValueError(f"model_error.truth_acceleration_sigma_m_s2 with the station-kept geostationary "
+                         f"spacecraft {stationary[0]!r} estimated: its truth is a point fixed to the Earth, which "
+                         "no acceleration moves; allowed: estimated spacecraft whose truth liaison propagates")
+
+
+def _check_truth_acceleration(scenario, key: str, spacecraft) -> None:
     """An unmodelled push needs a truth that is propagated: not one read from an OEM, not a corrected dated
     orbit flown node by node (each node would undo it). Station-kept geostationary spacecraft are points fixed
-    to the Earth and stay exempt (documented)."""
-    for i, sc in enumerate(scenario.spacecraft):
+    to the Earth and stay exempt from the constant push (documented)."""
+    for sc in spacecraft:
+        i = scenario.spacecraft.index(sc)
         if sc.orbit_file is not None and sc.orbit_file.kind == "oem":
-            raise ValueError(f"model_error.truth_acceleration_m_s2 with spacecraft[{i}].orbit = {{oem: ...}}: its "
+            raise ValueError(f"model_error.{key} with spacecraft[{i}].orbit = {{oem: ...}}: its "
                              "truth is the file's, which no acceleration moves; allowed: spacecraft whose truth "
                              "liaison propagates")
     if not scenario.dynamics_descriptor().dated:
         return
     from liaison_cli.scenario.dated import is_corrected
 
-    corrected = [i for i, sc in enumerate(scenario.spacecraft)
+    corrected = [scenario.spacecraft.index(sc) for sc in spacecraft
                  if is_corrected(sc) and sc.longitude_deg is None and sc.manoeuvre is None]
     if corrected:
-        raise ValueError(f"model_error.truth_acceleration_m_s2 with spacecraft[{corrected[0]}] on a corrected "
+        raise ValueError(f"model_error.{key} with spacecraft[{corrected[0]}] on a corrected "
                          "orbit: its truth is flown from the corrected nodes, which would undo the acceleration "
                          "at every node; allowed: dynamics: crtbp, or dated spacecraft with a state_km, an OPM "
                          "or a departure")

@@ -10,7 +10,13 @@ drawn factor stays positive):
 - the Moon's GM, for every dynamics model: in the CRTBP the mass ratio mu = GM_moon / (GM_earth + GM_moon)
   becomes mu (1 + f) / (1 + mu f); in the dated model the lunar point mass of the filter's model scales.
 - an unmodelled constant acceleration in the truth (`truth_acceleration_m_s2`, the same in every run: the truth
-  is propagated once per scenario), felt by every spacecraft on the dynamics model's axes.
+  is propagated once per scenario), felt by every spacecraft on the dynamics model's axes;
+- an unmodelled random acceleration in the truth (`truth_acceleration_sigma_m_s2` with
+  `truth_acceleration_time_constant_s`): a first-order Gauss-Markov process per estimated spacecraft and axis,
+  stationary from t0, sampled exactly at the measurement epochs and linear between them, drawn per run from
+  its own stream of the run's seed (no other draw moves). Each run then flies and measures its own truth
+  (campaign.engine.worker); the filter's empirical acceleration (filter.empirical_acceleration) with the
+  same sigma and time constant is the matched model of it.
 A clock-drift model error is the truth's deterministic drift the filter does not model: a clock's `mu1` (s/s)
 and `mu2_per_s`. C_R can also be estimated (filter.estimated_parameters).
 """
@@ -37,6 +43,14 @@ class ModelErrorSpec(StrictModel):
         (0.0, 0.0, 0.0), description="a constant acceleration every spacecraft's truth feels and the filter does "
         "not model, on the dynamics model's axes (crtbp: the rotating frame, x from the Earth to the Moon, z along "
         "the orbit normal; ephemeris: ICRF); each component at most 1e-5 (m/s^2)")
+
+    truth_acceleration_sigma_m_s2: float = Field(
+        0.0, ge=0, le=1e-5, description="a random acceleration each estimated spacecraft's truth feels and the "
+        "filter does not model: first-order Gauss-Markov per axis of the dynamics model, this stationary 1-sigma, "
+        "drawn per run (each run flies its own truth); 0: none (m/s^2)")
+    truth_acceleration_time_constant_s: float | None = Field(
+        None, gt=0, description="the random acceleration's correlation time tau (exp(-dt / tau) from one epoch to "
+        "the next); needed with truth_acceleration_sigma_m_s2, at least measurement.interval_s (s)")
 
     @field_validator("truth_acceleration_m_s2")
     @classmethod

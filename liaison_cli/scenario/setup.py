@@ -58,6 +58,9 @@ class Problem:
     dynamics: DynamicsModel
     manoeuvres: tuple = ()  # (Delta-v state start, true Delta-v (3,), a-priori sigma), scaled units
     observed: object = None  # measurements: {tdm: FILE}: scenario.observed.ObservedMeasurements, else None
+    # {participant name: nominal trajectory} when each run flies its own truth (a random truth acceleration:
+    # scenario.truth.forced_truth_and_measurements), else None (not carried to the workers).
+    trajectories: dict | None = None
 
     @property
     def n_spacecraft(self) -> int:
@@ -124,4 +127,5 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         dynamics=model,
         manoeuvres=estimator.manoeuvres,
         observed=observed_measurements(scenario, estimator.channels, times_s, model),
+        trajectories=trajectories if scenario.model_error.truth_acceleration_sigma_m_s2 > 0.0 else None,
     )

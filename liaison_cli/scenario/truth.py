@@ -3,7 +3,9 @@ dynamics, a manoeuvre applied after its epoch; stations turning with the Earth),
 when, and the noise-free measurements.
 
 Computed once per scenario and shared (read-only) by every Monte Carlo run; a cache lets a sweep over noise
-or filter settings, or over link sets, propagate the truth once."""
+or filter settings, or over link sets, propagate the truth once. A random unmodelled acceleration
+(model_error.truth_acceleration_sigma_m_s2) makes each run fly and measure its own truth
+(`forced_truth_and_measurements`, called by the worker with the run's draw)."""
 
 import json
 
@@ -62,17 +64,34 @@ def link_observables(link) -> list:
 
 
 
-def _flown(scenario: Scenario, model, spacecraft, state0, times_tu) -> np.ndarray:
+def _flown(scenario: Scenario, model, spacecraft, state0, times_tu, extra_lu_tu2=None) -> np.ndarray:
     """The truth (m, 6) from state0; a manoeuvre's Delta-v joins the velocity just after its epoch (the
-    state at that epoch is the one before the burn)."""
+    state at that epoch is the one before the burn). extra_lu_tu2 (m, 3): a drawn unmodelled acceleration at
+    the epochs (None: none)."""
     if spacecraft.manoeuvre is None:
-        return model.truth_states(state0, times_tu)
+        return model.truth_states(state0, times_tu, extra_lu_tu2)
     k = burn_step(scenario, spacecraft.manoeuvre)
-    before = model.truth_states(state0, times_tu[: k + 1])
+    before = model.truth_states(state0, times_tu[: k + 1], None if extra_lu_tu2 is None else extra_lu_tu2[: k + 1])
     kicked = before[-1].copy()
     kicked[3:] += np.array(spacecraft.manoeuvre.delta_v_m_s) / M_S_PER_VU
-    after = model.truth_states(kicked, times_tu[k:])
+    after = model.truth_states(kicked, times_tu[k:], None if extra_lu_tu2 is None else extra_lu_tu2[k:])
     return np.vstack([before, after[1:]])
+
+
+def forced_truth_and_measurements(scenario: Scenario, model: DynamicsModel, times_s, trajectories: dict,
+                                  extra_lu_tu2: dict):
+    """One run's own truth under a drawn unmodelled acceleration (model_error.truth_acceleration_sigma_m_s2):
+    (trajectories, noise-free measurements (m, C) with row 0 NaN). extra_lu_tu2 {spacecraft name: (m, 3) at the
+    epochs, LU/TU^2 on the dynamics model's axes}; each named spacecraft is flown again from its nominal
+    state at t0 (a manoeuvre as in the nominal truth), the other participants keep `trajectories` (the
+    nominal, shared). Visibility is recomputed on the run's own truth."""
+    times_tu = times_s / TU_S
+    flown = dict(trajectories)
+    for sc in scenario.spacecraft:
+        if sc.name in extra_lu_tu2:
+            states = _flown(scenario, model, sc, trajectories[sc.name].states[0], times_tu, extra_lu_tu2[sc.name])
+            flown[sc.name] = model.trajectory(states, times_tu)
+    return flown, _measured(scenario, model, times_s, flown)[2]
 
 
 def _flown_from_nodes(model, node_times_s, nodes_lu, times_s) -> np.ndarray:

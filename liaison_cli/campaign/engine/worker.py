@@ -13,15 +13,17 @@ from liaison_cli.analysis.metrics import (
     summary_rows,
     sustained_excess_step,
 )
-from liaison_cli.campaign.engine.seeding import run_rng
+from liaison_cli.campaign.engine.seeding import run_rng, truth_force_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S2_PER_AU, M_S_PER_VU, SECONDS_PER_DAY
+from liaison_cli.dynamics.random_forcing import gauss_markov_samples
 from liaison_cli.estimation.blocks import BLOCK_EMPIRICAL, BLOCK_PARAMETER, FORMATION
 from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.interrupts import caused_by_interrupt
 from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import SPEED_OF_LIGHT_M_S, Problem
+from liaison_cli.scenario.truth import forced_truth_and_measurements
 
 
 @dataclass(frozen=True)
@@ -73,16 +75,18 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
 
     Draw order is part of the reproducibility contract: initial error first, then measurement noise
     (one channel after another), then the per-run random bias of each link, then each clock's history,
-    then the filter's C_R error, then each manoeuvre's a-priori error.
+    then the filter's C_R error, then each manoeuvre's a-priori error. A random truth acceleration is drawn
+    from a stream of its own (run_truth), so it moves none of these.
     """
     # measurements: {tdm}: the draws of the run the file names, then the file's values replace the simulated ones.
     rng = run_rng(problem.scenario.monte_carlo.seed, run_index if problem.observed is None else problem.observed.run)
-    n = problem.truth.shape[1]
+    own_truth, measurements_true, forcing = run_truth(problem, run_index)
+    n = own_truth.shape[1]
     if problem.scenario.initial_error.draw == "from_covariance":
         dx0 = np.linalg.cholesky(problem.P0[:n, :n]) @ rng.standard_normal(n)
     else:
         dx0 = problem.initial_error_sigma[:n] * rng.standard_normal(n)
-    m, n_channels = problem.measurements_true.shape
+    m, n_channels = measurements_true.shape
     # Channel by channel (column-major), so a channel's noise does not depend on which other channels a
     # scenario has: range-only and range + range-rate runs share their range noise.
     noise = rng.standard_normal((n_channels, m - 1)).T * problem.sigma_lu
@@ -91,14 +95,14 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
         bias = problem.bias_lu + problem.bias_sigma_lu * np.sqrt(3.0) * rng.uniform(-1.0, 1.0, n_links)
     else:
         bias = problem.bias_lu + problem.bias_sigma_lu * rng.standard_normal(n_links)
-    y_obs = problem.measurements_true.copy()
+    y_obs = measurements_true.copy()
     y_obs[1:] += noise
     biased = np.array([ch.takes_range_bias for ch in problem.channels])
     y_obs[1:, biased] += bias[problem.channel_link[biased]][None, :]
 
     n_state = problem.filter.layout.n
     truth = np.zeros((m, n_state))
-    truth[:, :n] = problem.truth
+    truth[:, :n] = own_truth
     dt_s = problem.scenario.measurement.interval_s
     phases = {}
     for clock in problem.clocks:
@@ -113,12 +117,12 @@ def draw_run_inputs(problem: Problem, run_index: int) -> RunInputs:
     if problem.n_bias:
         truth[:, problem.bias_state_start : problem.bias_state_start + problem.n_bias] = bias[None, :]
     # The filter starts its clock and bias states at their a-priori mean, zero.
-    x0_hat = np.concatenate([problem.truth[0] + dx0, np.zeros(n_state - n)])
+    x0_hat = np.concatenate([own_truth[0] + dx0, np.zeros(n_state - n)])
     filter_params, cr_factor = _filter_params(problem, rng)
     for start, value in true_parameters(problem, cr_factor):
         truth[:, start] = value
-    for start, value in true_empirical_accelerations(problem):
-        truth[:, start : start + 3] = value[None, :]
+    for start, value in true_empirical_accelerations(problem, forcing):
+        truth[:, start : start + 3] = value
     # Manoeuvres (drawn last): the truth keeps the scenario's Delta-v, the filter starts its a-priori sigma off.
     for start, delta_v, sigma in problem.manoeuvres:
         truth[:, start : start + 3] = delta_v[None, :]
@@ -153,14 +157,34 @@ def true_parameters(problem: Problem, cr_factor: float):
             for block, start in zip(layout.blocks, layout.starts) if block.kind == BLOCK_PARAMETER]
 
 
-def true_empirical_accelerations(problem: Problem):
-    """(state offset, true value (3,) in LU/TU^2) of every empirical-acceleration block
+def true_empirical_accelerations(problem: Problem, forcing: dict | None = None):
+    """(state offset, true value (m, 3) or (3,) in LU/TU^2) of every empirical-acceleration block
     (filter.empirical_acceleration): the acceleration the truth feels that the filter's dynamics lack,
-    model_error.truth_acceleration_m_s2 (zero when none), on the same axes."""
-    true_value = np.array(problem.scenario.model_error.truth_acceleration_m_s2) / M_S2_PER_AU
+    model_error.truth_acceleration_m_s2 (zero when none), plus the run's drawn one at each epoch (`forcing`
+    {spacecraft name: (m, 3)}, run_truth's), on the same axes."""
+    constant = np.array(problem.scenario.model_error.truth_acceleration_m_s2) / M_S2_PER_AU
     layout = problem.filter.layout
-    return [(int(start), true_value) for block, start in zip(layout.blocks, layout.starts)
-            if block.kind == BLOCK_EMPIRICAL]
+    return [(int(start), constant + (forcing or {}).get(block.owner.split(" ", 1)[1], 0.0))
+            for block, start in zip(layout.blocks, layout.starts) if block.kind == BLOCK_EMPIRICAL]
+
+
+def run_truth(problem: Problem, run_index: int):
+    """(truth (m, 6 n_sc) of the estimated spacecraft, noise-free measurements (m, C), {name: drawn
+    acceleration (m, 3) in LU/TU^2} or None) of one run: the problem's shared ones, or, with a random truth
+    acceleration (model_error.truth_acceleration_sigma_m_s2), the run's own, flown under a Gauss-Markov path
+    per estimated spacecraft drawn from the run's truth-force stream (seeding.truth_force_rng)."""
+    error = problem.scenario.model_error
+    if problem.trajectories is None:
+        return problem.truth, problem.measurements_true, None
+    draws = gauss_markov_samples(truth_force_rng(problem.scenario.monte_carlo.seed, run_index),
+                                 problem.n_spacecraft, problem.n_steps, problem.scenario.measurement.interval_s,
+                                 error.truth_acceleration_sigma_m_s2 / M_S2_PER_AU,
+                                 error.truth_acceleration_time_constant_s)
+    forcing = dict(zip(problem.spacecraft, draws))
+    flown, measurements = forced_truth_and_measurements(problem.scenario, problem.dynamics, problem.times_s,
+                                                        problem.trajectories, forcing)
+    truth = np.ascontiguousarray(np.hstack([flown[name].states for name in problem.spacecraft]))
+    return truth, np.ascontiguousarray(measurements), forcing
 
 
 def execute_run(problem: Problem, task: RunTask) -> RunOutcome:

@@ -3,7 +3,7 @@
 The filter's state + STM over one measurement interval, the STM on a coarser grid than the state
 (`rk4_state_stm_into`, no allocation; `rk4_state_stm` allocates its result), the state + STM with every step
 (`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by
-steps of at most max_step_tu (`rk4_states`; `rk4_states_forced` with a constant unmodelled acceleration).
+steps of at most max_step_tu (`rk4_states`; `rk4_states_forced` with an unmodelled acceleration).
 All numba-compiled and cached on disk.
 """
 
@@ -125,13 +125,14 @@ def rk4_states(state0, times_tu, max_step_tu, mu):
     """Sample one trajectory (6,) -> (m, 6) at times_tu (times_tu[0] = epoch of state0) by fixed RK4 steps
     of at most max_step_tu between consecutive samples (the compiled truth propagator: no Python in the
     loop, no scipy import)."""
-    return rk4_states_forced(state0, times_tu, max_step_tu, mu, np.zeros(3))
+    return rk4_states_forced(state0, times_tu, max_step_tu, mu, np.zeros((times_tu.shape[0], 3)))
 
 
 @njit(cache=True)
 def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
-    """rk4_states with a constant extra acceleration (3,) on the rotating axes, LU/TU^2: the truth's
-    unmodelled force (scenario model_error.truth_acceleration_m_s2). Zero adds nothing: x + 0.0 is x."""
+    """rk4_states with an extra acceleration on the rotating axes, LU/TU^2, given at the samples (m, 3) and
+    linear between them: the truth's unmodelled force (scenario model_error: a constant, or a Gauss-Markov
+    process drawn per run). A constant table adds its row exactly (a + 0 f is a); zeros add nothing."""
     m = times_tu.shape[0]
     out = np.empty((m, 6))
     y = state0.copy()
@@ -142,17 +143,19 @@ def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
         span = times_tu[j] - times_tu[j - 1]
         substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
         h = span / substeps
-        for _ in range(substeps):
-            k1 = _forced(derivative(y, mu), acceleration_lu_tu2)
+        a0, slope = acceleration_lu_tu2[j - 1], acceleration_lu_tu2[j] - acceleration_lu_tu2[j - 1]
+        for s in range(substeps):
+            start, middle, end = s / substeps, (s + 0.5) / substeps, (s + 1.0) / substeps
+            k1 = _forced(derivative(y, mu), a0, slope, start)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            k2 = _forced(derivative(tmp, mu), acceleration_lu_tu2)
+            k2 = _forced(derivative(tmp, mu), a0, slope, middle)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            k3 = _forced(derivative(tmp, mu), acceleration_lu_tu2)
+            k3 = _forced(derivative(tmp, mu), a0, slope, middle)
             for i in range(6):
                 tmp[i] = y[i] + h * k3[i]
-            k4 = _forced(derivative(tmp, mu), acceleration_lu_tu2)
+            k4 = _forced(derivative(tmp, mu), a0, slope, end)
             for i in range(6):
                 y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         for i in range(6):  # element loops compile faster than slice assignment (no shape-error path)
@@ -161,8 +164,9 @@ def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
 
 
 @njit(cache=True, inline="always")
-def _forced(rate, acceleration):
+def _forced(rate, a0, slope, fraction):
+    """rate plus the acceleration a0 + slope fraction at that fraction of the interval."""
     for i in range(3):
-        rate[3 + i] += acceleration[i]
+        rate[3 + i] += a0[i] + slope[i] * fraction
     return rate
 

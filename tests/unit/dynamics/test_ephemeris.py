@@ -238,3 +238,22 @@ def _state_stm_step():
         return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
     return step
+
+
+def test_a_tabulated_truth_force_is_the_constant_force_when_constant(msl_window):
+    """The per-run random force (model_error.truth_acceleration_sigma_m_s2) reaches the dated truth as a table
+    at the epochs, linear between them: a constant table flies the constant force's path (to the
+    integrator's tolerance), and a table that changes sign halfway does not."""
+    t0, window, x0 = msl_window
+    gms = np.array([GM_KM3_S2[int(b)] for b in THIRD_BODIES])
+    times = t0 + np.arange(0.0, 2 * 86400.0 + 1.0, 1000.0)
+    push = np.array([1e-11, -2e-11, 5e-12])  # km/s^2
+    args = (x0, t0, times, window, THIRD_BODIES, gms, GM_KM3_S2[399], 0.0)
+    constant = dop853_ephemeris_states(*args, acceleration_km_s2=push)
+    table = dop853_ephemeris_states(*args, acceleration_table_km_s2=np.tile(push, (len(times), 1)))
+    free = dop853_ephemeris_states(*args)
+    assert np.linalg.norm(constant[-1, :3] - free[-1, :3]) > 0.1  # km: the push moves it (measured 0.37 km)
+    assert np.max(np.linalg.norm(table[:, :3] - constant[:, :3], axis=1)) < 1e-6  # km: 1 mm (measured: 0)
+    flipped = np.where((times < times[len(times) // 2])[:, None], push, -push)
+    assert np.linalg.norm(dop853_ephemeris_states(*args, acceleration_table_km_s2=flipped)[-1, :3]
+                          - constant[-1, :3]) > 0.05  # measured 0.18 km
