@@ -41,9 +41,9 @@ def draw_ric(result: RunResult, highlight: int):
         rows = table[table.spacecraft == name]
         for row, (stem, unit, shown, factor) in enumerate(QUANTITIES):
             ax = axes[row, col]
-            rms = [float(np.sqrt(np.nanmean(rows[f"rms_{a}_{stem}_settled_{unit}"] ** 2))) * factor for a in AXES]
-            bias = [abs(float(np.nanmean(rows[f"mean_{a}_{stem}_settled_{unit}"]))) * factor for a in AXES]
-            sigma = [float(np.sqrt(np.nanmean(rows[f"sigma_{a}_{stem}_settled_{unit}"] ** 2))) * factor for a in AXES]
+            rms = [_root_mean_square(rows[f"rms_{a}_{stem}_settled_{unit}"]) * factor for a in AXES]
+            bias = [abs(_finite_mean(rows[f"mean_{a}_{stem}_settled_{unit}"])) * factor for a in AXES]
+            sigma = [_root_mean_square(rows[f"sigma_{a}_{stem}_settled_{unit}"]) * factor for a in AXES]
             x = np.arange(len(AXES))
             ax.bar(x - width, rms, width, color="tab:blue", label="error RMS")
             ax.bar(x, bias, width, color="tab:red", label="|mean error|")
@@ -57,6 +57,17 @@ def draw_ric(result: RunResult, highlight: int):
     fig.suptitle(f"{result.name}: errors in each spacecraft's radial / in-track / cross-track frame after the "
                  "settle time (about the nearer primary)", fontsize=10)
     return fig
+
+
+def _finite_mean(values) -> float:
+    """The mean of the finite values; NaN when there are none (a batch has no sigma per epoch: no bar)."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    return float(values.mean()) if values.size else float("nan")
+
+
+def _root_mean_square(values) -> float:
+    return float(np.sqrt(_finite_mean(np.asarray(values, dtype=float) ** 2)))
 
 
 def _direction_ratios(result: RunResult):
