@@ -116,7 +116,7 @@ def verdict(shares: dict, ratios: dict) -> tuple[bool, str]:
     failed = []
     for label, (inside, above) in shares.items():
         if not inside >= NEES_REQUIRED_SHARE:
-            below = 1.0 - inside - above
+            below = max(1.0 - inside - above, 0.0)  # not -0.0 % when the rest rounds to nothing
             side = "optimistic" if above >= below else "pessimistic"
             failed.append(f"{label} NEES in band {_percent(inside)} < {_percent(NEES_REQUIRED_SHARE)} "
                           f"(above {_percent(above)}, below {_percent(below)}: {side})")
