@@ -22,7 +22,7 @@ from liaison_cli.scenario.reference_states import initial_state_lu
 from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.scenario.truth import (
     GEOSTATIONARY_ALTITUDE_M, burn_step, dynamics_model, link_visibility, measurement_times_s,
-    participant_trajectories, truth_and_measurements)
+    participant_trajectories, truth_and_measurements, unforced_participants)
 
 # Names callers import from here (the worker, studies, reports).
 __all__ = ["GEOSTATIONARY_ALTITUDE_M", "SPEED_OF_LIGHT_M_S", "Channel", "ClockTruth", "Problem", "burn_step",
@@ -35,7 +35,8 @@ class Problem:
     """Arrays of one scenario, in LU / TU unless a name says otherwise.
 
     times_s (m,); truth (m, 6 n_sc) of the estimated spacecraft; measurements_true (m, C) noise-free (row 0
-    unused, NaN where a channel sees nothing); channels (C,) descriptions; filter: the estimator's arrays;
+    unused, NaN where a channel sees nothing): both nominal, the shared truth of every run unless a random truth
+    acceleration makes each run fly its own (campaign.engine.worker.run_truth); channels (C,) descriptions; filter: the estimator's arrays;
     bias_lu / bias_sigma_lu: constant and per-run random range bias of every link in the truth; clocks:
     the truth clocks to draw per run; initial_error_sigma (6 n_sc,) for the 'fixed_sigma' draw.
     """
@@ -58,9 +59,10 @@ class Problem:
     dynamics: DynamicsModel
     manoeuvres: tuple = ()  # (Delta-v state start, true Delta-v (3,), a-priori sigma), scaled units
     observed: object = None  # measurements: {tdm: FILE}: scenario.observed.ObservedMeasurements, else None
-    # {participant name: nominal trajectory} when each run flies its own truth (a random truth acceleration:
-    # scenario.truth.forced_truth_and_measurements), else None (not carried to the workers).
-    trajectories: dict | None = None
+    # When each run flies its own truth (a random truth acceleration: scenario.truth.forced_truth_and_measurements),
+    # the nominal trajectories of the participants it leaves alone (known spacecraft, ground stations), which
+    # the workers receive with the problem; else None.
+    unforced: dict | None = None
 
     @property
     def n_spacecraft(self) -> int:
@@ -127,5 +129,6 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         dynamics=model,
         manoeuvres=estimator.manoeuvres,
         observed=observed_measurements(scenario, estimator.channels, times_s, model),
-        trajectories=trajectories if scenario.model_error.truth_acceleration_sigma_m_s2 > 0.0 else None,
+        unforced=(unforced_participants(scenario, trajectories)
+                  if scenario.model_error.truth_acceleration_sigma_m_s2 > 0.0 else None),
     )

@@ -78,20 +78,27 @@ def _flown(scenario: Scenario, model, spacecraft, state0, times_tu, extra_lu_tu2
     return np.vstack([before, after[1:]])
 
 
-def forced_truth_and_measurements(scenario: Scenario, model: DynamicsModel, times_s, trajectories: dict,
-                                  extra_lu_tu2: dict):
+def forced_truth_and_measurements(scenario: Scenario, model: DynamicsModel, times_s, others: dict,
+                                  initial_states: dict, extra_lu_tu2: dict):
     """One run's own truth under a drawn unmodelled acceleration (model_error.truth_acceleration_sigma_m_s2):
-    (trajectories, noise-free measurements (m, C) with row 0 NaN). extra_lu_tu2 {spacecraft name: (m, 3) at the
-    epochs, LU/TU^2 on the dynamics model's axes}; each named spacecraft is flown again from its nominal
-    state at t0 (a manoeuvre as in the nominal truth), the other participants keep `trajectories` (the
-    nominal, shared). Visibility is recomputed on the run's own truth."""
+    (trajectories, noise-free measurements (m, C) with row 0 NaN). Each spacecraft of extra_lu_tu2 {name: (m, 3)
+    at the epochs, LU/TU^2 on the dynamics model's axes} is flown again from initial_states[name] (6,), its
+    nominal state at t0 (a manoeuvre as in the nominal truth); every other participant keeps its nominal,
+    shared trajectory from `others` (unforced_participants). Visibility is recomputed on the run's own truth."""
     times_tu = times_s / TU_S
-    flown = dict(trajectories)
+    flown = dict(others)
     for sc in scenario.spacecraft:
         if sc.name in extra_lu_tu2:
-            states = _flown(scenario, model, sc, trajectories[sc.name].states[0], times_tu, extra_lu_tu2[sc.name])
+            states = _flown(scenario, model, sc, initial_states[sc.name], times_tu, extra_lu_tu2[sc.name])
             flown[sc.name] = model.trajectory(states, times_tu)
     return flown, _measured(scenario, model, times_s, flown)[2]
+
+
+def unforced_participants(scenario: Scenario, trajectories: dict) -> dict:
+    """{name: trajectory} of the participants a drawn truth force leaves alone (known spacecraft, ground
+    stations): what each run's forced_truth_and_measurements needs besides its own spacecraft."""
+    forced = set(scenario.spacecraft_names())
+    return {name: trajectory for name, trajectory in trajectories.items() if name not in forced}
 
 
 def _flown_from_nodes(model, node_times_s, nodes_lu, times_s) -> np.ndarray:

@@ -42,7 +42,8 @@ def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | 
         "seed": scenario.monte_carlo.seed,
         "runs": n_runs,
         "sigma_m": problem.sigma_m,
-        "seeding": "numpy SeedSequence(seed, spawn_key=(run,)); initial error drawn first, then noise",
+        "seeding": "numpy SeedSequence(seed, spawn_key=(run,)); initial error drawn first, then noise; a random "
+                   "truth acceleration from SeedSequence(seed, spawn_key=(run, 1))",
     }
     meta.update(extra or {})
     return meta

@@ -174,15 +174,16 @@ def run_truth(problem: Problem, run_index: int):
     acceleration (model_error.truth_acceleration_sigma_m_s2), the run's own, flown under a Gauss-Markov path
     per estimated spacecraft drawn from the run's truth-force stream (seeding.truth_force_rng)."""
     error = problem.scenario.model_error
-    if problem.trajectories is None:
+    if problem.unforced is None:
         return problem.truth, problem.measurements_true, None
     draws = gauss_markov_samples(truth_force_rng(problem.scenario.monte_carlo.seed, run_index),
                                  problem.n_spacecraft, problem.n_steps, problem.scenario.measurement.interval_s,
                                  error.truth_acceleration_sigma_m_s2 / M_S2_PER_AU,
                                  error.truth_acceleration_time_constant_s)
     forcing = dict(zip(problem.spacecraft, draws))
+    initial_states = {name: problem.truth[0, 6 * i : 6 * i + 6] for i, name in enumerate(problem.spacecraft)}
     flown, measurements = forced_truth_and_measurements(problem.scenario, problem.dynamics, problem.times_s,
-                                                        problem.trajectories, forcing)
+                                                        problem.unforced, initial_states, forcing)
     truth = np.ascontiguousarray(np.hstack([flown[name].states for name in problem.spacecraft]))
     return truth, np.ascontiguousarray(measurements), forcing
 

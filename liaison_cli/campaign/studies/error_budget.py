@@ -131,6 +131,11 @@ def error_budget(problem: Problem) -> Budget:
     if problem.filter.ric_noise is not None:
         raise BudgetError(f"{problem.scenario.name}: process_noise_psd_ric_m2_s3: LinCov takes a fixed process "
                           "noise per step; allowed: process_noise_psd_m2_s3 or process_noise_accel_m_s2")
+    drawn_force = problem.scenario.model_error.truth_acceleration_sigma_m_s2
+    if drawn_force > 0.0:  # LinCov flies the one shared truth and has no part for a force drawn per run
+        raise BudgetError(f"{problem.scenario.name}: model_error.truth_acceleration_sigma_m_s2 = {drawn_force:g}: "
+                          "the budget linearises about one shared truth, and each run of this scenario flies its "
+                          "own; allowed: 0 (a constant truth_acceleration_m_s2 is budgeted)")
     if not problem.scenario.estimator_descriptor().error_budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")

@@ -51,6 +51,20 @@ def test_run_writes_the_same_bytes_on_one_process_a_pool_and_dask(tmp_path, monk
         assert one == (tmp_path / "pool" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes(), name
 
 
+def test_runs_that_fly_their_own_truth_give_the_same_bytes_in_the_pool(tmp_path, monkeypatch, sigint_kept):
+    """A random truth acceleration (model_error.truth_acceleration_sigma_m_s2): each run draws and flies its own
+    truth in whichever process runs it; --jobs 1 and --jobs 2 forced into the pool give identical Parquet."""
+    short = tmp_path / "smoke.yaml"
+    short.write_text((SCENARIOS / "smoke.yaml").read_text().replace("duration_days: 1.25", "duration_days: 0.3")
+                     + "model_error: {truth_acceleration_sigma_m_s2: 1.0e-8, truth_acceleration_time_constant_s: 21600}\n")
+    monkeypatch.setattr(runner, "POOL_MIN_STATE_EPOCHS", 0)
+    for label, jobs in (("one", "1"), ("pool", "2")):
+        proc = run_cli_in_process("run", short, "--runs", "5", "--jobs", jobs, "--quiet", "--output", tmp_path / label)
+        assert proc.returncode == 0, proc.stderr
+    for name in ("summary.parquet", "timeseries.parquet", "residuals.parquet", "consistency.parquet"):
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "pool" / name).read_bytes(), name
+
+
 @pytest.mark.parametrize("command", [["run", SCENARIOS / "smoke.yaml"], ["compare", SCENARIOS / "smoke.yaml"],
                                      ["table3"], ["study003"], ["study004"], ["sweep", "--sigma", "100"],
                                      ["tune", SCENARIOS / "smoke.yaml"],

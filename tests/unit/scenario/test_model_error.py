@@ -91,8 +91,9 @@ def test_an_unmodelled_acceleration_out_of_range_is_one_line(tmp_path, edit, fra
     assert_one_line_error(run_cli_in_process("validate", path), path, fragments)
 
 
-def test_an_unmodelled_acceleration_on_a_corrected_dated_orbit_is_one_line(tmp_path):
+@pytest.mark.parametrize("key, value", [("truth_acceleration_m_s2", "[1.0e-9, 0, 0]"),
+                                        ("truth_acceleration_sigma_m_s2", "1.0e-9, truth_acceleration_time_constant_s: 3600")])
+def test_an_unmodelled_acceleration_on_a_corrected_dated_orbit_is_one_line(tmp_path, key, value):
     path = edited_scenario(tmp_path, "eph_eml1_eml2_dsn.yaml", "monte_carlo:",
-                           "model_error: {truth_acceleration_m_s2: [1.0e-9, 0, 0]}\nmonte_carlo:")
-    assert_one_line_error(run_cli_in_process("validate", path), path,
-                          ["truth_acceleration_m_s2", "spacecraft[0]", "corrected"])
+                           f"model_error: {{{key}: {value}}}\nmonte_carlo:")
+    assert_one_line_error(run_cli_in_process("validate", path), path, [f"model_error.{key}", "spacecraft[0]", "corrected"])
