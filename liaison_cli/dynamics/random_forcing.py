@@ -2,6 +2,7 @@
 acceleration (scenario model_error.truth_acceleration_sigma_m_s2), drawn per run."""
 
 import numpy as np
+from numba import njit
 
 
 def gauss_markov_samples(rng: np.random.Generator, n_processes: int, n_epochs: int, step_s: float,
@@ -16,8 +17,18 @@ def gauss_markov_samples(rng: np.random.Generator, n_processes: int, n_epochs: i
     phi = float(np.exp(-step_s / tau_s))
     drive = sigma * np.sqrt(1.0 - phi * phi)
     w = rng.standard_normal((n_processes, n_epochs, 3))  # C order: process by process, epoch by epoch
+    return _first_order_recursion(w, sigma, phi, drive)
+
+
+@njit(cache=True)
+def _first_order_recursion(w, sigma, phi, drive):
+    """out[p, 0] = sigma w[p, 0]; out[p, k] = phi out[p, k - 1] + drive w[p, k] (compiled: a Python loop over
+    the epochs cost 18 ms of a 10-day run)."""
     out = np.empty_like(w)
-    out[:, 0] = sigma * w[:, 0]
-    for k in range(1, n_epochs):
-        out[:, k] = phi * out[:, k - 1] + drive * w[:, k]
+    for p in range(w.shape[0]):
+        for i in range(3):
+            out[p, 0, i] = sigma * w[p, 0, i]
+        for k in range(1, w.shape[1]):
+            for i in range(3):
+                out[p, k, i] = phi * out[p, k - 1, i] + drive * w[p, k, i]
     return out

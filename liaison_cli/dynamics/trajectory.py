@@ -38,8 +38,7 @@ class CrtbpTrajectory:
         return np.array([derivative(s, self.mu)[3:6] for s in self.states]).reshape(-1, 3)
 
     def inertial_position_before(self, dt_back_tu):
-        states = self.states
-        acc = np.array([derivative(s, self.mu)[3:6] for s in states])
+        states, acc = self.states, self.accelerations  # computed once per trajectory: light-time iterations reuse it
         r = states[:, 0:3] - states[:, 3:6] * dt_back_tu[:, None] + 0.5 * acc * dt_back_tu[:, None] ** 2
         return rotate_to_inertial_now(r, dt_back_tu)
 
