@@ -1,7 +1,8 @@
 """The Monte Carlo engine: what runs a scenario's runs, wherever they run.
 
 - worker: one run as a work unit (draws, estimator, metrics); it never raises, a failure is an outcome;
-- seeding: a run's random generator, from the scenario seed and the run index only;
+- seeding: a run's random generators (its draws, and a drawn truth force's own stream), from the scenario seed
+  and the run index only;
 - backends: the one fan-out (map_batches: joblib's process pool, forked workers, or dask), with a bounded
   window of work in flight;
 - runner: its ordered layer (run_tasks_in_order): a small job in this process, else its first task here and the
