@@ -57,6 +57,15 @@ def test_campaigns_below_the_pool_threshold_stay_in_this_process():
     assert not stays_in_process(problem, largest_here + 1, 2, local)
     assert stays_in_process(problem, 10 * largest_here, 1, local)
     assert not stays_in_process(problem, 1, 2, dask) and not stays_in_process(problem, 1, 1, dask)
+    # Runs that fly their own truth cost more each: the pool pays off sooner.
+    from dataclasses import replace
+
+    from liaison_cli.campaign.engine.runner import OWN_TRUTH_COST_FACTOR
+
+    forced = replace(problem, unforced={})
+    fewer = int((POOL_MIN_STATE_EPOCHS - 1) // (per_run * OWN_TRUTH_COST_FACTOR))
+    assert stays_in_process(forced, fewer, 2, local) and not stays_in_process(forced, fewer + 1, 2, local)
+    assert fewer < largest_here / 3
 
 
 def test_a_process_pool_gives_the_numbers_of_the_main_process(monkeypatch):
