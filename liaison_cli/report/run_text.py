@@ -55,14 +55,20 @@ def format_summary(summary: list[dict], spacecraft) -> str:
             continue
 
         lines.append(
-            left(name, 12) + right(f"{column_mean('rms_position_m'):.1f}", 11)
-            + right(f"{column_mean('rms_position_after_day1_m'):.1f}", 9)
-            + right(f"{column_mean('rms_velocity_m_s', 1e3):.3f}", 14)
-            + right(f"{column_mean('rms_velocity_after_day1_m_s', 1e3):.3f}", 9)
-            + right(f"{column_mean('frac_in_2sigma_after_day1', 100):.1f}", 11) + "%"
-            + right(f"{column_mean('frac_in_3sigma_after_day1', 100):.1f}", 11) + "%"
+            left(name, 12) + right(_shown(column_mean('rms_position_m'), ".1f"), 11)
+            + right(_shown(column_mean('rms_position_after_day1_m'), ".1f"), 9)
+            + right(_shown(column_mean('rms_velocity_m_s', 1e3), ".3f"), 14)
+            + right(_shown(column_mean('rms_velocity_after_day1_m_s', 1e3), ".3f"), 9)
+            + right(_shown(column_mean('frac_in_2sigma_after_day1', 100), ".1f", "%"), 12)
+            + right(_shown(column_mean('frac_in_3sigma_after_day1', 100), ".1f", "%"), 12)
         )
     return "\n".join(lines)
+
+
+def _shown(value: float, spec: str, unit: str = "") -> str:
+    """value formatted with its unit; '-' when there is none (no epoch after day 1 in a scenario of a day or
+    less), never 'nan'."""
+    return f"{value:{spec}}{unit}" if math.isfinite(value) else "-"
 
 
 def campaign_ratio(summary: list[dict], spacecraft: str, kind: str, unit: str) -> float:

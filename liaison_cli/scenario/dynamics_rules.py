@@ -121,13 +121,15 @@ def check_model_error(scenario) -> None:
         raise ValueError("model_error.moon_gm_bias / moon_gm_sigma change the filter's Moon, which "
                          "ephemeris.filter_bodies leaves out; allowed: with 'moon' among the filter's bodies")
     if any(error.truth_acceleration_m_s2):
-        _check_truth_acceleration(scenario, "truth_acceleration_m_s2", scenario.spacecraft)
+        _check_truth_acceleration(scenario, f"truth_acceleration_m_s2 = {list(error.truth_acceleration_m_s2)}",
+                                  scenario.spacecraft)
     if error.truth_acceleration_sigma_m_s2 > 0.0:
         _check_random_truth_acceleration(scenario)
-    elif error.truth_acceleration_time_constant_s is not None:
+    elif (error.truth_acceleration_time_constant_s is not None
+          and "truth_acceleration_sigma_m_s2" not in error.model_fields_set):  # an explicit 0 (a sweep's) is none
         raise ValueError(f"model_error.truth_acceleration_time_constant_s = "
                          f"{error.truth_acceleration_time_constant_s:g} without truth_acceleration_sigma_m_s2: "
-                         "no random acceleration to correlate; allowed: both, or neither")
+                         "no random acceleration to correlate; allowed: both (a sigma of 0: no force), or neither")
 
 
 def _check_random_truth_acceleration(scenario) -> None:
@@ -135,20 +137,24 @@ def _check_random_truth_acceleration(scenario) -> None:
     process is sampled at the epochs), simulated measurements (a file's have their own truth), and estimated
     spacecraft whose truth liaison propagates."""
     error, interval_s = scenario.model_error, scenario.measurement.interval_s
-    tau = error.truth_acceleration_time_constant_s
-    if tau is None or tau < interval_s:
-        raise ValueError(f"model_error.truth_acceleration_time_constant_s = {tau}: with "
-                         "truth_acceleration_sigma_m_s2 it is needed, and allowed from measurement.interval_s = "
-                         f"{interval_s:g} s up (the process is sampled at the measurement epochs)")
+    tau, sigma = error.truth_acceleration_time_constant_s, error.truth_acceleration_sigma_m_s2
+    if tau is None:
+        raise ValueError(f"model_error.truth_acceleration_time_constant_s is missing: with "
+                         f"truth_acceleration_sigma_m_s2 = {sigma:g} it is needed; allowed: from "
+                         f"measurement.interval_s = {interval_s:g} s up (the process is sampled at the epochs)")
+    if tau < interval_s:
+        raise ValueError(f"model_error.truth_acceleration_time_constant_s = {tau:g}: allowed from "
+                         f"measurement.interval_s = {interval_s:g} s up (the process is sampled at the measurement "
+                         "epochs)")
+    key = f"truth_acceleration_sigma_m_s2 = {sigma:g}"
     if scenario.measurements is not None:
-        raise ValueError("model_error.truth_acceleration_sigma_m_s2 with measurements: {tdm: ...}: the file's "
-                         "measurements come from their own truth, which no drawn acceleration moves; allowed: "
-                         "simulated measurements")
+        raise ValueError(f"model_error.{key} with measurements: {{tdm: ...}}: the file's measurements come from "
+                         "their own truth, which no drawn acceleration moves; allowed: simulated measurements")
     estimated = [sc for sc in scenario.spacecraft if sc.role == "estimated"]
-    _check_truth_acceleration(scenario, "truth_acceleration_sigma_m_s2", estimated)
+    _check_truth_acceleration(scenario, key, estimated)
     stationary = [sc.name for sc in estimated if sc.longitude_deg is not None]
     if stationary:
-        raise ValueError(f"model_error.truth_acceleration_sigma_m_s2 with the station-kept geostationary "
+        raise ValueError(f"model_error.{key} with the station-kept geostationary "
                          f"spacecraft {stationary[0]!r} estimated: its truth is a point fixed to the Earth, which "
                          "no acceleration moves; allowed: estimated spacecraft whose truth liaison propagates")
 

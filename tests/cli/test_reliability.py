@@ -46,6 +46,11 @@ def test_wide_numbers_keep_a_space_between_columns():
                 "frac_in_3sigma_after_day1": 0.0}]
     row = _format_summary(summary, ["EML2"]).splitlines()[1]
     assert "1361933.5 1294688.1 " in row and "12345600.000 23456700.000" in row
+    # A scenario of a day or less has no epoch after day 1: its columns say '-', never 'nan'.
+    short = [{**summary[0], "rms_position_after_day1_m": float("nan"), "rms_velocity_after_day1_m_s": float("nan"),
+              "frac_in_2sigma_after_day1": float("nan"), "frac_in_3sigma_after_day1": float("nan")}]
+    header, row = _format_summary(short, ["EML2"]).splitlines()
+    assert "nan" not in row and row.split()[1:] == ["1361933.5", "-", "12345600.000", "-", "-", "-"]
     curve = pd.DataFrame([{"scenario": "a_very_long_scenario", "spacecraft": "spacecraft_x", "noise.sigma_m": 150,
                            "runs_ok": 3, "runs": 41381431, "rms_position_m_mean": 1e7, "rms_position_m_p10": 1e6,
                            "rms_position_m_p90": 1e8, "rms_velocity_m_s_mean": 1e5}])

@@ -96,4 +96,5 @@ def test_an_unmodelled_acceleration_out_of_range_is_one_line(tmp_path, edit, fra
 def test_an_unmodelled_acceleration_on_a_corrected_dated_orbit_is_one_line(tmp_path, key, value):
     path = edited_scenario(tmp_path, "eph_eml1_eml2_dsn.yaml", "monte_carlo:",
                            f"model_error: {{{key}: {value}}}\nmonte_carlo:")
-    assert_one_line_error(run_cli_in_process("validate", path), path, [f"model_error.{key}", "spacecraft[0]", "corrected"])
+    assert_one_line_error(run_cli_in_process("validate", path), path,
+                          [f"model_error.{key} = ", "spacecraft[0]", "corrected"])

@@ -158,18 +158,28 @@ def test_a_manoeuvre_keeps_its_delta_v_in_the_runs_own_truth():
 
 @pytest.mark.parametrize("edit, fragments", [
     ("model_error: {truth_acceleration_sigma_m_s2: 1.0e-8}",
-     ["model_error.truth_acceleration_time_constant_s = None", "measurement.interval_s = 187.5"]),
+     ["model_error.truth_acceleration_time_constant_s is missing", "truth_acceleration_sigma_m_s2 = 1e-08",
+      "measurement.interval_s = 187.5"]),
     ("model_error: {truth_acceleration_sigma_m_s2: 1.0e-8, truth_acceleration_time_constant_s: 60}",
      ["truth_acceleration_time_constant_s = 60", "from measurement.interval_s = 187.5 s up"]),
     ("model_error: {truth_acceleration_time_constant_s: 3600}",
-     ["truth_acceleration_time_constant_s = 3600 without truth_acceleration_sigma_m_s2", "both, or neither"]),
+     ["truth_acceleration_time_constant_s = 3600 without truth_acceleration_sigma_m_s2", "allowed: both (a sigma of 0: no force), or neither"]),
     ("measurements: {tdm: none.tdm}\nmodel_error: {truth_acceleration_sigma_m_s2: 1.0e-8, "
      "truth_acceleration_time_constant_s: 3600}",
-     ["truth_acceleration_sigma_m_s2 with measurements: {tdm: ...}", "allowed: simulated measurements"]),
+     ["truth_acceleration_sigma_m_s2 = 1e-08 with measurements: {tdm: ...}", "allowed: simulated measurements"]),
 ])
 def test_a_random_force_without_its_settings_is_one_line(tmp_path, edit, fragments):
     path = edited_scenario(tmp_path, "smoke.yaml", "monte_carlo:", f"{edit}\nmonte_carlo:")
     assert_one_line_error(run_cli_in_process("validate", path), path, fragments)
+
+
+def test_a_sigma_of_zero_with_its_time_constant_is_no_force():
+    """A sweep over the sigma can start at 0 (no force) with the time constant set: an explicit 0 is no force,
+    while a time constant with no sigma given at all stays refused (above)."""
+    problem = prepare_problem(_smoke(truth_acceleration_sigma_m_s2=0.0, truth_acceleration_time_constant_s=TAU_S))
+    plain = prepare_problem(_smoke())
+    assert problem.unforced is None
+    np.testing.assert_array_equal(draw_run_inputs(problem, 0).y_obs, draw_run_inputs(plain, 0).y_obs)
 
 
 def test_the_error_budget_refuses_a_truth_each_run_flies_itself(tmp_path):
