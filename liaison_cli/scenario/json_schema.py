@@ -40,8 +40,8 @@ LOADER_ONLY_RULES = (
     "model error: model_error.cr_bias / cr_sigma need dynamics: ephemeris, and one spelling of the C_R sigma; "
     "a lunar GM error needs the filter's Moon; a truth acceleration needs spacecraft whose truth liaison "
     "propagates (no OEM truth, no corrected dated orbit; the random one no estimated geostationary station "
-    "either); truth_acceleration_sigma_m_s2 and truth_acceleration_time_constant_s go together, the time "
-    "constant at least measurement.interval_s, with simulated measurements",
+    "either); truth_acceleration_sigma_m_s2 and truth_acceleration_time_constant_s go together (a sigma "
+    "of 0: no force), the time constant at least measurement.interval_s, with simulated measurements",
     "numbers are finite (no .inf or .nan)",
 )
 
