@@ -173,9 +173,9 @@ def run_truth(problem: Problem, run_index: int):
     acceleration (m, 3) in LU/TU^2} or None) of one run: the problem's shared ones, or, with a random truth
     acceleration (model_error.truth_acceleration_sigma_m_s2), the run's own, flown under a Gauss-Markov path
     per estimated spacecraft drawn from the run's truth-force stream (seeding.truth_force_rng)."""
-    error = problem.scenario.model_error
     if problem.unforced is None:
         return problem.truth, problem.measurements_true, None
+    error = problem.scenario.model_error
     draws = gauss_markov_samples(truth_force_rng(problem.scenario.monte_carlo.seed, run_index),
                                  problem.n_spacecraft, problem.n_steps, problem.scenario.measurement.interval_s,
                                  error.truth_acceleration_sigma_m_s2 / M_S2_PER_AU,
