@@ -94,5 +94,10 @@ def _numba_cache_dir() -> str:
 # numba reads the variable once, at import; imported before us (a notebook, a profiler, a test plugin), it has
 # read it already, and would cache liaison's kernels beside their source under a key that ignores the callees.
 os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()
+# One compile target for every machine of an architecture, so a cache built on one serves another
+# (compiled_cache; measured to cost no run time, docs/performance.md). A user's own setting is kept.
+os.environ.setdefault("NUMBA_CPU_NAME", "generic")
 if "numba" in sys.modules:
     sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+    if sys.modules["numba"].config.CPU_NAME is None and os.environ["NUMBA_CPU_NAME"] == "generic":
+        sys.modules["numba"].config.CPU_NAME, sys.modules["numba"].config.CPU_FEATURES = "generic", ""

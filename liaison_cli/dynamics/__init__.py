@@ -4,3 +4,7 @@ column), the interface estimators call (model, ephemeris_model), the integrators
 RK8, scipy's adaptive DOP853), the truth's random unmodelled forces (random_forcing: Gauss-Markov paths), clocks,
 time scales (pyerfa) and the Earth's orientation (IERS data), ground stations and frames. Numerics only; the reads
 are of packaged data files (DE421, the IERS tables)."""
+
+from liaison_cli.compiled_cache import install as _install_compiled_cache
+
+_install_compiled_cache()  # before the first @njit(cache=True) of the package: numba picks a locator there

@@ -11,9 +11,7 @@ CRTBP is code 0 (params = [mu]). A dated ephemeris model plugs in as a new code 
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit, typeof, types
-from numba.core.errors import TypingError
-from numba.extending import overload
+from numba import njit
 
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
@@ -35,65 +33,52 @@ PROPAGATION_SIZE = SENSITIVITY_SIZE
 TRUTH_MAX_STEP_S = 10.0
 
 
+@njit(cache=True)  # a call, not inlined: compiled and cached once, shared by every estimator and kind set
+def _crtbp_state_stm_into(params, state, t_tu, dt_tu, substeps, y, work):
+    rk4_state_stm_into(state, dt_tu, substeps, params[0], y, work)
+
+
+@njit(cache=True)  # a call, not inlined (see _crtbp_state_stm_into)
+def _ephemeris_state_stm_into(params, state, t_tu, dt_tu, substeps, y, work):
+    xs, phi = ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, substeps)
+    for i in range(6):
+        y[i] = xs[i]
+        for j in range(6):
+            y[6 + 6 * i + j] = phi[i, j]
+
+
+@njit(cache=True)  # a call, not inlined (see _crtbp_state_stm_into)
+def _ephemeris_parameter_into(params, parameter, state, t_tu, dt_tu, substeps, y):
+    ephemeris_state_stm_cr_scaled(params, parameter, state, t_tu, dt_tu, substeps, y)
+
+
+@njit(cache=True, inline="always")
 def propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
     """(6,) state at t_tu -> y (42,) = [state (6), Phi(t_tu + dt_tu, t_tu) row-major (36)], with work (5, 42)
     the caller's scratch (no allocation per interval where the model allows it): the CRTBP by `substeps` fixed
     RK4 steps, the ephemeris model by `substeps` fixed RK8 steps.
 
-    Compiled code only. The model code must be a compile-time constant: the compiled caller says
-    numba.literally(model), and Python calls it through `literal_entry` (no typing pass per process). So
-    each scenario compiles its own dynamics and nothing else: the ephemeris field behind a runtime branch
-    added 6 s to every cold first run."""
-    raise NotImplementedError("propagate_state_stm_into is compiled code; call it from a numba function")
+    The model code is read at run time: each model's propagator is one compiled, cached function that every
+    estimator calls, so an estimator is compiled once for every model (docs/performance.md, "Compile once").
+    An unknown code raises (never a silent NaN)."""
+    if model == MODEL_CRTBP:
+        _crtbp_state_stm_into(params, state, t_tu, dt_tu, substeps, y, work)
+    elif model == MODEL_EPHEMERIS:
+        _ephemeris_state_stm_into(params, state, t_tu, dt_tu, substeps, y, work)
+    else:
+        raise ValueError("propagate_state_stm_into: unknown dynamics model code")
 
 
-@overload(propagate_state_stm_into, inline="always")
-def _propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
-    if not isinstance(model, types.IntegerLiteral):
-        raise TypingError("propagate_state_stm_into: the model code must be a compile-time constant")
-    if model.literal_value == MODEL_CRTBP:
-        return lambda model, params, state, t_tu, dt_tu, substeps, y, work: rk4_state_stm_into(
-            state, dt_tu, substeps, params[0], y, work)
-    if model.literal_value == MODEL_EPHEMERIS:
-        def ephemeris_into(model, params, state, t_tu, dt_tu, substeps, y, work):
-            xs, phi = ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, substeps)
-            for i in range(6):
-                y[i] = xs[i]
-                for j in range(6):
-                    y[6 + 6 * i + j] = phi[i, j]
-        return ephemeris_into
-    raise TypingError(f"unknown dynamics model code {model.literal_value}")
-
-
+@njit(cache=True, inline="always")
 def propagate_parameter_into(model, params, parameter, state, t_tu, dt_tu, substeps, y, work):
     """propagate_state_stm_into with the model's estimable parameter (registry: Dynamics.parameters) set to
     `parameter`, y (48,) = [state (6), Phi (36), gamma (6)] with gamma = d state / d parameter: the column of
     the transition that couples a parameter state to its spacecraft. The ephemeris model's parameter is C_R's
     relative correction (its C_R A/m times 1 + parameter); the CRTBP has none (the scenario refuses one)."""
-    raise NotImplementedError("propagate_parameter_into is compiled code; call it from a numba function")
-
-
-@overload(propagate_parameter_into, inline="always")
-def _propagate_parameter_into(model, params, parameter, state, t_tu, dt_tu, substeps, y, work):
-    if not isinstance(model, types.IntegerLiteral):
-        raise TypingError("propagate_parameter_into: the model code must be a compile-time constant")
-    if model.literal_value == MODEL_EPHEMERIS:
-        return lambda model, params, parameter, state, t_tu, dt_tu, substeps, y, work: ephemeris_state_stm_cr_scaled(
-            params, parameter, state, t_tu, dt_tu, substeps, y)
-
-    def no_parameter(model, params, parameter, state, t_tu, dt_tu, substeps, y, work):
+    if model == MODEL_EPHEMERIS:
+        _ephemeris_parameter_into(params, parameter, state, t_tu, dt_tu, substeps, y)
+    else:
         raise ValueError("this dynamics model has no estimable parameter")
-    return no_parameter
-
-
-def literal_entry(dispatcher, args, literal_index):
-    """The compiled entry point of `dispatcher` for these arguments with args[literal_index] (a model code;
-    or a tuple of indices: the model code and a kind set) as compile-time constants: loaded from the on-disk
-    cache, or compiled once. Calling the dispatcher with a plain int would cost a full typing pass in every
-    process before numba.literally redirects it."""
-    literal = {literal_index} if isinstance(literal_index, int) else set(literal_index)
-    sig = tuple(types.literal(a) if i in literal else typeof(a) for i, a in enumerate(args))
-    return dispatcher.compile(sig)
 
 
 @njit(cache=True, inline="always")

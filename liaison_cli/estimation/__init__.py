@@ -5,3 +5,7 @@ ric_noise), clock synchronisation by a quadratic fit (clock_sync), the state blo
 constants, dynamics parameters, empirical accelerations) and the named argument groups of the compiled kernels (kernel_args); each estimator described once (estimator: what it
 carries and supports, its entry point) and registered in estimators. The steps know nothing of the dynamics
 or observables; the loop wires them in."""
+
+from liaison_cli.compiled_cache import install as _install_compiled_cache
+
+_install_compiled_cache()  # before the first @njit(cache=True) of the package: numba picks a locator there

@@ -13,7 +13,6 @@ import numpy as np
 
 from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
-from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
                                                 STATUS_NAMES, STATUS_OK, run_ekf)
@@ -23,9 +22,7 @@ from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, Direction
 from liaison_cli.estimation.process_noise import uncoupled_process_noise
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
-from liaison_cli.measurements.registry import kinds_mask
 
-MODEL_ARG, KINDS_ARG = 0, 1  # run_ekf's compile-time arguments: the model code and the kind set, first
 
 @dataclass(frozen=True, eq=False)
 class BatchArrays:
@@ -171,11 +168,10 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, reco
     stored = m if record else 0  # the forward record: 3 (n, n) matrices per epoch
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
     directions = direction_record(*arrays.direction_starts(), m)
-    args = (arrays.model, kinds_mask(arrays.channel_kind), x0_hat, P0, arrays.process_noise(m), truth, y_obs,
+    args = (int(arrays.model), x0_hat, P0, arrays.process_noise(m), truth, y_obs,
             arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
             arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices), directions)
-    entry = literal_entry(run_ekf, args, (MODEL_ARG, KINDS_ARG))
-    err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = entry(*args)
+    err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = run_ekf(*args)
     ok = status == STATUS_OK
     smoothed_err = smoothed_sigma = None
     if arrays.smoother:

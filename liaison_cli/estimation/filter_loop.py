@@ -3,11 +3,10 @@
 Everything here is plain arrays: no Python objects in the inner loop, so one 10-day run costs tens of
 milliseconds. The loop knows the state only as a layout of blocks (estimation.blocks), the dynamics only
 through `dynamics.model.propagate_state_stm_into` (a model code + parameters), and the measurements only
-through `measurements.registry.predict_for` (its scenario's kinds) / `residual` plus each channel's table of
+through `measurements.registry.predict` / `residual` plus each channel's table of
 ends and modifiers. The EKF algebra lives in `estimation.ekf`.
 """
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -18,7 +17,7 @@ from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EM
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
 from liaison_cli.estimation.process_noise import gauss_markov_gains
 from liaison_cli.estimation.ric_noise import step_process_noise
-from liaison_cli.measurements.registry import predict_for, residual
+from liaison_cli.measurements.registry import predict, residual
 
 STATUS_OK = 0
 STATUS_NONFINITE = 1
@@ -72,17 +71,17 @@ def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
 
 
 @njit(cache=True, inline="always")
-def measurement_row(kinds, channels, c, x, known_k, H, g_receiver, g_transmitter, g_second):
+def measurement_row(channels, c, x, known_k, H, g_receiver, g_transmitter, g_second):
     """Channel c's model at the states x (n,) (known ends from known_k (K, 6)): returns (its value with the
     modifiers added one by one, its value without them) and writes its row of partials into H (n,), the ends'
-    partials (g_* (6,), scratch; measurements.registry.predict_for) scattered to their state offsets plus each
+    partials (g_* (6,), scratch; measurements.registry.predict) scattered to their state offsets plus each
     modifier's coefficient at its state (bias and clock modifiers: value += coeff * x[index]). The one
     measurement row of the EKF, the initial batch and LinCov (which compares the value without modifiers with
     its data)."""
     channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, _ = channels
     ends = channel_ends[c]
     x_r, x_t, x_s = channel_states(x, known_k, ends)
-    value = predict_for(kinds, channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter, g_second)
+    value = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter, g_second)
     scatter_partials(H, ends, g_receiver, g_transmitter, g_second)
     modified = value
     for j in range(channel_mod_index.shape[1]):
@@ -377,17 +376,15 @@ def run_outputs(m, n, n_channels):
 
 
 @njit(cache=True)
-def run_ekf(model, kinds, x0_hat, P0, noise, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
+def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
             record, directions):
-    """Run one EKF pass. model, kinds: compile-time constants (the dynamics model code; registry.kinds_mask of
-    the channels' kinds). x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12;
+    """Run one EKF pass. model: the dynamics model code, read at run time like the channels' kinds (one
+    compiled body for every scenario). x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12;
     kernel_args.ProcessNoise, step_process_noise); truth (m, n) at the epochs
     t_k = t0_tu + k dt_tu; y_obs (m, C) (row 0 unused, NaN: none); known_states (m, K, 6); burns (N, 3)
     (apply_burns); the named groups as estimation.kernel_args describes them. Returns (err, sigma (m, n), nees
     (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's update, the
     innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
-    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm_into)
-    numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size, block_parameter = layout
     model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
     n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
@@ -425,7 +422,7 @@ def run_ekf(model, kinds, x0_hat, P0, noise, truth, y_obs, known_states, channel
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            predicted = measurement_row(kinds, channels, c, x_bar, known_states[k], H, g_receiver, g_transmitter,
+            predicted = measurement_row(channels, c, x_bar, known_states[k], H, g_receiver, g_transmitter,
                                         g_second)[0]
             y = residual(channel_kind[c], y_meas, predicted)
             R = sigma[c] ** 2

@@ -25,18 +25,16 @@ estimator's (estimation.gauss_newton, which says why the two loops differ).
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE, literal_entry
+from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.filter_loop import measurement_row, time_update
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, equilibrated_solve,
                                                  negligible_correction, position_indices)
-from liaison_cli.measurements.registry import kinds_mask, residual
+from liaison_cli.measurements.registry import residual
 
 INITIAL_BATCH_OK = "ok"
-MODEL_ARG, KINDS_ARG = 0, 1  # reference_and_normal_equations' compile-time arguments, first
 
 
 MAX_HALVINGS = 30
@@ -57,14 +55,12 @@ class InitialBatchSettings:
 
 
 @njit(cache=True)
-def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channels, layout, dynamics, Q, traj, phi):
+def reference_and_normal_equations(model, x0, y_obs, known_states, channels, layout, dynamics, Q, traj, phi):
     """One Gauss-Newton pass over the window: traj (w, n) the reference from x0 (n,), phi (w, n, n) its
     Phi(t_k, t_0), and the normal equations Lambda (n, n), N (n,) of the measurements y_obs (w, C) at epochs
     1..w-1; also Q_w (n, n), the process noise accumulated to the last epoch, and the residual sum of squares
     weighted by 1/sigma^2 (a chi-square with as many degrees of freedom as measurements, at the truth).
     channels, layout, dynamics: estimation.kernel_args (dynamics.t0_tu is the window's first epoch)."""
-    numba.literally(model)
-    numba.literally(kinds)
     channel_kind, sigma = channels.kind, channels.sigma
     block_kind, block_start, block_size, block_parameter = layout
     model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
@@ -96,7 +92,7 @@ def reference_and_normal_equations(model, kinds, x0, y_obs, known_states, channe
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            predicted = measurement_row(kinds, channels, c, traj[k], known_states[k], H, g_receiver, g_transmitter,
+            predicted = measurement_row(channels, c, traj[k], known_states[k], H, g_receiver, g_transmitter,
                                         g_second)[0]
             r = residual(channel_kind[c], y_meas, predicted)
             weight = 1.0 / (sigma[c] * sigma[c])
@@ -191,14 +187,13 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     traj, phi = np.empty((w, n)), np.empty((w, n, n))
     info_apriori = np.linalg.inv(arrays.P0)
     position = position_indices(*arrays.layout.arrays()[:2])
-    args = [arrays.model, kinds_mask(arrays.channel_kind), x_start, np.ascontiguousarray(y_obs[:w]),
+    args = [int(arrays.model), x_start, np.ascontiguousarray(y_obs[:w]),
             np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
             arrays.dynamics(), arrays.dense_process_noise(), traj, phi]
-    entry = literal_entry(reference_and_normal_equations, tuple(args), (MODEL_ARG, KINDS_ARG))
 
     def linearise(x):
-        args[2] = x
-        lam, rhs, q_acc, weighted_ss = entry(*args)
+        args[1] = x
+        lam, rhs, q_acc, weighted_ss = reference_and_normal_equations(*args)
         offset = x - x_apriori
         cost = weighted_ss + offset @ info_apriori @ offset
         return (*add_apriori(lam, rhs, info_apriori, x, x_apriori), q_acc, weighted_ss, cost)

@@ -23,7 +23,6 @@ and LinCov says nothing about outliers.
 
 from collections import namedtuple
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -38,7 +37,7 @@ from liaison_cli.estimation.filter_loop import (
     measurement_row,
     time_update,
 )
-from liaison_cli.measurements.registry import predict_for
+from liaison_cli.measurements.registry import predict
 
 PART_INITIAL, PART_NOISE, PART_PROCESS = 0, 1, 2
 N_RANDOM_PARTS = 3
@@ -84,11 +83,11 @@ def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
 
 
 @njit(cache=True, inline="always")
-def _model_on_truth(kinds, truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
+def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
     """The filter's model of one channel on the true states of its ends at one epoch (partials into g_r, g_t
-    and, for a three-end channel, g_s); kinds: the scenario's kind set (registry.predict_for's constant)."""
+    and, for a three-end channel, g_s)."""
     x_r, x_t, x_s = channel_states(truth_k, known_k, ends)
-    return predict_for(kinds, kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
+    return predict(kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
 
 
 @njit(cache=True, inline="always")
@@ -122,7 +121,7 @@ def _dynamics_mismatch(truth_k, x_bar, d_dyn_extra, Phi, layout):
 
 
 @njit(cache=True, inline="always")
-def _update_along_truth(kinds, k, truth, y_true, known_states, channels, n_gain, underweight, channel_bias_link, P,
+def _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underweight, channel_bias_link, P,
                         P_spare, D, S, mu_meas, mu_dyn, vectors):
     """Epoch k's update, one scalar channel at a time as the EKF does: the filter's covariance P (its own
     update_scalar_into on a zero residual, dx staying zero) and, with its gain K from the P before it, every
@@ -134,7 +133,7 @@ def _update_along_truth(kinds, k, truth, y_true, known_states, channels, n_gain,
     for c in range(channel_kind.shape[0]):
         if not np.isfinite(y_true[k, c]):
             continue
-        predicted = measurement_row(kinds, channels, c, truth[k], known_states[k], H, g_r, g_t, g_s)[1]
+        predicted = measurement_row(channels, c, truth[k], known_states[k], H, g_r, g_t, g_s)[1]
         R = sigma[c] ** 2
         update_scalar_into(dx, P, 0.0, H, R, n_gain, underweight, dx_spare, P_spare, h, K)
         P, P_spare = P_spare, P
@@ -159,12 +158,11 @@ def _record_parts(k, P, D, S, mu_meas, mu_dyn, P_diag, D_diag, S_out, mu_meas_ou
 
 
 @njit(cache=True)
-def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layout, dynamics, P0, Q, n_gain,
+def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dynamics, P0, Q, n_gain,
                        underweight, burns, truth_errors):
     """The filter's covariance and the error parts at every epoch, after the update.
 
-    model: the dynamics model code, kinds: the channels' kind set (registry.kinds_mask), both compile-time
-    constants (the EKF's own: filter_loop.run_ekf). truth (m, n): the true filter states (clock /
+    model: the dynamics model code, read at run time (as the EKF's: filter_loop.run_ekf). truth (m, n): the true filter states (clock /
     bias columns may be zero: they enter linearly); y_true (m, C): noise-free, bias-free, clock-free true
     measurements (NaN: none); channels, layout, dynamics: as the EKF's (estimation.kernel_args; sigma is the
     filter's and the truth's 1-sigma); P0, Q (n, n) the filter's; n_gain, underweight: as the EKF's;
@@ -177,8 +175,6 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
     (m, n), mu_dyn (m, n). Each epoch is the module docstring's predict (time_update, the covariance
     prediction of Eq. 12 for P and _propagate_parts for the parts) then update (_update_along_truth).
     """
-    numba.literally(model)  # compile only this scenario's dynamics (dynamics.model.propagate_state_stm_into)
-    numba.literally(kinds)  # ... and its observables (measurements.registry.predict_for)
     block_kind, block_start, block_size, block_parameter = layout
     params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
     D_initial, Q_true, S0, d_dyn_extra, channel_bias_link = truth_errors
@@ -208,18 +204,17 @@ def lincov_along_truth(model, kinds, truth, y_true, known_states, channels, layo
                                                  block_size), P
             _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size,
                              scratch)
-            P, P_spare = _update_along_truth(kinds, k, truth, y_true, known_states, channels, n_gain, underweight,
+            P, P_spare = _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underweight,
                                              channel_bias_link, P, P_spare, D, S, mu_meas, mu_dyn, vectors)
         _record_parts(k, P, D, S, mu_meas, mu_dyn, P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out)
     return P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out
 
 
 @njit(cache=True)
-def filter_model_along_truth(kinds, truth, y_true, known_states, channel_kind, channel_ends, channel_flags):
+def filter_model_along_truth(truth, y_true, known_states, channel_kind, channel_ends, channel_flags):
     """The filter's measurement model evaluated on the truth, (m, C): what noise-free data would be if the
     truth obeyed the filter's model exactly (NaN where y_true has no measurement). Modifiers are left out,
-    as they are in y_true. kinds: the channels' kind set, a compile-time constant (registry.kinds_mask)."""
-    numba.literally(kinds)
+    as they are in y_true."""
     m = truth.shape[0]
     n_channels = channel_kind.shape[0]
     out = np.full((m, n_channels), np.nan)
@@ -230,6 +225,6 @@ def filter_model_along_truth(kinds, truth, y_true, known_states, channel_kind, c
         for c in range(n_channels):
             if not np.isfinite(y_true[k, c]):
                 continue
-            out[k, c] = _model_on_truth(kinds, truth[k], known_states[k], channel_ends[c], channel_kind[c],
+            out[k, c] = _model_on_truth(truth[k], known_states[k], channel_ends[c], channel_kind[c],
                                         channel_flags[c], g_r, g_t, g_s)
     return out

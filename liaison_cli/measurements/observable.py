@@ -2,7 +2,7 @@
 
 An observable (the word a scenario uses: `range`, `range_rate`, `los`, `pseudorange`) produces one or
 more scalar channels (LOS: azimuth and elevation). For each channel the description gives its kind code
-(dispatched by `measurements.registry.predict_for`), label, SI unit and the factor from filter units to SI.
+(dispatched by `measurements.registry.predict`), label, SI unit and the factor from filter units to SI.
 It also says how the scenario's noise section sets each channel's sigma, how truth simulates the channel
 from the two ends' trajectories, and which additive modifiers apply: a per-link range bias, the clocks
 of the two ends. Nothing outside `measurements/` branches on an observable's kind.

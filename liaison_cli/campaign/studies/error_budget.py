@@ -33,10 +33,8 @@ from liaison_cli.campaign.engine.runner import run_tasks_in_order
 from liaison_cli.campaign.engine.worker import draw_run_inputs, true_empirical_accelerations, true_parameters
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU, SECONDS_PER_DAY
-from liaison_cli.dynamics.model import literal_entry
 from liaison_cli.errors import LiaisonError
 from liaison_cli.interrupts import caused_by_interrupt
-from liaison_cli.measurements.registry import kinds_mask
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.lincov import (
     PART_INITIAL,
@@ -50,7 +48,7 @@ from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import Problem
 
 # lincov_along_truth's compile-time arguments (the model code, the kind set) and where its Dynamics group is.
-LINCOV_LITERALS, LINCOV_DYNAMICS_ARG = (0, 1), 7
+LINCOV_DYNAMICS_ARG = 6  # lincov_along_truth's dynamics argument
 SOURCES = ("initial", "noise", "process", "bias", "measurement_model", "dynamics_model")
 DETERMINISTIC = ("measurement_model", "dynamics_model", "bias_mean")
 
@@ -140,10 +138,10 @@ def error_budget(problem: Problem) -> Budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")
     f = problem.filter
-    args = (f.model, kinds_mask(f.channel_kind), _filter_truth(problem), problem.measurements_true, f.known_states,
+    args = (int(f.model), _filter_truth(problem), problem.measurements_true, f.known_states,
             f.channels(), f.block_layout(), f.dynamics(), f.P0, f.Q, int(f.n_gain), float(f.underweight), f.burns,
             TruthErrors(*_inputs(problem)))
-    run_lincov = literal_entry(lincov_along_truth, args, LINCOV_LITERALS)
+    run_lincov = lincov_along_truth
     P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft
     parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),
@@ -310,9 +308,9 @@ def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: floa
     if problem.clocks:
         raise BudgetError(f"{problem.scenario.name}: the Monte Carlo check takes scenarios without clocks")
     f = problem.filter
-    model_args = (kinds_mask(f.channel_kind), _filter_truth(problem), problem.measurements_true, f.known_states,
+    model_args = (_filter_truth(problem), problem.measurements_true, f.known_states,
                   f.channel_kind, f.channel_ends, f.channel_flags)
-    model_y = literal_entry(filter_model_along_truth, model_args, 0)(*model_args)
+    model_y = filter_model_along_truth(*model_args)
     inputs = CheckInputs(problem, model_y, tuple(groups), runs, settle_s)
     for result in run_tasks_in_order(check_batch, inputs, problem, len(groups) * runs, jobs, where, progress,
                                      f"{problem.scenario.name} check"):

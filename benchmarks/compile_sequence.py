@@ -1,0 +1,115 @@
+"""What a new user pays the compiler, in the order a user meets it: one cache folder, filled as the commands run.
+
+    python -m benchmarks.compile_sequence [--tree PATH | --commit REV] [--output FILE]
+
+From an empty LIAISON_CACHE_DIR: the first-ever `liaison run` of eml2_lunar, then one scenario of each other
+kind (angles, one-way clocks, the batch, the dated model, TDoA on the dated model, the initial batch), then
+`liaison errors` on eml2_lunar, each `--runs 2 --quiet` in a new process, timed start to exit; then
+`liaison warm-up` into a second empty cache. Every case after the first pays only for what the earlier ones
+did not compile: the cost of a new kind of scenario. Each case is run a second time in the same cache (all
+cached) so the compile share is the difference.
+
+`--commit REV` measures a commit of this repository (checked out into a temporary folder) and `--tree PATH`
+another checkout, so a before/after pair runs in one session on the same machine; the load average is
+recorded beside every case.
+"""
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+# (label, liaison arguments); {scenarios} is the measured tree's scenarios/ folder, {work} the scratch folder.
+SEQUENCE = (
+    ("run eml2_lunar (first ever)", ["run", "{scenarios}/eml2_lunar.yaml"]),
+    ("run LOS angles", ["run", "{scenarios}/mt_eml2_lunar_range_rate_los.yaml"]),
+    ("run one-way clocks", ["run", "{scenarios}/clock_one_way_eml2_lunar.yaml"]),
+    ("run batch", ["run", "{scenarios}/nrho_gateway_anchors.yaml"]),
+    ("run dated model + DSN", ["run", "{scenarios}/eph_eml1_eml2_dsn.yaml"]),
+    ("run dated TDoA template", ["run", "{work}/tdoa_pair.yaml"]),
+    ("run 004 initial batch", ["run", "{scenarios}/004/eml2_halo.yaml"]),
+    ("errors eml2_lunar (LinCov)", ["errors", "{scenarios}/eml2_lunar.yaml"]),
+)
+
+
+def checkout(commit: str, work: Path) -> Path:
+    tree = work / "tree"
+    subprocess.run(["git", "worktree", "add", "--detach", "-f", str(tree), commit], cwd=ROOT, check=True,
+                   capture_output=True)
+    return tree
+
+
+def liaison(tree: Path, args: list, cache: Path, cwd: Path) -> float:
+    env = {**os.environ, "PYTHONPATH": str(tree), "LIAISON_CACHE_DIR": str(cache)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    started = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "liaison_cli", *map(str, args)], cwd=cwd, env=env,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - started
+    if proc.returncode != 0:
+        raise SystemExit(f"liaison {' '.join(map(str, args))} failed ({proc.returncode}): {proc.stderr.strip()}")
+    return wall
+
+
+def measure(tree: Path, work: Path, warm_up: bool) -> list[dict]:
+    cache = work / "cache"
+    liaison(tree, ["new", work / "tdoa_pair.yaml", "--from", "tdoa-pair"], work / "cache-new", work)
+    rows = []
+    for i, (label, template) in enumerate(SEQUENCE):
+        args = [a.format(scenarios=tree / "scenarios", work=work) for a in template]
+        extra = ["--runs", 2, "--quiet"] if args[0] == "run" else ["--quiet"]
+        out = ["--output", work / f"out-{i}", "--overwrite"]
+        load = os.getloadavg()[0]
+        first = liaison(tree, [*args, *extra, *out], cache, work)
+        again = liaison(tree, [*args, *extra, *out], cache, work)
+        rows.append({"label": label, "first": first, "again": again, "load": load})
+        print(f"{label}: {first:.1f} s, again {again:.1f} s (load {load:.1f})", flush=True)
+    if warm_up:
+        load = os.getloadavg()[0]
+        wall = liaison(tree, ["warm-up", "--jobs", 2], work / "cache-warm", work)
+        rows.append({"label": "warm-up --jobs 2 (empty cache)", "first": wall, "again": float("nan"), "load": load})
+        print(f"warm-up: {wall:.1f} s (load {load:.1f})", flush=True)
+    return rows
+
+
+def markdown(rows: list[dict], what: str, started: str) -> str:
+    lines = [f"Written by `python -m benchmarks.compile_sequence {what}`; measured {started}.", "",
+             "| case | first (s) | again, cached (s) | compile share (s) | load |", "|---|---|---|---|---|"]
+    for row in rows:
+        share = row["first"] - row["again"]
+        lines.append(f"| {row['label']} | {row['first']:.1f} | {row['again']:.1f} | {share:.1f} | "
+                     f"{row['load']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--tree", type=Path, help="another checkout to measure (default: this one)")
+    where.add_argument("--commit", help="a commit of this repository to measure")
+    parser.add_argument("--no-warm-up", action="store_true", help="skip the warm-up from an empty cache")
+    parser.add_argument("--output", type=Path, help="write the Markdown table here too")
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="liaison-compile-sequence-"))
+    tree = checkout(args.commit, work) if args.commit else (args.tree or ROOT).resolve()
+    what = f"--commit {args.commit}" if args.commit else ("--tree ..." if args.tree else "")
+    started = time.strftime("%Y-%m-%d %H:%M %Z")
+    try:
+        rows = measure(tree, work, not args.no_warm_up)
+    finally:
+        if args.commit:
+            subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True)
+        shutil.rmtree(work, ignore_errors=True)
+    text = markdown(rows, what, started)
+    print(text)
+    if args.output:
+        args.output.write_text(text)
+
+
+if __name__ == "__main__":
+    main()
