@@ -91,6 +91,24 @@ def _numba_cache_dir() -> str:
     return os.path.join(user_cache_dir(), f"numba-{core_source_hash()}")
 
 
+COMPILED_PACKAGE_MODULES = tuple(f"{__name__}.{package}" for package in (*COMPILED_PACKAGES, "analysis"))
+
+
+def use_cache_dir(path: str) -> str:
+    """Make `path` this process's cache folder (LIAISON_CACHE_DIR, with numba's folder in it) and its worker
+    processes' (they inherit the environment); returns numba's folder. Only before a compiled package is
+    imported: numba fixes a function's cache folder when its decorator runs."""
+    loaded = [name for name in COMPILED_PACKAGE_MODULES if name in sys.modules]
+    if loaded:
+        raise RuntimeError(f"use_cache_dir: {', '.join(loaded)} already imported with the cache "
+                           f"{os.environ['NUMBA_CACHE_DIR']}")
+    os.environ["LIAISON_CACHE_DIR"] = os.path.abspath(path)
+    os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()
+    if "numba" in sys.modules:
+        sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+    return os.environ["NUMBA_CACHE_DIR"]
+
+
 # numba reads the variable once, at import; imported before us (a notebook, a profiler, a test plugin), it has
 # read it already, and would cache liaison's kernels beside their source under a key that ignores the callees.
 os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()

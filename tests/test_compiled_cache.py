@@ -111,3 +111,83 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
     assert list((cache / session_cache.name).rglob("rk4.rk4_states_forced-*.nbc")), "the cold run cached it again"
     warm = subprocess.run([*args, "--output", str(tmp_path / "b")], capture_output=True, text=True, env=env)
     assert warm.returncode == 0 and warm.stderr == "", warm.stderr
+
+
+# A small kernel and how to tell whether numba compiled it or loaded it: the compile events of liaison code.
+_JACOBI = """
+import sys
+from numba.core import event
+compiled = []
+class Recorder(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+    def on_end(self, ev):
+        pass
+event.register("numba:compile", Recorder())
+import numpy as np
+from liaison_cli.dynamics.crtbp import jacobi_constant
+print(repr(float(jacobi_constant(np.array([0.8, 0.1, 0.05, 0.01, 0.2, 0.0]), 0.0121505856))))
+print("compiled" if compiled else "loaded")
+"""
+
+
+def _jacobi_in(package_parent: Path, cache: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(package_parent), "LIAISON_CACHE_DIR": str(cache)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("NUMBA_CPU_NAME", None)  # liaison's own default (the generic target), as on a user's machine
+    return subprocess.run([sys.executable, "-c", _JACOBI], env=env, capture_output=True, text=True, cwd=package_parent)
+
+
+def _package_at(folder: Path) -> Path:
+    import shutil
+
+    shutil.copytree(Path(liaison_cli.__file__).parent, folder / "liaison_cli",
+                    ignore=shutil.ignore_patterns("__pycache__", "shipped_scenarios"))
+    return folder
+
+
+def test_a_cache_built_elsewhere_serves_another_checkout_and_user(tmp_path):
+    """A cache filled by one copy of the package (one path, one user's cache folder) and copied into another
+    user's cache folder serves a second copy at another path, with other file times: nothing is compiled. numba
+    alone keyed its folders on the source's absolute path (and the host CPU), so no such cache could serve."""
+    import shutil
+
+    first, second = _package_at(tmp_path / "checkout-a"), _package_at(tmp_path / "elsewhere" / "checkout-b")
+    built = _jacobi_in(first, tmp_path / "cache-a")
+    assert built.returncode == 0 and built.stdout.split()[-1] == "compiled", built.stderr
+    shutil.copytree(tmp_path / "cache-a", tmp_path / "cache-b")
+    used = _jacobi_in(second, tmp_path / "cache-b")
+    assert used.returncode == 0 and used.stderr == "", used.stderr
+    assert used.stdout.split() == [built.stdout.split()[0], "loaded"]
+
+
+def test_a_damaged_cache_entry_is_one_line_then_compiled_again(tmp_path):
+    """A truncated data file or index (an interrupted copy) is removed with one line naming it, compiled again
+    with the same number, and the next process loads the sound entry silently; never numba's traceback."""
+    from liaison_cli.compiled_cache import DAMAGED_NOTICE
+
+    checkout, cache = _package_at(tmp_path / "checkout"), tmp_path / "cache"
+    sound = _jacobi_in(checkout, cache)
+    assert sound.returncode == 0, sound.stderr
+    for pattern in ("crtbp.jacobi_constant-*.nbc", "crtbp.jacobi_constant-*.nbi"):
+        (damaged,) = cache.rglob(pattern)
+        damaged.write_bytes(damaged.read_bytes()[: damaged.stat().st_size // 2])
+        healed = _jacobi_in(checkout, cache)
+        assert healed.returncode == 0 and "Traceback" not in healed.stderr, healed.stderr
+        lines = healed.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(DAMAGED_NOTICE) and "jacobi_constant" in lines[0], lines
+        assert healed.stdout.split() == [sound.stdout.split()[0], "compiled"]
+        again = _jacobi_in(checkout, cache)
+        assert again.stderr == "" and again.stdout.split() == [sound.stdout.split()[0], "loaded"], again.stderr
+
+
+def test_warm_up_into_a_folder_it_cannot_write_is_one_line_before_compiling(tmp_path):
+    from tests.conftest import run_cli_in_process, stderr_lines
+
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    proc = run_cli_in_process("warm-up", "--cache-dir", blocker / "cache")
+    assert proc.returncode == 4 and "Traceback" not in proc.stderr, proc.stderr
+    (line,) = stderr_lines(proc.stderr)
+    assert str(blocker) in line and "Not a directory" in line
+    assert proc.stdout == ""

@@ -88,34 +88,46 @@ def _ric_sums(truth, err, blocks, primaries, primary_velocities, rows, n_spacecr
     (ric_axes' frame, written out per epoch)."""
     out = np.zeros((n_spacecraft, 2, 3, 4))
     axes = np.empty((3, 3))
+    # Scalar arithmetic throughout (the same operations as np.cross and slice division): array expressions and
+    # slice assignment made numba compile their shape-error paths, 4 s of a first run.
     for k in rows:
         for s in range(n_spacecraft):
-            r = truth[k, 6 * s : 6 * s + 3]
+            a0 = 6 * s
             best, nearer = np.inf, 0
             for b in range(2):
-                d = (r[0] - primaries[k, b, 0]) ** 2 + (r[1] - primaries[k, b, 1]) ** 2 + (r[2] - primaries[k, b, 2]) ** 2
+                d = ((truth[k, a0] - primaries[k, b, 0]) ** 2 + (truth[k, a0 + 1] - primaries[k, b, 1]) ** 2
+                     + (truth[k, a0 + 2] - primaries[k, b, 2]) ** 2)
                 if d < best:
                     best, nearer = d, b
-            rel = r - primaries[k, nearer]
-            vel = truth[k, 6 * s + 3 : 6 * s + 6] - primary_velocities[k, nearer]
-            normal = np.cross(rel, vel)
-            distance, momentum = np.sqrt(np.sum(rel * rel)), np.sqrt(np.sum(normal * normal))
+            rx, ry, rz = (truth[k, a0] - primaries[k, nearer, 0], truth[k, a0 + 1] - primaries[k, nearer, 1],
+                          truth[k, a0 + 2] - primaries[k, nearer, 2])
+            vx, vy, vz = (truth[k, a0 + 3] - primary_velocities[k, nearer, 0],
+                          truth[k, a0 + 4] - primary_velocities[k, nearer, 1],
+                          truth[k, a0 + 5] - primary_velocities[k, nearer, 2])
+            nx, ny, nz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+            distance = np.sqrt(rx * rx + ry * ry + rz * rz)
+            momentum = np.sqrt(nx * nx + ny * ny + nz * nz)
             if not (distance > 0.0 and momentum > 0.0):  # no frame at this epoch (radial motion): left out
                 continue
-            axes[0] = rel / distance
-            axes[2] = normal / momentum
-            axes[1] = np.cross(axes[2], axes[0])
+            axes[0, 0], axes[0, 1], axes[0, 2] = rx / distance, ry / distance, rz / distance
+            axes[2, 0], axes[2, 1], axes[2, 2] = nx / momentum, ny / momentum, nz / momentum
+            axes[1, 0] = axes[2, 1] * axes[0, 2] - axes[2, 2] * axes[0, 1]
+            axes[1, 1] = axes[2, 2] * axes[0, 0] - axes[2, 0] * axes[0, 2]
+            axes[1, 2] = axes[2, 0] * axes[0, 1] - axes[2, 1] * axes[0, 0]
             for half in range(2):
-                e = err[k, 6 * s + 3 * half : 6 * s + 3 * half + 3]
-                if not (np.isfinite(e[0]) and np.isfinite(e[1]) and np.isfinite(e[2])):
+                e0 = a0 + 3 * half
+                ex, ey, ez = err[k, e0], err[k, e0 + 1], err[k, e0 + 2]
+                if not (np.isfinite(ex) and np.isfinite(ey) and np.isfinite(ez)):
                     continue
-                c = blocks[k, s, 6 * half : 6 * half + 6]
+                c = 6 * half
                 for a in range(3):
                     x, y, z = axes[a, 0], axes[a, 1], axes[a, 2]
-                    along = x * e[0] + y * e[1] + z * e[2]
+                    along = x * ex + y * ey + z * ez
                     out[s, half, a, 0] += 1.0
                     out[s, half, a, 1] += along
                     out[s, half, a, 2] += along * along
-                    out[s, half, a, 3] += (c[0] * x * x + c[1] * y * y + c[2] * z * z
-                                           + 2.0 * (c[3] * x * y + c[4] * x * z + c[5] * y * z))
+                    out[s, half, a, 3] += (blocks[k, s, c] * x * x + blocks[k, s, c + 1] * y * y
+                                           + blocks[k, s, c + 2] * z * z
+                                           + 2.0 * (blocks[k, s, c + 3] * x * y + blocks[k, s, c + 4] * x * z
+                                                    + blocks[k, s, c + 5] * y * z))
     return out

@@ -70,7 +70,7 @@ def scatter_partials(H, ends, g_receiver, g_transmitter, g_second):
             H[ends[END_SECOND_STATE] + i] += g_second[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: compiled once and shared by the EKF, the initial batch and LinCov
 def measurement_row(channels, c, x, known_k, H, g_receiver, g_transmitter, g_second):
     """Channel c's model at the states x (n,) (known ends from known_k (K, 6)): returns (its value with the
     modifiers added one by one, its value without them) and writes its row of partials into H (n,), the ends'
@@ -129,7 +129,7 @@ def apply_burn_rows(M, burns, k):
                 M[v + i, j] += M[d + i, j]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: compiled once and shared by the EKF, the initial batch and LinCov
 def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params, t_tu,
                 dt_tu, substeps, empirical_tau_tu, y, work):
     """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11), the identity on

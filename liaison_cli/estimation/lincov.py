@@ -52,34 +52,70 @@ def _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, bloc
     mu <- Phi mu (minus the dynamics mismatch for mu_dyn)."""
     n = Phi.shape[0]
     zero = np.zeros((n, n))
+    # Element loops, no array expressions or slice assignment: those made numba compile their shape-error
+    # paths (string formatting), 10 s of `liaison errors`' first run.
     for p in range(D.shape[0]):
         q = Q_true if p == PART_PROCESS else zero
-        D[p] = predict_covariance_blocks(D[p], Phi, q, scratch, block_kind, block_start, block_size).copy()
-    S[:, :] = Phi @ S
-    mu_meas[:] = Phi @ mu_meas
-    mu_dyn[:] = Phi @ mu_dyn - d_dyn
+        predicted = predict_covariance_blocks(D[p], Phi, q, scratch, block_kind, block_start, block_size)
+        for i in range(n):
+            for j in range(n):
+                D[p, i, j] = predicted[i, j]
+    column = np.empty(n)
+    for l in range(S.shape[1]):
+        _apply_into(Phi, S[:, l], column)
+        for i in range(n):
+            S[i, l] = column[i]
+    _apply_into(Phi, mu_meas, column)
+    for i in range(n):
+        mu_meas[i] = column[i]
+    _apply_into(Phi, mu_dyn, column)
+    for i in range(n):
+        mu_dyn[i] = column[i] - d_dyn[i]
+
+
+@njit(cache=True, inline="always")
+def _apply_into(M, v, out):
+    """out = M v (M (n, n), v and out (n,)), summed in column order."""
+    n = M.shape[0]
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += M[i, j] * v[j]
+        out[i] = acc
 
 
 @njit(cache=True)
 def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
     """Update step for one scalar channel with gain K (n,) and partials H (n,): e <- (I - K H) e + K input."""
     n = K.shape[0]
+    g = np.empty(n)
     for p in range(D.shape[0]):
-        g = D[p] @ H
-        hg = H @ g
+        _apply_into(D[p], H, g)
+        hg = _dot(H, g)
         r = R_true if p == PART_NOISE else 0.0
         for i in range(n):
             for j in range(n):
                 D[p, i, j] += -K[i] * g[j] - g[i] * K[j] + (hg + r) * K[i] * K[j]
-    hs = H @ S
-    for i in range(n):
-        for l in range(S.shape[1]):
-            S[i, l] -= K[i] * hs[l]
-        if bias_column >= 0:
+    for l in range(S.shape[1]):
+        hs = 0.0
+        for i in range(n):
+            hs += H[i] * S[i, l]
+        for i in range(n):
+            S[i, l] -= K[i] * hs
+    if bias_column >= 0:
+        for i in range(n):
             S[i, bias_column] += K[i]
-    hm = H @ mu_meas
+    hm = _dot(H, mu_meas)
     for i in range(n):
         mu_meas[i] += K[i] * (d_meas - hm)
+
+
+@njit(cache=True, inline="always")
+def _dot(a, b):
+    acc = 0.0
+    for i in range(a.shape[0]):
+        acc += a[i] * b[i]
+    return acc
 
 
 @njit(cache=True, inline="always")
@@ -95,13 +131,23 @@ def _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k):
     """A manoeuvre after epoch k: the filter's linearisation point (n,) and covariance P (n, n) and every
     error part (D (3, n, n), S (n, L), mu_meas, mu_dyn (n,)) take the map J (filter_loop.apply_burns); the
     truth takes its true Delta-v (the Delta-v columns of the truth)."""
-    n = mu_meas.shape[0]
     apply_burns(linearisation, P, burns, k)
     for p in range(N_RANDOM_PARTS):
         apply_burn_covariance(D[p], burns, k)
     apply_burn_rows(S, burns, k)
-    apply_burn_rows(mu_meas.reshape((n, 1)), burns, k)
-    apply_burn_rows(mu_dyn.reshape((n, 1)), burns, k)
+    _apply_burn_vector(mu_meas, burns, k)
+    _apply_burn_vector(mu_dyn, burns, k)
+
+
+@njit(cache=True, inline="always")
+def _apply_burn_vector(v, burns, k):
+    """v <- J v (n,) for the burns after epoch k (filter_loop.apply_burn_rows for one column, without a reshape:
+    its error path cost seconds of compiling)."""
+    for b in range(burns.shape[0]):
+        if burns[b, 2] == k:
+            d, velocity = burns[b, 0], burns[b, 1] + 3
+            for i in range(3):
+                v[velocity + i] += v[d + i]
 
 
 @njit(cache=True, inline="always")
@@ -110,7 +156,9 @@ def _dynamics_mismatch(truth_k, x_bar, d_dyn_extra, Phi, layout):
     drifts d_dyn_extra (n,) on clocks and constants; Phi (n, n) gets the identity on constant blocks, which
     time_update leaves out."""
     block_kind, block_start, block_size, _ = layout
-    d_dyn = truth_k - x_bar + d_dyn_extra
+    d_dyn = np.empty(x_bar.shape[0])
+    for i in range(x_bar.shape[0]):  # element loops: an array expression compiles its shape-error path
+        d_dyn[i] = truth_k[i] - x_bar[i] + d_dyn_extra[i]
     for b in range(block_kind.shape[0]):
         if block_kind[b] != BLOCK_SPACECRAFT:  # clocks and constants: only the stated drifts
             for i in range(block_start[b], block_start[b] + block_size[b]):
@@ -138,7 +186,7 @@ def _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underw
         update_scalar_into(dx, P, 0.0, H, R, n_gain, underweight, dx_spare, P_spare, h, K)
         P, P_spare = P_spare, P
         _update_parts(D, S, mu_meas, K, H, R, channel_bias_link[c], y_true[k, c] - predicted)
-        hm = H @ mu_dyn
+        hm = _dot(H, mu_dyn)
         for i in range(n):
             mu_dyn[i] -= K[i] * hm
     return P, P_spare
@@ -182,7 +230,9 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
     n_links = S0.shape[1]
     P = P0.copy()
     D = np.zeros((N_RANDOM_PARTS, n, n))
-    D[PART_INITIAL] = D_initial
+    for i in range(n):  # element loops: see _propagate_parts
+        for j in range(n):
+            D[PART_INITIAL, i, j] = D_initial[i, j]
     S = S0.copy()
     mu_meas = np.zeros(n)
     mu_dyn = np.zeros(n)

@@ -25,18 +25,19 @@ def _scenarios_and_templates() -> dict:
     return out
 
 
-def _needs(scenario) -> str:
-    """The combination a scenario's compiled estimator is specialised on, spelled as --list spells it: the
-    estimator (and an initial batch before an EKF), the dynamics, and the observables whose channel kinds the
-    registry compiles for its channels (kinds_mask: range and range-rate always)."""
-    from liaison_cli.measurements.registry import OBSERVABLES, get_observable, kinds_mask
-
-    codes = [kind.code for link in scenario.links for name in link.observables
-             for kind in get_observable(name).channels]
-    mask = kinds_mask(codes)
-    observables = [name for name, obs in OBSERVABLES.items() if any(mask >> k.code & 1 for k in obs.channels)]
+def _needs(scenario) -> tuple:
+    """What a scenario's compiled code depends on, as --list spells it: the estimator (and an initial batch
+    before an EKF) and the dynamics. The kernels read the model and the observable kinds at run time, so the
+    observables are not part of it; --list names the union of its scenarios' observables after them."""
     start = " + initial batch" if scenario.filter.initial_batch_hours is not None else ""
-    return f"{scenario.estimator}{start} · {scenario.dynamics} · {', '.join(observables)}"
+    return f"{scenario.estimator}{start} · {scenario.dynamics}"
+
+
+def _observables(scenarios) -> str:
+    from liaison_cli.measurements.registry import OBSERVABLES
+
+    used = {name for scenario in scenarios for link in scenario.links for name in link.observables}
+    return ", ".join(name for name in OBSERVABLES if name in used)
 
 
 def _listed(stdout: str) -> dict:
@@ -55,12 +56,20 @@ def test_list_names_every_combination_the_shipped_scenarios_and_templates_need()
     assert proc.returncode == 0, proc.stderr
     listed = _listed(proc.stdout)
     sources = _scenarios_and_templates()
-    expected: dict = {}
+    groups: dict = {}
     for label, scenario in sources.items():
-        expected.setdefault(_needs(scenario), set()).add(label)
-    assert {name: set(labels) for name, labels in listed.items()} == expected
-    assert sum(len(labels) for labels in listed.values()) == len(sources)  # each named once
+        groups.setdefault(_needs(scenario), {})[label] = scenario
+    expected = {f"{key} · {_observables(members.values())}": set(members) for key, members in groups.items()}
+    commands = {name: labels for name, labels in listed.items() if name.startswith("liaison ")}
+    runs = {name: set(labels) for name, labels in listed.items() if name not in commands}
+    assert runs == expected
+    assert sum(len(labels) for labels in runs.values()) == len(sources)  # each named once
     assert proc.stdout.startswith(f"{len(expected)} combinations")
+    # The commands whose kernels no run reaches, each on one EKF scenario of the CRTBP.
+    assert set(commands) == {"liaison errors", "liaison observability"}
+    for labels in commands.values():
+        assert len(labels) == 1 and labels[0] in expected["ekf · crtbp · " + _observables(
+            groups["ekf · crtbp"].values())]
     assert "template tdoa-pair" in sources and "004/eml2_halo.yaml" in sources and "smoke.yaml" in sources
 
 

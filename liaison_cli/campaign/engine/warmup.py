@@ -1,13 +1,15 @@
-"""`liaison warm-up`: compile, into numba's on-disk cache, every kernel specialisation the shipped scenarios and
-the `liaison new` templates need, ahead of the user's first run.
+"""`liaison warm-up`: compile, into numba's on-disk cache, every kernel the shipped scenarios, the `liaison new`
+templates and the commands beyond `run` (`errors`, `observability`) need, ahead of the user's first run.
 
-What a specialisation is, is read from the scenarios through the public setup, never from the kernels: the
-estimator, the dynamics model and the kind set the estimators compile for (measurements.registry.kinds_mask
-of the scenario's channels), and whether an initial batch starts the EKF. Scenarios that agree on all four
-share their compiled code, so one of them (the one with the fewest epochs) stands for all: it is run once at
-its smallest (one run, a short span), and the others are only set up (truth and measurements over a few
-epochs, for what a scenario compiles before its estimator runs). numba compiles what is missing and caches it;
-what is already cached is only loaded. Nothing is written but the caches (results stay in memory).
+The estimators read the dynamics model and the observable kinds at run time, so what a scenario compiles
+depends on its estimator, its dynamics and whether an initial batch starts the EKF (read from the scenarios
+through the public setup): scenarios that agree on these three share their compiled code, and one of them (the
+one with the fewest epochs) stands for all. It is run once at its smallest (one run, a short span), and the
+others are only set up (truth and measurements over a few epochs: what a scenario compiles before its
+estimator runs, its own measurement models among it). Then `liaison errors` (LinCov and its Monte Carlo
+check) and `liaison observability` run once on the smallest EKF scenario. numba compiles what is missing and
+caches it; what is already cached is only loaded; every compiled entry is read back from the cache before the
+warm-up says it is there (verify). Nothing is written but the caches (results stay in memory).
 
 "Compiled" below is what numba compiled (a cache miss: its `numba:compile` event), never a load from the
 cache, so a second warm-up reports nothing compiled.
@@ -38,16 +40,21 @@ class Source:
 
 @dataclass(frozen=True)
 class Specialisation:
-    """A combination the kernels are compiled for, and the sources that need it (the first stands for all)."""
+    """A combination of scenarios, and the sources that need it (the first stands for all); `command`: what is
+    done with it, `run` (a run of the representative, the others set up) or a command whose kernels a run does
+    not reach (COMMANDS: `errors`, LinCov and the filter model along the truth; `observability`)."""
 
     estimator: str
     dynamics: str
     observables: tuple[str, ...]
     initial_batch: bool
     sources: tuple[Source, ...]
+    command: str = "run"
 
     @property
     def name(self) -> str:
+        if self.command != "run":
+            return f"liaison {self.command}"
         start = " + initial batch" if self.initial_batch else ""
         return f"{self.estimator}{start} · {self.dynamics} · {', '.join(self.observables)}"
 
@@ -66,6 +73,7 @@ class WarmUpResult:
     seconds: float = 0.0
     error: str = ""
     signatures: tuple[str, ...] = field(default=(), repr=False)  # "function(signature)", to spot repeats
+    entries: tuple = field(default=(), repr=False)  # (module, qualified name, argument types) of each, to verify
 
 
 def shipped_sources() -> list[Source]:
@@ -99,37 +107,61 @@ def _source(label: str, scenario) -> Source:
 
 
 def specialisation_key(scenario) -> tuple:
-    """(estimator, dynamics, observables, initial batch): what the compiled estimator is specialised on,
-    from the scenario's declared links through the registry's own rule for the compiled kind set."""
-    from liaison_cli.measurements.registry import OBSERVABLES, kinds_mask
+    """(estimator, dynamics, initial batch): what a scenario's compiled code depends on. The kernels read the
+    dynamics model and the observable kinds at run time, so scenarios that differ only in their observables
+    share every compiled function; each is still set up by the warm-up (its own measurement models)."""
+    return (scenario.estimator, scenario.dynamics, scenario.filter.initial_batch_hours is not None)
+
+
+def scenario_observables(scenario) -> tuple[str, ...]:
+    """The registered observables the scenario's links use, in the registry's order."""
+    from liaison_cli.measurements.registry import OBSERVABLES
     from liaison_cli.scenario.truth import link_observables
 
-    codes = [kind.code for link in scenario.links for observable in link_observables(link)
-             for kind in observable.channels]
-    mask = kinds_mask(codes)
-    observables = tuple(name for name, observable in OBSERVABLES.items()
-                        if any(mask >> kind.code & 1 for kind in observable.channels))
-    return (scenario.estimator, scenario.dynamics, observables, scenario.filter.initial_batch_hours is not None)
+    used = {observable.name for link in scenario.links for observable in link_observables(link)}
+    return tuple(name for name in OBSERVABLES if name in used)
 
 
 def plan(sources: list[Source] | None = None) -> list[Specialisation]:
     """The distinct specialisations of `sources` (default: the shipped scenarios and templates), most used
     first; each one's sources smallest first (its representative)."""
+    from liaison_cli.measurements.registry import OBSERVABLES
+
     groups: dict[tuple, list[Source]] = {}
     for source in shipped_sources() if sources is None else sources:
         groups.setdefault(specialisation_key(source.scenario), []).append(source)
-    specs = [Specialisation(*key, tuple(sorted(group, key=lambda s: (s.epochs, s.label))))
-             for key, group in groups.items()]
-    return sorted(specs, key=lambda s: (-len(s.sources), s.name))
+    specs = []
+    for (estimator, dynamics, initial_batch), group in groups.items():
+        used = {name for source in group for name in scenario_observables(source.scenario)}
+        observables = tuple(name for name in OBSERVABLES if name in used)
+        specs.append(Specialisation(estimator, dynamics, observables, initial_batch,
+                                    tuple(sorted(group, key=lambda s: (s.epochs, s.label)))))
+    specs.sort(key=lambda s: (-len(s.sources), s.name))
+    return specs + command_items(specs)
+
+
+# Commands whose kernels no run reaches, each warmed up on the smallest EKF scenario of the CRTBP (the kernels
+# take the dynamics model at run time, so one model stands for both).
+COMMANDS = ("errors", "observability")
+
+
+def command_items(specs: list[Specialisation]) -> list[Specialisation]:
+    """One Specialisation per COMMANDS entry, on the representative of the first EKF CRTBP combination."""
+    ekf = next((spec for spec in specs if (spec.estimator, spec.dynamics, spec.initial_batch) == ("ekf", "crtbp",
+                                                                                                   False)), None)
+    if ekf is None:
+        return []
+    return [Specialisation(ekf.estimator, ekf.dynamics, ekf.observables, False, (ekf.representative,), command)
+            for command in COMMANDS]
 
 
 def chains(specs: list[Specialisation]) -> list[list[Specialisation]]:
-    """Specialisations grouped by (estimator, dynamics), whose kernels share the most code: one chain runs in
-    one process, in order, so a shared kernel is compiled by the first and loaded by the rest. The chain of
-    the most used specialisation comes first."""
+    """Specialisations grouped by (command, estimator, dynamics), whose kernels share the most code: one chain
+    runs in one process, in order, so a shared kernel is compiled by the first and loaded by the rest. The
+    chain of the most used specialisation comes first."""
     grouped: dict[tuple, list[Specialisation]] = {}
     for spec in specs:
-        grouped.setdefault((spec.estimator, spec.dynamics), []).append(spec)
+        grouped.setdefault((spec.command, spec.estimator, spec.dynamics), []).append(spec)
     return list(grouped.values())
 
 
@@ -154,7 +186,19 @@ def warm_up_chain(_shared, chain) -> list[WarmUpResult]:
     from liaison_cli import interrupts
 
     interrupts.ignore_in_worker_process()  # in a pool: the main process stops it on Ctrl-C
+    _thread_lock_for_progress_bars()
     return [warm_up_one(spec) for spec in chain]
+
+
+def _thread_lock_for_progress_bars() -> None:
+    """tqdm makes a multiprocessing lock at its first bar, even a disabled one (the error budget's check has
+    one), and in a pool worker the resource tracker reports that lock as leaked when the pool stops: a thread
+    lock serves a worker that draws no bar."""
+    import threading
+
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())
 
 
 def warm_up_one(spec: Specialisation) -> WarmUpResult:
@@ -165,12 +209,32 @@ def warm_up_one(spec: Specialisation) -> WarmUpResult:
 
     recorder = _compile_recorder()
     started = time.perf_counter()
+    first = {"run": _run_smallest, "errors": _errors_smallest, "observability": _observability_smallest}[spec.command]
     with event.install_listener("numba:compile", recorder):
-        errors = [_reported(_run_smallest, spec.representative),
+        errors = [_reported(first, spec.representative),
                   *(_reported(_set_up_smallest, source) for source in spec.sources[1:])]
     error = "; ".join(e for e in errors if e)
     return WarmUpResult(spec, tuple(name for name, _ in recorder.compiled), time.perf_counter() - started, error,
-                        tuple(f"{name}{signature}" for name, signature in recorder.compiled))
+                        tuple(f"{name}{signature}" for name, signature in recorder.compiled),
+                        tuple(recorder.entries))
+
+
+def _errors_smallest(source: Source) -> str:
+    """`liaison errors` with a one-run Monte Carlo check on the source at its smallest: LinCov along the truth,
+    the filter model on it, and the check's EKF."""
+    from liaison_cli.campaign.studies.error_budget import budget_study
+    from liaison_cli.scenario.setup import prepare_problem
+
+    budget_study(prepare_problem(cut(source.scenario, (WARM_UP_DAYS, float("inf")))), check_runs=1)
+    return ""
+
+
+def _observability_smallest(source: Source) -> str:
+    """`liaison observability` on the source at its smallest (the information matrix along the truth)."""
+    from liaison_cli.campaign.studies.observability_study import observability_study
+
+    observability_study(cut(source.scenario, (WARM_UP_DAYS, float("inf"))))
+    return ""
 
 
 def _run_smallest(source: Source) -> str:
@@ -215,6 +279,7 @@ def _compile_recorder():
     class Recorder(event.Listener):
         def __init__(self):
             self.compiled = []
+            self.entries = []
 
         def on_start(self, ev):
             pass
@@ -229,6 +294,7 @@ def _compile_recorder():
             if (module.startswith("liaison_cli") and dispatcher.stats.cache_path is not None
                     and tuple(ev.data["args"]) in dispatcher.overloads):
                 self.compiled.append((f"{module}.{function.__qualname__}", str(ev.data["args"])))
+                self.entries.append((module, function.__qualname__, tuple(ev.data["args"])))
 
     return Recorder()
 
@@ -242,9 +308,40 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     if not specs:
         return
     groups = chains(specs)
+    # First, the most used combination (it compiles the kernels every run shares) beside the batch's chain
+    # (kernels of its own); then the rest, which mostly load what the first phase compiled.
     first, rest = [groups[0][:1]], [chain for chain in [groups[0][1:], *groups[1:]] if chain]
+    batch = [chain for chain in rest if chain[0].estimator == "batch" and chain[0].command == "run"][:1]
+    first += batch
+    rest = [chain for chain in rest if chain not in batch]
     rest.sort(key=len, reverse=True)  # the longest chain first, so it does not start last and finish alone
     for phase in (first, rest):
         for results in map_batches(warm_up_chain, {0: None}, ((0, tuple(chain)) for chain in phase), LOCAL,
                                    min(jobs, max(len(phase), 1)) if jobs > 1 else 1):
             yield from results
+
+
+def unloadable(entries) -> list[str]:
+    """Of the (module, qualified name, argument types) numba compiled, those that numba's cache cannot load
+    now ("module.name(types)"): what a warm-up reports as cached is read back before it says so."""
+    import importlib
+
+    missing = []
+    for module, qualname, args in entries:
+        dispatcher = importlib.import_module(module)
+        for part in qualname.split("."):
+            dispatcher = getattr(dispatcher, part)
+        cache = getattr(dispatcher, "_cache", None)
+        try:
+            loaded = cache is not None and cache.load_overload(tuple(args), dispatcher.targetctx) is not None
+        except Exception:  # noqa: BLE001 - unreadable is missing
+            loaded = False
+        if not loaded:
+            missing.append(f"{module}.{qualname}{tuple(args)}")
+    return missing
+
+
+def verify(results) -> list[str]:
+    """Read every entry the warm-up compiled back from the on-disk cache (numba's loader reads the files, not
+    this process's memory): the ones it cannot load."""
+    return unloadable(tuple(entry for result in results for entry in result.entries))

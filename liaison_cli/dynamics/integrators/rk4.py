@@ -143,19 +143,18 @@ def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
         span = times_tu[j] - times_tu[j - 1]
         substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
         h = span / substeps
-        a0, slope = acceleration_lu_tu2[j - 1], acceleration_lu_tu2[j] - acceleration_lu_tu2[j - 1]
         for s in range(substeps):
             start, middle, end = s / substeps, (s + 0.5) / substeps, (s + 1.0) / substeps
-            k1 = _forced(derivative(y, mu), a0, slope, start)
+            k1 = _forced(derivative(y, mu), acceleration_lu_tu2, j, start)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            k2 = _forced(derivative(tmp, mu), a0, slope, middle)
+            k2 = _forced(derivative(tmp, mu), acceleration_lu_tu2, j, middle)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            k3 = _forced(derivative(tmp, mu), a0, slope, middle)
+            k3 = _forced(derivative(tmp, mu), acceleration_lu_tu2, j, middle)
             for i in range(6):
                 tmp[i] = y[i] + h * k3[i]
-            k4 = _forced(derivative(tmp, mu), a0, slope, end)
+            k4 = _forced(derivative(tmp, mu), acceleration_lu_tu2, j, end)
             for i in range(6):
                 y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         for i in range(6):  # element loops compile faster than slice assignment (no shape-error path)
@@ -164,9 +163,11 @@ def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
 
 
 @njit(cache=True, inline="always")
-def _forced(rate, a0, slope, fraction):
-    """rate plus the acceleration a0 + slope fraction at that fraction of the interval."""
+def _forced(rate, acceleration, j, fraction):
+    """rate plus the acceleration (m, 3) at that fraction of the interval from sample j - 1 to j, linear
+    between them (element by element: an array difference compiled numpy's broadcasting, 3 s of a first run)."""
     for i in range(3):
-        rate[3 + i] += a0[i] + slope[i] * fraction
+        a0 = acceleration[j - 1, i]
+        rate[3 + i] += a0 + (acceleration[j, i] - a0) * fraction
     return rate
 
