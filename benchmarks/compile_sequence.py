@@ -1,6 +1,6 @@
 """What a new user pays the compiler, in the order a user meets it: one cache folder, filled as the commands run.
 
-    python -m benchmarks.compile_sequence [--tree PATH | --commit REV] [--output FILE]
+    python -m benchmarks.compile_sequence [--before REV] [--tree PATH | --commit REV] [--output FILE]
 
 From an empty LIAISON_CACHE_DIR: the first-ever `liaison run` of eml2_lunar, then one scenario of each other
 kind (angles, one-way clocks, the batch, the dated model, TDoA on the dated model, the initial batch), then
@@ -9,9 +9,9 @@ kind (angles, one-way clocks, the batch, the dated model, TDoA on the dated mode
 did not compile: the cost of a new kind of scenario. Each case is run a second time in the same cache (all
 cached) so the compile share is the difference.
 
-`--commit REV` measures a commit of this repository (checked out into a temporary folder) and `--tree PATH`
-another checkout, so a before/after pair runs in one session on the same machine; the load average is
-recorded beside every case.
+`--commit REV` measures a commit of this repository (checked out into a temporary folder) instead of this
+working tree, `--tree PATH` another checkout; `--before REV` measures that commit first, then this tree, in one
+session on the same machine, and writes both side by side. The load average is recorded beside every case.
 """
 
 import argparse
@@ -77,14 +77,19 @@ def measure(tree: Path, work: Path, warm_up: bool) -> list[dict]:
     return rows
 
 
-def markdown(rows: list[dict], what: str, started: str) -> str:
-    lines = [f"Written by `python -m benchmarks.compile_sequence {what}`; measured {started}.", "",
-             "| case | first (s) | again, cached (s) | compile share (s) | load |", "|---|---|---|---|---|"]
-    for row in rows:
-        share = row["first"] - row["again"]
-        lines.append(f"| {row['label']} | {row['first']:.1f} | {row['again']:.1f} | {share:.1f} | "
-                     f"{row['load']:.1f} |")
-    return "\n".join(lines) + "\n"
+def markdown(measured: dict, command: str, started: str) -> str:
+    names = list(measured)
+    head = " | ".join(f"{name}: first (s) | {name}: again (s)" for name in names)
+    lines = [f"Written by `python -m benchmarks.compile_sequence{command}`; measured {started} on "
+             f"{os.cpu_count()} cores. *First*: the command in a new process with what the cases above it left in "
+             "the cache (the first case: an empty cache); *again*: the same command at once after it (all "
+             "cached), so first minus again is what it compiled. Load: the 1-minute load average at its start.",
+             "", f"| case | {head} | load |", "|---" * (2 + 2 * len(names)) + "|"]
+    for i, row in enumerate(measured[names[0]]):
+        cells = " | ".join(f"{measured[n][i]['first']:.1f} | {measured[n][i]['again']:.1f}" for n in names)
+        loads = " / ".join(f"{measured[n][i]['load']:.1f}" for n in names)
+        lines.append(f"| {row['label']} | {cells} | {loads} |")
+    return "\n".join(lines).replace(" | nan |", " | - |") + "\n"
 
 
 def main() -> None:
@@ -92,20 +97,27 @@ def main() -> None:
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--tree", type=Path, help="another checkout to measure (default: this one)")
     where.add_argument("--commit", help="a commit of this repository to measure")
+    parser.add_argument("--before", help="a commit measured first, beside this tree")
     parser.add_argument("--no-warm-up", action="store_true", help="skip the warm-up from an empty cache")
     parser.add_argument("--output", type=Path, help="write the Markdown table here too")
     args = parser.parse_args()
-    work = Path(tempfile.mkdtemp(prefix="liaison-compile-sequence-"))
-    tree = checkout(args.commit, work) if args.commit else (args.tree or ROOT).resolve()
-    what = f"--commit {args.commit}" if args.commit else ("--tree ..." if args.tree else "")
     started = time.strftime("%Y-%m-%d %H:%M %Z")
-    try:
-        rows = measure(tree, work, not args.no_warm_up)
-    finally:
-        if args.commit:
-            subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True)
-        shutil.rmtree(work, ignore_errors=True)
-    text = markdown(rows, what, started)
+    plan = ([("before " + args.before, args.before, None)] if args.before else []) + [
+        ("now" if not (args.commit or args.tree) else (args.commit or "tree"), args.commit, args.tree)]
+    measured = {}
+    for name, commit, tree_path in plan:
+        work = Path(tempfile.mkdtemp(prefix="liaison-compile-sequence-"))
+        tree = checkout(commit, work) if commit else (tree_path or ROOT).resolve()
+        try:
+            print(f"== {name}", flush=True)
+            measured[name] = measure(tree, work, not args.no_warm_up)
+        finally:
+            if commit:
+                subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True)
+            shutil.rmtree(work, ignore_errors=True)
+    command = "".join(f" --{k.replace('_', '-')} {v}" for k, v in (("before", args.before), ("commit", args.commit))
+                      if v) + (" --no-warm-up" if args.no_warm_up else "")
+    text = markdown(measured, command, started)
     print(text)
     if args.output:
         args.output.write_text(text)

@@ -10,6 +10,8 @@ Rows (issue 13's targets beside them):
 - One 10-day eml2_lunar EKF run on one core after compilation (median of 40 runs in a fresh process, per tree
   and repetition), and the plain reference implementation (benchmarks/reference.py) on the same inputs: the
   ratio of the reference to this tree's best median.
+- The whole work unit of one such run (`execute_run`: its draws, the filter and everything it records) and,
+  on the same runs, the filter call alone (median of 40 each, in a fresh process per tree and repetition).
 
 With `--before REV` (default: none) the same rows are measured on that commit's source tree (extracted with
 `git archive` into a temporary folder and run from there), each repetition right after this tree's, so the
@@ -55,6 +57,39 @@ def _per_run(tree: Path, reference_runs: int) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+# The whole work unit of a run (campaign.engine.worker.execute_run: the draws, the filter, everything a run records)
+# and the filter call alone, on the same run indices, median of 40 each after one untimed call; only functions
+# every measured tree has, so an earlier commit is timed by the same code.
+_WHOLE_RUN = """
+import json, time
+import numpy as np
+from liaison_cli.campaign.engine.worker import RunTask, draw_run_inputs, execute_run
+from liaison_cli.estimation.estimators import estimate
+from liaison_cli.scenario.loading import load_scenario
+from liaison_cli.scenario.setup import prepare_problem
+problem = prepare_problem(load_scenario("scenarios/eml2_lunar.yaml")[0])
+execute_run(problem, RunTask(0))
+whole, filter_only = [], []
+for run in range(40):
+    t0 = time.perf_counter()
+    execute_run(problem, RunTask(run))
+    whole.append(time.perf_counter() - t0)
+    inputs = draw_run_inputs(problem, run)
+    t0 = time.perf_counter()
+    estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
+    filter_only.append(time.perf_counter() - t0)
+print(json.dumps({"whole_s": float(np.median(whole)), "filter_s": float(np.median(filter_only))}))
+"""
+
+
+def _whole_run(tree: Path) -> dict:
+    out = subprocess.run([sys.executable, "-c", _WHOLE_RUN], cwd=tree, env=_tree_env(tree), capture_output=True,
+                         text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"{tree}: the whole-run timing failed: {out.stderr.strip()}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def _extract(rev: str) -> Path:
     folder = Path(tempfile.mkdtemp(prefix=f"liaison-{rev[:10]}-"))
     archive = subprocess.run(["git", "archive", rev], cwd=ROOT, capture_output=True, check=True).stdout
@@ -90,9 +125,13 @@ def measure_rows(trees: dict, repeats: int, cold: bool) -> list[tuple[str, dict,
                                                     str(out / f"cold-{name}-{repeat}")],
                                              _tree_env(tree, LIAISON_CACHE_DIR=str(cache))))
     engine = {name: [] for name in trees}
+    whole, filter_call = ({name: [] for name in trees} for _ in range(2))
     for _ in range(repeats):  # the median of 40 runs, in a fresh process per tree and repetition
         for name, tree in trees.items():
             engine[name].append(1e3 * _per_run(tree, reference_runs=0)["engine_s"])
+            timed = _whole_run(tree)
+            whole[name].append(1e3 * timed["whole_s"])
+            filter_call[name].append(1e3 * timed["filter_s"])
     reference = {"now": [1e3 * _per_run(ROOT, reference_runs=1)["reference_s"]]}
     ratio = reference["now"][0] / min(engine["now"])
     rows = [("liaison run scenarios/smoke.yaml, cached", smoke, "s", "<= 1.5 s"),
@@ -100,6 +139,8 @@ def measure_rows(trees: dict, repeats: int, cold: bool) -> list[tuple[str, dict,
     if cold:
         rows.append(("liaison run scenarios/eml2_lunar.yaml, empty cache", first, "s", "<= 15 s"))
     rows.append(("one 10-day eml2_lunar EKF run, one core", engine, "ms", "<= 15 ms"))
+    rows.append(("its whole work unit (execute_run: draws, filter, records), one core", whole, "ms", ""))
+    rows.append(("... of which the filter call (estimate)", filter_call, "ms", ""))
     rows.append(("the same run, plain reference (this tree's process)", reference, "ms", f"ratio {ratio:.0f}x"))
     return rows
 

@@ -87,7 +87,9 @@ def install() -> None:
 def _heal_damaged_entries(cache_class, locator_class) -> None:
     """Wrap numba's Cache.load_overload / save_overload: for a liaison function, an entry that cannot be read
     (any error but a missing file) is removed, said in one line, and reported as a miss, so numba compiles it
-    again and saves a sound entry. Other packages' caches behave as numba made them."""
+    again and saves a sound entry; a save first reads the index it merges into, and removes it the same way if
+    it is damaged. Nothing else of a save is touched (a compile interrupted by Ctrl-C fails its save as numba
+    made it). Other packages' caches behave as numba made them."""
     load, save = cache_class.load_overload, cache_class.save_overload
 
     def ours(cache) -> bool:
@@ -103,16 +105,12 @@ def _heal_damaged_entries(cache_class, locator_class) -> None:
             return None
 
     def save_overload(self, sig, data):
-        try:
-            save(self, sig, data)
-        except Exception as exc:  # noqa: BLE001 - a damaged index the save merges into
-            if not ours(self):
-                raise
-            _discard_index(self, exc)
+        if ours(self):  # a save merges into the index: a damaged one is removed first (a missing one reads {})
             try:
-                save(self, sig, data)
-            except Exception:  # noqa: BLE001 - the run goes on uncached rather than fail
-                pass
+                self._cache_file._load_index()
+            except Exception as exc:  # noqa: BLE001 - any damage to the index
+                _discard_index(self, exc)
+        save(self, sig, data)  # numba's own errors (an interrupted compile, a full disk) stay numba's
 
     cache_class.load_overload, cache_class.save_overload = load_overload, save_overload
 

@@ -130,16 +130,16 @@ def geocentric_state(coeffs, start_s, interval_s, n_records, body, t_s):
     a = np.empty(6)
     b = np.empty(6)
     out = np.empty(6)
-    segment_state(coeffs, start_s, interval_s, n_records, SEG_EARTH, t_s, b)
+    segment_state(coeffs, start_s, interval_s, n_records, np.int64(SEG_EARTH), t_s, b)  # np.int64: no literal
     if body == BODY_MOON:
-        segment_state(coeffs, start_s, interval_s, n_records, SEG_MOON, t_s, a)
+        segment_state(coeffs, start_s, interval_s, n_records, np.int64(SEG_MOON), t_s, a)
         for i in range(6):
             out[i] = a[i] - b[i]
         return out
     segment_state(coeffs, start_s, interval_s, n_records, body - 1, t_s, a)  # (0, body) sits at index body - 1
     for i in range(6):
         out[i] = a[i] - b[i]
-    segment_state(coeffs, start_s, interval_s, n_records, SEG_EMB, t_s, a)
+    segment_state(coeffs, start_s, interval_s, n_records, np.int64(SEG_EMB), t_s, a)
     for i in range(6):
         out[i] -= a[i]
     return out

@@ -108,13 +108,13 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
     r = y[0:3]
     acc = np.zeros(3)
     grad = np.zeros((3, 3))
-    _point_mass(acc, grad, r, np.zeros(3), gm_earth, False, with_stm)
+    _point_mass(acc, grad, r, np.zeros(3), gm_earth, np.bool_(False), with_stm)  # no literal: one compile
     r_sun = np.zeros(3)
     r_moon = np.zeros(3)
     for i in range(bodies.shape[0]):
         state = geocentric_state(coeffs, start_s, interval_s, n_records, bodies[i], t_s)
         r_b = state[0:3].copy()
-        _point_mass(acc, grad, r, r_b, gms[i], True, with_stm)
+        _point_mass(acc, grad, r, r_b, gms[i], np.bool_(True), with_stm)
         if bodies[i] == BODY_SUN:
             r_sun = r_b
         elif bodies[i] == BODY_MOON:
@@ -122,7 +122,7 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
     a_srp = np.zeros(3)
     if cr_am > 0.0:
         if r_moon[0] == 0.0 and r_moon[1] == 0.0 and r_moon[2] == 0.0:  # the Moon's shadow needs its position
-            r_moon = geocentric_state(coeffs, start_s, interval_s, n_records, BODY_MOON, t_s)[0:3].copy()
+            r_moon = geocentric_state(coeffs, start_s, interval_s, n_records, np.int64(BODY_MOON), t_s)[0:3].copy()
         nu = srp_acceleration(r, r_sun, r_moon, cr_am, a_srp)
         for i in range(3):
             acc[i] += a_srp[i]
@@ -195,8 +195,8 @@ def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr
 
     def edge(which, body):
         def event(t, y):
-            r_sun = geocentric_state(*args, BODY_SUN, t)[0:3]
-            r_body = np.zeros(3) if body == BODY_EARTH else geocentric_state(*args, BODY_MOON, t)[0:3]
+            r_sun = geocentric_state(*args, np.int64(BODY_SUN), t)[0:3]
+            r_body = np.zeros(3) if body == BODY_EARTH else geocentric_state(*args, np.int64(BODY_MOON), t)[0:3]
             return shadow_edges(y[0:3], r_sun, r_body, R_EARTH_KM if body == BODY_EARTH else R_MOON_KM)[which]
 
         event.terminal = True

@@ -28,7 +28,7 @@ class DynamicsParameter:
 
 @dataclass(frozen=True)
 class Dynamics:
-    """name: the scenario's `dynamics` value; code: the compile-time model code of the compiled propagators
+    """name: the scenario's `dynamics` value; code: the model code the compiled propagators branch on at run time
     (the model objects, dynamics.model.DynamicsModel and EphemerisDynamicsModel, take theirs from here);
     summary: one phrase for the schema. dated: epochs are dates (TDB), so stations turn with the Earth, dated
     orbits and CCSDS dates apply; rotating_frame: the states' frame turns (measurements on a rotating frame,

@@ -399,7 +399,8 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
     direction_stride = directions.stride if directions.nees_spacecraft.shape[0] > 0 else 0
     Q_work, ric_axes = np.empty((n, n)), np.empty((3, 3))  # step_process_noise's, used with RIC noise only
     ric_steps = noise.primaries.shape[0]
-    record_row(0, x_hat, truth, P, n_nees, e, err, sig, nees, (work_nees, z_nees), directions, (work6, z6, u, v))
+    first = np.int64(0)  # not the literal 0: record_directions would compile a second time for it
+    record_row(first, x_hat, truth, P, n_nees, e, err, sig, nees, (work_nees, z_nees), directions, (work6, z6, u, v))
     storing = store_states.shape[0] > 0
     if storing:
         _store_update(store_states, store_matrices, 0, x_hat, P)

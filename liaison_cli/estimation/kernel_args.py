@@ -9,8 +9,8 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
   every other block (estimation.blocks.StateLayout.arrays);
 - Dynamics: the model's parameter vector, the measurement interval dt_tu, the filter's propagation
   substeps per interval, t0_tu, the time of epoch 0 from the model's origin, and empirical_tau_tu, the time
-  constant of the empirical-acceleration blocks (0: none; estimation.process_noise) (the model code itself is
-  a compile-time constant and goes first, on its own);
+  constant of the empirical-acceleration blocks (0: none; estimation.process_noise) (the model code itself goes
+  first, on its own: read at run time, dynamics.model.propagate_state_stm_into);
 - EkfSettings: n_gain (states from it on are consider parameters, -1: none), n_nees (states the NEES
   covers), divergence_position_lu, underweight (Lear's beta), gate_sigma / gate_after (the residual gate);
 - ProcessNoise: the fixed Q (n, n) added at every step, and the radial / in-track / cross-track PSDs of the

@@ -40,21 +40,6 @@ def get_observable(name: str) -> Observable:
         raise ValueError(f"unknown observable {name!r}; allowed: {', '.join(OBSERVABLES)}") from None
 
 
-# Kinds whose prediction is written into the caller (inlined): range and range-rate, the crosslink observables of
-# nearly every scenario, where a call per measurement would cost run time. Every other kind is one compiled,
-# cached function that every estimator calls (a scenario that never uses it compiles nothing more for it).
-INLINED_KINDS = (1 << KIND_RANGE) | (1 << KIND_RANGE_RATE)
-
-
-def kinds_mask(channel_kinds) -> int:
-    """The bit set of the kind codes a scenario's channels use (what it exercises of the compiled predictions;
-    liaison warm-up groups scenarios by it)."""
-    mask = 0
-    for kind in channel_kinds:
-        mask |= 1 << int(kind)
-    return mask
-
-
 @njit(cache=True)  # a call, not inlined: compiled and cached once for every estimator (predict)
 def _predict_angle(kind, x_receiver, x_transmitter, g_receiver, g_transmitter):
     return predict_angle(kind, x_receiver, x_transmitter, g_receiver, g_transmitter)
@@ -79,7 +64,9 @@ def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_tran
 
     The kind is read at run time, so the EKF, the initial batch, LinCov and the batch are each compiled once
     for every kind set (docs/performance.md, "Compile once"); an unknown kind gives NaN, which the estimators
-    stop on (never a silent wrong value)."""
+    stop on (never a silent wrong value). Range and range-rate, the crosslink observables of nearly every
+    scenario, are written into the caller (a call per measurement would cost run time); every other kind is one
+    compiled, cached function behind a call."""
     if kind == KIND_RANGE:
         return predict_range(x_receiver, x_transmitter, flags, g_receiver, g_transmitter)
     if kind == KIND_RANGE_RATE:

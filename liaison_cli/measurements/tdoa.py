@@ -203,7 +203,7 @@ def wavefront_difference(rate, x_first, x_transmitter, x_second, rotating, g_fir
     paths = _paths(r1, v1, rt, vt, at, r2, v2, a2, tau, delta)
     still2, still3 = (ZERO3, ZERO3), (ZERO3, ZERO3, ZERO3)
     for i in range(6):
-        dr, dv, _ = _seed(i, rotating, False)  # receiver 1 is not moved: its acceleration does not enter
+        dr, dv, _ = _seed(i, rotating, np.bool_(False))  # receiver 1 is not moved: its acceleration does not enter
         g_first[i] = _tangent(rate, (dr, dv), still3, still3, paths, (at, a2), v1, tau, delta)
         g_transmitter[i] = _tangent(rate, still2, _seed(i, rotating, x_transmitter.shape[0] >= 9), still3, paths,
                                     (at, a2), v1, tau, delta)

@@ -288,9 +288,9 @@ def _compile_recorder():
             dispatcher = ev.data.get("dispatcher")
             function = getattr(dispatcher, "py_func", None)
             module = getattr(function, "__module__", "") or ""
-            # Kept: liaison's cached functions (an inlined overload has no cache of its own: it is compiled
-            # into each caller), compiled and not abandoned (numba.literally retries with constants), so the
-            # overload is now there (numba 0.6x's Event.is_failed answers the opposite of its name).
+            # Kept: liaison's cached functions (an inlined one has no cache of its own: it is compiled into
+            # each caller), compiled and not abandoned, so the overload is now there (numba 0.6x's
+            # Event.is_failed answers the opposite of its name).
             if (module.startswith("liaison_cli") and dispatcher.stats.cache_path is not None
                     and tuple(ev.data["args"]) in dispatcher.overloads):
                 self.compiled.append((f"{module}.{function.__qualname__}", str(ev.data["args"])))
@@ -308,10 +308,10 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     if not specs:
         return
     groups = chains(specs)
-    # First, the most used combination (it compiles the kernels every run shares) beside the batch's chain
-    # (kernels of its own); then the rest, which mostly load what the first phase compiled.
+    # First, the most used combination (it compiles the kernels every run shares) beside another estimator's
+    # chain (the batch: kernels of its own); then the rest, which mostly load what the first phase compiled.
     first, rest = [groups[0][:1]], [chain for chain in [groups[0][1:], *groups[1:]] if chain]
-    batch = [chain for chain in rest if chain[0].estimator == "batch" and chain[0].command == "run"][:1]
+    batch = [chain for chain in rest if chain[0].estimator != groups[0][0].estimator and chain[0].command == "run"][:1]
     first += batch
     rest = [chain for chain in rest if chain not in batch]
     rest.sort(key=len, reverse=True)  # the longest chain first, so it does not start last and finish alone

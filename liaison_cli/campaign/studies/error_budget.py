@@ -47,8 +47,7 @@ from liaison_cli.estimation.lincov import (
 from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import Problem
 
-# lincov_along_truth's compile-time arguments (the model code, the kind set) and where its Dynamics group is.
-LINCOV_DYNAMICS_ARG = 6  # lincov_along_truth's dynamics argument
+LINCOV_DYNAMICS_ARG = 6  # where lincov_along_truth's Dynamics group is (a parameter one sigma off replaces it)
 SOURCES = ("initial", "noise", "process", "bias", "measurement_model", "dynamics_model")
 DETERMINISTIC = ("measurement_model", "dynamics_model", "bias_mean")
 
