@@ -23,8 +23,11 @@ from liaison_cli.cli.common import (
     refuse_repeated_labels,
     user_errors,
 )
+from liaison_cli.campaign.advice import campaign_advice
 from liaison_cli.cli.root import app
 from liaison_cli.report.run_text import (
+    CONSISTENCY_COLUMNS,
+    format_advice as _format_advice,
     format_consistency as _format_consistency,
     format_prediction as _format_prediction,
     format_ric as _format_ric,
@@ -109,6 +112,9 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
+    advice = _format_advice(campaign_advice(config, summary, problem.spacecraft, CONSISTENCY_COLUMNS))
+    if advice:
+        typer.echo(advice)
     for optional in (_format_ric(summary, problem.spacecraft, config.settle_days()),
                      _format_smoothed(summary, problem.spacecraft), _format_prediction(summary, problem.spacecraft)):
         if optional:

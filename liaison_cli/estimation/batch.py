@@ -85,7 +85,8 @@ def _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g
     """Predicted value of channel c (channels: kernel_args.Channels) at epoch k and its row h (n,) of partials
     w.r.t. the epoch state; g_r, g_t, g_s (6,) are scratch for the partials w.r.t. the ends' current states
     (g_s: a three-end channel's second receiver)."""
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, _ = channels
+    channel_kind, channel_ends, channel_flags = channels.kind, channels.ends, channels.flags
+    channel_mod_index, channel_mod_coeff = channels.mod_index, channels.mod_coeff
     for i in range(h.shape[0]):
         h[i] = 0.0
     ends = channel_ends[c]
@@ -189,7 +190,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     trajectory over all m epochs, Phi(t_k, t_0) of the last STM pass, and the post-fit residuals with their
     predicted spread (estimation.batch.postfit_residuals)."""
     block_kind, block_start = layout.kind, layout.start
-    params, dt_tu, _, t0_tu, _ = dynamics
+    params, dt_tu, t0_tu = dynamics.params, dynamics.dt_tu, dynamics.t0_tu
     n = x_apriori.shape[0]
     m = y_obs.shape[0]
     n_blocks = block_kind.shape[0]

@@ -15,6 +15,7 @@ from liaison_cli.dynamics.model import (PROPAGATION_SIZE, STM_SIZE, propagate_pa
 from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER,
                                           BLOCK_SPACECRAFT)
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
+from liaison_cli.estimation.kernel_args import Buffers
 from liaison_cli.estimation.process_noise import gauss_markov_gains
 from liaison_cli.estimation.ric_noise import step_process_noise
 from liaison_cli.measurements.registry import predict, residual
@@ -78,7 +79,8 @@ def measurement_row(channels, c, x, known_k, H, g_receiver, g_transmitter, g_sec
     modifier's coefficient at its state (bias and clock modifiers: value += coeff * x[index]). The one
     measurement row of the EKF, the initial batch and LinCov (which compares the value without modifiers with
     its data)."""
-    channel_kind, channel_ends, channel_flags, channel_mod_index, channel_mod_coeff, _ = channels
+    channel_kind, channel_ends, channel_flags = channels.kind, channels.ends, channels.flags
+    channel_mod_index, channel_mod_coeff = channels.mod_index, channels.mod_coeff
     ends = channel_ends[c]
     x_r, x_t, x_s = channel_states(x, known_k, ends)
     value = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_receiver, g_transmitter, g_second)
@@ -130,14 +132,17 @@ def apply_burn_rows(M, burns, k):
 
 
 @njit(cache=True)  # a call, not inlined: compiled once and shared by the EKF, the initial batch and LinCov
-def time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params, t_tu,
-                dt_tu, substeps, empirical_tau_tu, y, work):
-    """x_bar = f(x_hat) block by block; the spacecraft and clock blocks of Phi (Eq. 10-11), the identity on
-    parameter blocks and, for a spacecraft with a dynamics parameter (block_parameter >= 0), the column
-    gamma = d x_spacecraft / d parameter that couples them (estimation.blocks); an empirical-acceleration
-    block (time constant empirical_tau_tu) decays and moves its spacecraft (_empirical_update; spacecraft
-    blocks come first in a layout, so their x_bar is there to add to). y (PROPAGATION_SIZE,) and
-    work (5, STM_SIZE): scratch for the state + STM propagation."""
+def time_update(x_hat, x_bar, Phi, layout, model, dynamics, t_tu, y, work):
+    """x_bar = f(x_hat) (n,) over one interval from t_tu, block by block of the layout (kernel_args.BlockLayout)
+    with the model code and its Dynamics group (kernel_args): the spacecraft and clock blocks of Phi (n, n)
+    (Eq. 10-11), the identity on parameter blocks and, for a spacecraft with a dynamics parameter
+    (layout.parameter >= 0), the column gamma = d x_spacecraft / d parameter that couples them
+    (estimation.blocks); an empirical-acceleration block (time constant dynamics.empirical_tau_tu) decays and
+    moves its spacecraft (_empirical_update; spacecraft blocks come first in a layout, so their x_bar is there
+    to add to). y (PROPAGATION_SIZE,) and work (5, STM_SIZE): scratch for the state + STM propagation."""
+    block_kind, block_start, block_size, block_parameter = layout.kind, layout.start, layout.size, layout.parameter
+    model_params, dt_tu, substeps = dynamics.params, dynamics.dt_tu, dynamics.substeps
+    empirical_tau_tu = dynamics.empirical_tau_tu
     for b in range(block_kind.shape[0]):
         a, size = block_start[b], block_size[b]
         if block_kind[b] == BLOCK_SPACECRAFT:
@@ -277,7 +282,9 @@ def record_directions(k, e, P, truth, nees_k, chol, z, directions, work6, z6, u,
     blocks (6 numbers each: xx, yy, zz, xy, xz, yz) into covariance[k, s] (analysis.ric.ric_columns
     turns them into radial / in-track / cross-track sigmas). Only every stride-th epoch is recorded
     (kernel_args.MAX_DIRECTION_SAMPLES). u, v (n,) are scratch."""
-    starts, pair_starts, nees_spacecraft, time_shift, along_pair, covariance, stride = directions
+    starts, pair_starts, stride = directions.spacecraft_starts, directions.pair_starts, directions.stride
+    nees_spacecraft, time_shift = directions.nees_spacecraft, directions.time_shift
+    along_pair, covariance = directions.along_pair, directions.covariance
     if nees_spacecraft.shape[0] == 0 or k % stride != 0:
         return
     m, n = truth.shape
@@ -345,27 +352,24 @@ def position_beyond_bound(e, layout, divergence_position_lu):
 
 
 @njit(cache=True, inline="always")
-def _loop_buffers(n, n_nees):
-    """The loop's scratch, allocated once per run (in the loop, allocation had cost as much as the arithmetic):
-    x_bar, dx, dx_spare, e, H, h, K (n,); P_spare, Phi (n, n); the three ends' partials (6,); the STM
-    propagation's y (PROPAGATION_SIZE,) and work (5, STM_SIZE); the covariance step's (6, 6); the NEES's (L (n_nees, n_nees),
-    z (n_nees,)) and the direction record's (work6 (6, 6), z6 (6,), u, v (n,))."""
-    return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.zeros(n), np.empty(n), np.empty(n),
-            np.empty((n, n)), np.zeros((n, n)), np.empty(6), np.empty(6), np.empty(6), np.empty(PROPAGATION_SIZE),
-            np.empty((5, STM_SIZE)), np.empty((6, 6)), np.empty((n_nees, n_nees)), np.empty(n_nees),
-            np.empty((6, 6)), np.empty(6), np.empty(n), np.empty(n))
+def scratch_buffers(n, n_nees):
+    """The loop's scratch (kernel_args.Buffers), allocated once per run (in the loop, allocation had cost as much
+    as the arithmetic)."""
+    return Buffers(np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.zeros(n), np.empty(n), np.empty(n),
+                   np.empty((n, n)), np.zeros((n, n)), np.empty(6), np.empty(6), np.empty(6), np.empty(PROPAGATION_SIZE),
+                   np.empty((5, STM_SIZE)), np.empty((6, 6)), np.empty((n_nees, n_nees)), np.empty(n_nees),
+                   np.empty((6, 6)), np.empty(6), np.empty(n), np.empty(n))
 
 
 @njit(cache=True, inline="always")
-def record_row(k, x_hat, truth, P, n_nees, e, err, sig, nees, nees_work, directions, direction_work):
+def record_row(k, x_hat, truth, P, n_nees, err, sig, nees, directions, buf):
     """Epoch k's row of the run's record (record_epoch) and, at the direction record's sampled epochs (every
-    stride-th; length 0: none), its directions (record_directions, called only there). run_ekf's loop writes
-    the same two calls out: through this helper (its tuples of scratch arrays) a run measured 7 % slower."""
-    work_nees, z_nees = nees_work
-    record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
+    stride-th; length 0: none), its directions (record_directions, called only there); buf: the loop's
+    scratch (kernel_args.Buffers)."""
+    record_epoch(k, x_hat, truth, P, n_nees, buf.e, err, sig, nees, buf.work_nees, buf.z_nees)
     if directions.nees_spacecraft.shape[0] > 0 and k % directions.stride == 0:
-        work6, z6, u, v = direction_work
-        record_directions(k, e, P, truth, nees[k], work_nees, z_nees, directions, work6, z6, u, v)
+        record_directions(k, buf.e, P, truth, nees[k], buf.work_nees, buf.z_nees, directions, buf.work6, buf.z6,
+                          buf.u, buf.v)
 
 
 @njit(cache=True, inline="always")
@@ -385,22 +389,24 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
     (apply_burns); the named groups as estimation.kernel_args describes them. Returns (err, sigma (m, n), nees
     (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's update, the
     innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
-    block_kind, block_start, block_size, block_parameter = layout
-    model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
-    n_gain, n_nees, divergence_position_lu, underweight, gate_sigma, gate_after = settings
-    store_states, store_matrices = record
+    block_kind, block_start, block_size = layout.kind, layout.start, layout.size
+    dt_tu, t0_tu = dynamics.dt_tu, dynamics.t0_tu
+    n_gain, n_nees, divergence_position_lu = settings.n_gain, settings.n_nees, settings.divergence_position_lu
+    underweight, gate_sigma, gate_after = settings.underweight, settings.gate_sigma, settings.gate_after
+    store_states, store_matrices = record.states, record.matrices
     channel_kind, sigma = channels.kind, channels.sigma
     (m, n), n_channels = truth.shape, sigma.shape[0]
     err, sig, nees, innovations, innov_std, rejected = run_outputs(m, n, n_channels)
     accepted = 0  # measurements the filter has updated with, all channels (the gate's warm-up count)
     x_hat, P = x0_hat.copy(), P0.copy()  # P and P_spare swap roles at each covariance step (none in place)
-    x_bar, dx, dx_spare, e, H, h, K, P_spare, Phi, g_receiver, g_transmitter, g_second, y_stm, work_stm, \
-        work_block, work_nees, z_nees, work6, z6, u, v = _loop_buffers(n, n_nees)
+    buf = scratch_buffers(n, n_nees)
+    x_bar, e, H, h, K, Phi = buf.x_bar, buf.e, buf.H, buf.h, buf.K, buf.Phi
+    dx, dx_spare, P_spare = buf.dx, buf.dx_spare, buf.P_spare  # they swap roles with dx and P: locals
     direction_stride = directions.stride if directions.nees_spacecraft.shape[0] > 0 else 0
     Q_work, ric_axes = np.empty((n, n)), np.empty((3, 3))  # step_process_noise's, used with RIC noise only
     ric_steps = noise.primaries.shape[0]
     first = np.int64(0)  # not the literal 0: record_directions would compile a second time for it
-    record_row(first, x_hat, truth, P, n_nees, e, err, sig, nees, (work_nees, z_nees), directions, (work6, z6, u, v))
+    record_row(first, x_hat, truth, P, n_nees, err, sig, nees, directions, buf)
     storing = store_states.shape[0] > 0
     if storing:
         _store_update(store_states, store_matrices, 0, x_hat, P)
@@ -408,11 +414,11 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        time_update(x_hat, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, model_params,
-                    t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
+        time_update(x_hat, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, buf.y_stm, buf.work_stm)
         Q = noise.Q if ric_steps == 0 else step_process_noise(noise, Q_work, x_hat, k - 1, block_kind, block_start,
                                                              ric_axes)
-        P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start, block_size), P
+        P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, buf.work_block, block_kind, block_start,
+                                             block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)
         # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24), not in
@@ -423,8 +429,8 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            predicted = measurement_row(channels, c, x_bar, known_states[k], H, g_receiver, g_transmitter,
-                                        g_second)[0]
+            predicted = measurement_row(channels, c, x_bar, known_states[k], H, buf.g_receiver, buf.g_transmitter,
+                                        buf.g_second)[0]
             y = residual(channel_kind[c], y_meas, predicted)
             R = sigma[c] ** 2
             innovation, S = prefit_into(dx, P, y, H, R, h)
@@ -445,9 +451,10 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
             _store_update(store_states, store_matrices, k, x_hat, P)
         status = covariance_health(x_hat, P)  # a diverged run stops here and reports why
         if status == STATUS_OK:
-            record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, work_nees, z_nees)
+            record_epoch(k, x_hat, truth, P, n_nees, e, err, sig, nees, buf.work_nees, buf.z_nees)
             if direction_stride and k % direction_stride == 0:  # the call only where it records
-                record_directions(k, e, P, truth, nees[k], work_nees, z_nees, directions, work6, z6, u, v)
+                record_directions(k, e, P, truth, nees[k], buf.work_nees, buf.z_nees, directions, buf.work6, buf.z6,
+                                  buf.u, buf.v)
             status = STATUS_ERROR_BEYOND_BOUND if position_beyond_bound(e, layout, divergence_position_lu) else status
         if status != STATUS_OK:
             return err, sig, nees, innovations, innov_std, rejected, status, k

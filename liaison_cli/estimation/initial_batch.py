@@ -62,8 +62,7 @@ def reference_and_normal_equations(model, x0, y_obs, known_states, channels, lay
     weighted by 1/sigma^2 (a chi-square with as many degrees of freedom as measurements, at the truth).
     channels, layout, dynamics: estimation.kernel_args (dynamics.t0_tu is the window's first epoch)."""
     channel_kind, sigma = channels.kind, channels.sigma
-    block_kind, block_start, block_size, block_parameter = layout
-    model_params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
+    dt_tu, t0_tu = dynamics.dt_tu, dynamics.t0_tu
     w, n = traj.shape
     n_channels = channel_kind.shape[0]
     lam = np.zeros((n, n))
@@ -85,8 +84,7 @@ def reference_and_normal_equations(model, x0, y_obs, known_states, channels, lay
         for j in range(n):
             phi[0, i, j] = 1.0 if i == j else 0.0
     for k in range(1, w):
-        time_update(traj[k - 1], traj[k], phi_step, block_kind, block_start, block_size, block_parameter, model,
-                    model_params, t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
+        time_update(traj[k - 1], traj[k], phi_step, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
         _propagate_products(phi_step, phi[k - 1], phi[k], q_acc, q_tmp, Q)
         for c in range(n_channels):
             y_meas = y_obs[k, c]

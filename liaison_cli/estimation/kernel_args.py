@@ -36,6 +36,13 @@ EkfSettings = namedtuple("EkfSettings", ["n_gain", "n_nees", "divergence_positio
                                          "gate_after"])
 ProcessNoise = namedtuple("ProcessNoise", ["Q", "ric", "primaries"])
 SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
+# The EKF loop's scratch, allocated once per run (filter_loop.scratch_buffers): x_bar, dx, dx_spare, e, H, h, K (n,);
+# P_spare, Phi (n, n); the three ends' partials (6,); the STM propagation's y (PROPAGATION_SIZE,) and work
+# (5, STM_SIZE); the covariance step's work_block (6, 6); the NEES's work_nees (n_nees, n_nees) and z_nees
+# (n_nees,); the direction record's work6 (6, 6), z6 (6,), u, v (n,).
+Buffers = namedtuple("Buffers", ["x_bar", "dx", "dx_spare", "e", "H", "h", "K", "P_spare", "Phi", "g_receiver",
+                                 "g_transmitter", "g_second", "y_stm", "work_stm", "work_block", "work_nees", "z_nees",
+                                 "work6", "z6", "u", "v"])
 DirectionRecord = namedtuple("DirectionRecord", ["spacecraft_starts", "pair_starts", "nees_spacecraft", "time_shift",
                                                  "along_pair", "covariance", "stride"])
 # The direction record samples every stride-th epoch, stride chosen so that a run keeps at most this many: its

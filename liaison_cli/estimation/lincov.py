@@ -155,7 +155,7 @@ def _dynamics_mismatch(truth_k, x_bar, d_dyn_extra, Phi, layout):
     """d_dyn (n,) = x_k - f_filter(x_{k-1}) + the stated drifts on the spacecraft blocks, only the stated
     drifts d_dyn_extra (n,) on clocks and constants; Phi (n, n) gets the identity on constant blocks, which
     time_update leaves out."""
-    block_kind, block_start, block_size, _ = layout
+    block_kind, block_start, block_size = layout.kind, layout.start, layout.size
     d_dyn = np.empty(x_bar.shape[0])
     for i in range(x_bar.shape[0]):  # element loops: an array expression compiles its shape-error path
         d_dyn[i] = truth_k[i] - x_bar[i] + d_dyn_extra[i]
@@ -223,9 +223,10 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
     (m, n), mu_dyn (m, n). Each epoch is the module docstring's predict (time_update, the covariance
     prediction of Eq. 12 for P and _propagate_parts for the parts) then update (_update_along_truth).
     """
-    block_kind, block_start, block_size, block_parameter = layout
-    params, dt_tu, substeps, t0_tu, empirical_tau_tu = dynamics
-    D_initial, Q_true, S0, d_dyn_extra, channel_bias_link = truth_errors
+    block_kind, block_start, block_size = layout.kind, layout.start, layout.size
+    dt_tu, t0_tu = dynamics.dt_tu, dynamics.t0_tu
+    D_initial, Q_true, S0 = truth_errors.D_initial, truth_errors.Q_true, truth_errors.S0
+    d_dyn_extra, channel_bias_link = truth_errors.d_dyn_extra, truth_errors.channel_bias_link
     m, n = truth.shape
     n_links = S0.shape[1]
     P = P0.copy()
@@ -247,8 +248,7 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
         if k > 0:
             linearisation = truth[k - 1].copy()
             _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k - 1)
-            time_update(linearisation, x_bar, Phi, block_kind, block_start, block_size, block_parameter, model, params,
-                        t0_tu + (k - 1) * dt_tu, dt_tu, substeps, empirical_tau_tu, y_stm, work_stm)
+            time_update(linearisation, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
             d_dyn = _dynamics_mismatch(truth[k], x_bar, d_dyn_extra, Phi, layout)
             P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
                                                  block_size), P

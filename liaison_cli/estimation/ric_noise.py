@@ -19,7 +19,7 @@ def step_process_noise(noise, Q_work, x_hat, k, block_kind, block_start, axes):
     u u' on the position, cross and velocity blocks, u the axes of the frame at the estimate x_hat (n,) about
     the nearer primary at epoch k (_ric_axes_into; axes (3, 3) scratch). The frame moves with the estimate, so
     the matrix is rebuilt at every step."""
-    Q, ric, primaries = noise
+    Q, ric, primaries = noise.Q, noise.ric, noise.primaries
     if primaries.shape[0] == 0:
         return Q
     n = Q.shape[0]

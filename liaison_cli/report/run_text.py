@@ -116,6 +116,11 @@ def format_consistency(summary: list[dict], spacecraft, settle_days: float) -> s
     return "\n".join(lines)
 
 
+def format_advice(advice) -> str:
+    """One `advice:` line per campaign.advice.Advice (what to change, and the scenario key); '' when none."""
+    return "\n".join(f"advice: {item.text}" for item in advice)
+
+
 def _ratio_cell(ratio: float, half_width: float) -> str:
     return f"{ratio:.2f}±{half_width:.2f}" if math.isfinite(half_width) else f"{ratio:.2f}"
 

@@ -1,0 +1,73 @@
+"""Advice in the verdict (campaign.advice): each pattern the tool can tell apart names its cause and the scenario
+key that changes it; end to end, the headline scenario's paper range model is named by its run text."""
+
+from liaison_cli.campaign.advice import campaign_advice
+from liaison_cli.report.run_text import CONSISTENCY_COLUMNS
+from liaison_cli.scenario.loading import apply_overrides, load_scenario
+from tests.conftest import SCENARIOS, run_cli_in_process
+
+
+def _rows(in_band, above, ratio=1.0, shift=1.0, total=12.0, status="ok", runs=4):
+    """Summary rows of `runs` runs for the two spacecraft of eml2_lunar, every run alike."""
+    rows = []
+    for run in range(runs):
+        for name in ("EML2", "Lunar"):
+            rows.append({"run": run, "spacecraft": name, "status": status,
+                         "rms_position_settled_m": ratio * (100.0 + run), "sigma_position_settled_m": 100.0 + run,
+                         "rms_velocity_settled_m_s": ratio * 1e-3, "sigma_velocity_settled_m_s": 1e-3,
+                         "frac_nees_in_band_settled": in_band, "frac_nees_above_band_settled": above,
+                         "frac_nees_spacecraft_in_band_settled": in_band,
+                         "frac_nees_spacecraft_above_band_settled": above,
+                         "time_shift_nees_settled": shift, "mean_nees_settled": total})
+    return rows
+
+
+def _scenario(**overrides):
+    scenario = load_scenario(SCENARIOS / "eml2_lunar.yaml")[0]
+    return apply_overrides(scenario, overrides) if overrides else scenario
+
+
+def _advice(scenario, rows):
+    return campaign_advice(scenario, rows, ["EML2", "Lunar"], CONSISTENCY_COLUMNS)
+
+
+def test_a_consistent_campaign_gets_no_advice():
+    assert _advice(_scenario(), _rows(0.95, 0.03)) == []
+
+
+def test_pessimistic_names_the_process_noise_in_force_and_tune():
+    scenario = _scenario(**{"filter.process_noise_psd_m2_s3": 1e-12})
+    (advice,) = _advice(scenario, _rows(0.40, 0.01, ratio=0.5))
+    assert advice.cause == "pessimistic"
+    assert "lower filter.process_noise_psd_m2_s3 (now 1e-12)" in advice.text and "liaison tune" in advice.text
+
+
+def test_optimistic_along_the_time_shift_names_the_light_time_range_model():
+    scenario = _scenario(**{"filter.range_model": "geometric"})
+    (advice,) = _advice(scenario, _rows(0.30, 0.70, ratio=1.2, shift=45.0, total=50.0))
+    assert advice.cause == "time_shift" and "filter.range_model: light_time" in advice.text
+
+
+def test_optimistic_elsewhere_names_more_process_noise():
+    scenario = _scenario(**{"filter.range_model": "light_time"})  # the time shift cannot be the range model's
+    (advice,) = _advice(scenario, _rows(0.30, 0.70, ratio=1.8, shift=45.0, total=50.0))
+    assert advice.cause == "optimistic" and "raise filter." in advice.text
+
+
+def test_runs_diverged_under_a_declared_force_name_it_and_the_empirical_acceleration():
+    scenario = _scenario(**{"model_error.truth_acceleration_m_s2": [1e-8, 0.0, 0.0]})
+    rows = _rows(0.95, 0.03) + [{**row, "run": 9, "status": "diverged"} for row in _rows(0.95, 0.03, runs=1)]
+    (advice,) = _advice(scenario, rows)
+    assert advice.cause == "diverged_unmodelled_force"
+    assert "model_error.truth_acceleration_m_s2" in advice.text and "filter.empirical_acceleration" in advice.text
+    assert advice.text.startswith("1 run(s) diverged")
+
+
+def test_the_headline_scenario_is_told_to_fly_the_light_time_range_model(tmp_path):
+    """eml2_lunar keeps Turan et al.'s geometric range model against a light-time truth: its run text says the
+    estimate lags the truth along the common time shift, and its advice names the key that removes the lag."""
+    proc = run_cli_in_process("run", SCENARIOS / "eml2_lunar.yaml", "--runs", "2", "--jobs", "1", "--output",
+                              tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("advice: ")]
+    assert any("filter.range_model: light_time" in line for line in lines), proc.stdout
