@@ -11,6 +11,8 @@ the NEES by direction, the runs that diverged) and names one key:
 - optimistic otherwise: more process noise (the key in force and its value) or `liaison tune`;
 - pessimistic: less process noise (the key in force and its value) or `liaison tune`.
 
+The last three are for estimators that carry process noise (their descriptor says so); a batch gets none.
+
 report.run_text prints each as an `advice:` line under the verdict.
 """
 
@@ -49,6 +51,8 @@ def campaign_advice(scenario, summary: list[dict], spacecraft, columns) -> list[
         if verdict["consistent_settled"]:
             continue
         sides.add(_side(verdict))
+    if not scenario.estimator_descriptor().process_noise:  # a batch: no process noise to name
+        return out
     if "optimistic" in sides:
         if _time_shift_dominates(summary, spacecraft[0]) and scenario.filter_range_model() == "geometric":
             out.append(Advice("time_shift", "the estimate lags the truth along the common time shift (the "

@@ -36,10 +36,11 @@ def test_a_consistent_campaign_gets_no_advice():
 
 
 def test_pessimistic_names_the_process_noise_in_force_and_tune():
-    scenario = _scenario(**{"filter.process_noise_psd_m2_s3": 1e-12})
+    scenario = _scenario()
+    key, value = scenario.filter.process_noise_of(scenario.spacecraft[0])  # the scenario's own key and value
     (advice,) = _advice(scenario, _rows(0.40, 0.01, ratio=0.5))
     assert advice.cause == "pessimistic"
-    assert "lower filter.process_noise_psd_m2_s3 (now 1e-12)" in advice.text and "liaison tune" in advice.text
+    assert f"lower filter.{key} (now {value:g})" in advice.text and "liaison tune" in advice.text
 
 
 def test_optimistic_along_the_time_shift_names_the_light_time_range_model():
@@ -61,6 +62,13 @@ def test_runs_diverged_under_a_declared_force_name_it_and_the_empirical_accelera
     assert advice.cause == "diverged_unmodelled_force"
     assert "model_error.truth_acceleration_m_s2" in advice.text and "filter.empirical_acceleration" in advice.text
     assert advice.text.startswith("1 run(s) diverged")
+
+
+def test_a_batch_is_not_told_about_process_noise_it_does_not_have():
+    scenario = load_scenario(SCENARIOS / "nrho_earth_station.yaml")[0]
+    names = [sc.name for sc in scenario.spacecraft if sc.role == "estimated"]
+    rows = [{**row, "spacecraft": names[0]} for row in _rows(0.40, 0.01, ratio=0.3) if row["spacecraft"] == "EML2"]
+    assert campaign_advice(scenario, rows, names[:1], CONSISTENCY_COLUMNS) == []
 
 
 def test_the_headline_scenario_is_told_to_fly_the_light_time_range_model(tmp_path):
