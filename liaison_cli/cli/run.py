@@ -23,7 +23,6 @@ from liaison_cli.cli.common import (
     refuse_repeated_labels,
     user_errors,
 )
-from liaison_cli.campaign.advice import campaign_advice
 from liaison_cli.cli.root import app
 from liaison_cli.report.run_text import (
     CONSISTENCY_COLUMNS,
@@ -112,6 +111,8 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     )
     typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
+    from liaison_cli.campaign.advice import campaign_advice  # here: a tab press must not load numba (cli.root)
+
     advice = _format_advice(campaign_advice(config, summary, problem.spacecraft, CONSISTENCY_COLUMNS))
     if advice:
         typer.echo(advice)

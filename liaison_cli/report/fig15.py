@@ -49,6 +49,14 @@ def sigma_series(curve: pd.DataFrame):
         yield scenario, spacecraft, rows.sort_values("sigma_m")
 
 
+def consistent_mask(rows: pd.DataFrame) -> np.ndarray:
+    """True where the curve's point passes the consistency verdict (consistent_settled), or where the curve
+    predates the column (nothing to mark); False where it fails."""
+    if "consistent_settled" not in rows:
+        return np.ones(len(rows), dtype=bool)
+    return rows.consistent_settled.fillna(True).to_numpy(dtype=bool)
+
+
 def draw_fig15(curve: pd.DataFrame, paper: pd.DataFrame, out_stem, title: str | None = None) -> list[Path]:
     """Write <out_stem>.png and .svg; returns the paths. `paper`: the paper's Table 3
     (campaign.studies.table3.paper_table3)."""
@@ -74,6 +82,10 @@ def draw_fig15(curve: pd.DataFrame, paper: pd.DataFrame, out_stem, title: str | 
             ax.fill_between(sigma, scale * rows[f"{metric}_p10"], scale * rows[f"{metric}_p90"],
                             color=colour, alpha=0.12, linewidth=0)
             ax.plot(sigma, scale * rows[f"{metric}_mean"], style, color=colour, linewidth=1.8, label=label)
+            failed = ~consistent_mask(rows)
+            if failed.any():  # the consistency verdict where users look: a cross on each sigma it fails
+                ax.plot(sigma[failed], scale * rows[f"{metric}_mean"].to_numpy()[failed], "x", color=colour,
+                        mew=1.6, ms=7)
             if len(ref):
                 ax.plot(ref.sigma_m, scale * ref[paper_col], "o", mfc="none", mec=colour, mew=1.8, ms=8)
     for ax, (_, _, _, ylabel) in zip(axes, PANELS):
@@ -89,6 +101,11 @@ def draw_fig15(curve: pd.DataFrame, paper: pd.DataFrame, out_stem, title: str | 
     handles += [Line2D([], [], marker="o", mfc="none", mec="black", ls="none", ms=8),
                 Line2D([], [], color="grey", alpha=0.3, linewidth=8)]
     labels += ["Turan et al. 2022, Table 3", f"10–90 % of {runs} Monte Carlo runs"]
+    marked = sum(int((~consistent_mask(rows)).sum()) for _, _, rows in series)
+    if marked:
+        handles.append(Line2D([], [], marker="x", color="black", ls="none", mew=1.6, ms=7))
+        labels.append(f"filter not consistent at this σ ({marked} of {sum(len(r) for _, _, r in series)} points; "
+                      "curve.parquet: consistency_failed)")
     fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=9, frameon=False)
     fig.suptitle(title or "Orbit-determination error vs crosslink ranging error (cf. Turan et al. 2022, Fig. 15)")
     out_stem = Path(out_stem)

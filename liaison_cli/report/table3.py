@@ -30,7 +30,7 @@ def to_markdown(table: pd.DataFrame, checks: dict[str, bool]) -> str:
             f"{100 * r.frac_in_2sigma_after_day1:.1f} % / {100 * r.frac_in_3sigma_after_day1:.1f} % | "
             f"{r.position_error_to_sigma_settled:.2f}, {r.velocity_error_to_sigma_settled:.2f}"
             f"{'' if r.consistent_settled else ' !'}; {100 * r.frac_nees_in_band_settled:.0f} % | "
-            f"{('yes' + (' (' + r.tolerance_note + ')' if r.tolerance_note else '')) if r.within_tolerance else 'NO: ' + r.tolerance_note} |"
+            f"{_ok_cell(r)} |"
         )
     lines += ["", "err/σ: error RMS over the filter's sigma RMS after filter.settle_days (1 d), over the runs; "
               "! the row fails the consistency verdict (analysis.consistency: the NEES test, whole state and each "
@@ -39,6 +39,17 @@ def to_markdown(table: pd.DataFrame, checks: dict[str, bool]) -> str:
               "NEES in band: share of those epochs whose whole-state NEES lies in its single-run 95 % chi-square band.", "", "Orderings from the paper:", ""]
     lines += [f"- {'pass' if ok else 'FAIL'}: {name}" for name, ok in checks.items()]
     return "\n".join(lines + [""] + _cost_of_the_paper_model(table)) + "\n"
+
+
+def _ok_cell(r) -> str:
+    """Whether the row matches the paper (within its tolerance) and whether its filter is consistent: a row
+    that matches the paper with an inconsistent filter says so, with the first test it fails."""
+    note = f" ({r.tolerance_note})" if r.tolerance_note else ""
+    matches = f"yes{note}" if r.within_tolerance else f"NO: {r.tolerance_note}"
+    if r.consistent_settled:
+        return matches
+    failed = str(getattr(r, "consistency_failed", "") or "").split(";")[0].strip()
+    return f"{matches}; filter not consistent ({failed})" if failed else f"{matches}; filter not consistent"
 
 
 def _cost_of_the_paper_model(table: pd.DataFrame) -> list[str]:

@@ -26,5 +26,7 @@ def test_table3_reproduction(tmp_path):
     assert failing.empty, failing[["formation", "spacecraft", "sigma_m", "tolerance_note"]].to_string()
     markdown = (out / "table3.md").read_text()
     assert "FAIL" not in markdown and markdown.count("| yes") == 12 and "| NO" not in markdown
+    # "ok" says whether the row matches the paper and, where its filter fails the verdict, that too (issue 50).
+    assert markdown.count("filter not consistent") == int((~table.consistent_settled).sum())
     halo_lunar = table[table.formation != "eml1_eml2"]
     assert (halo_lunar.frac_in_3sigma_after_day1 >= 0.95).all()
