@@ -18,10 +18,11 @@ import argparse
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
+
+from benchmarks import first_runs
 
 ROOT = Path(__file__).resolve().parents[1]
 # (label, liaison arguments); {scenarios} is the measured tree's scenarios/ folder, {work} the scratch folder.
@@ -45,15 +46,8 @@ def checkout(commit: str, work: Path) -> Path:
 
 
 def liaison(tree: Path, args: list, cache: Path, cwd: Path) -> float:
-    env = {**os.environ, "PYTHONPATH": str(tree), "LIAISON_CACHE_DIR": str(cache)}
-    env.pop("NUMBA_CACHE_DIR", None)
-    started = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "liaison_cli", *map(str, args)], cwd=cwd, env=env,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    wall = time.perf_counter() - started
-    if proc.returncode != 0:
-        raise SystemExit(f"liaison {' '.join(map(str, args))} failed ({proc.returncode}): {proc.stderr.strip()}")
-    return wall
+    """Wall seconds of `python -m liaison_cli ARGS` on `tree` with this cache folder (benchmarks.first_runs')."""
+    return first_runs.liaison(tree, args, cache, cwd)[0]
 
 
 def measure(tree: Path, work: Path, warm_up: bool) -> list[dict]:
