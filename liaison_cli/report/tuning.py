@@ -114,4 +114,9 @@ def format_ladder(table: pd.DataFrame) -> str:
                      f"{str(row['runs_ok']) + '/' + str(row['runs']):>9}  "
                      f"{row.get('rule_failed') or row.get('consistency_failed') or ''}")
     lines.append("s: shipped settings; *: the rung the rule chose")
+    for row in table[table.chosen & (table.get("ladder_key", "") == "filter.process_noise_psd_m2_s3")].drop_duplicates(
+            "scenario").to_dict("records"):  # a PSD scenario: the value to give, in its own key
+        lines.append(f"{row['scenario']}: its process noise is a PSD; the chosen rung is "
+                     f"filter.process_noise_psd_m2_s3: {row['psd_m2_s3']:.3g} (m^2/s^3, the same Q as sigma_a "
+                     f"{row['snc_m_s2']:g} m/s^2)")
     return "\n".join(lines)

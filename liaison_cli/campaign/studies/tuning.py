@@ -5,9 +5,12 @@ The rule, for one EKF scenario:
   of a ladder (default DEFAULT_LADDER_M_S2: 1, 2 and 5 per decade from 1e-10 to 1e-5), the same for every
   estimated spacecraft: the filter key `filter.process_noise_accel_m_s2` is set and every spacecraft's own
   process-noise key (either convention) removed, as is a filter PSD no estimated spacecraft used.
-- A scenario whose process noise is a PSD (`process_noise_psd_m2_s3`, given or by default, for any estimated
-  EKF spacecraft) is refused before anything runs (psd_refusal): the table's values are sigma_a in m/s^2,
-  and a ladder of PSD values is not offered.
+- A scenario whose estimated spacecraft all take an isotropic PSD (`process_noise_psd_m2_s3`, given or by
+  default: the templates' and an untuned scenario's) is laddered in its own convention: each rung sigma_a sets
+  `filter.process_noise_psd_m2_s3` to q = sigma_a^2 dt (dt the measurement interval), the same Q as the
+  per-step sigma_a under the continuous white-acceleration model (estimation.process_noise), so the rule, its
+  ladder and its table are the same; the table gives each rung's q (psd_m2_s3) beside it. A PSD per RIC axis
+  is refused before anything runs (psd_refusal): one scale does not ladder three densities.
 - Runs: each rung is a Monte Carlo campaign of `runs` runs (default DEFAULT_RUNS = 20) over the scenario's
   whole arc, seeded from the scenario seed and the run index, so every rung sees the same initial errors and
   measurement noise (common random numbers: a difference between rungs is the process noise's, not luck's).
@@ -69,6 +72,7 @@ from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.storage import resumable_output
 
 SNC_KEY = "filter.process_noise_accel_m_s2"
+PSD_KEY = f"filter.{PROCESS_NOISE_PSD}"
 RULE_NEES_SHARE = 0.90  # the rule's margin over the verdict's NEES_REQUIRED_SHARE (module docstring)
 LADDER_FLOOR_M_S2 = 1e-13  # the default ladder extends no lower than this when its lowest rung is pessimistic
 DEFAULT_RUNS = 20
@@ -103,7 +107,8 @@ class TuningError(LiaisonError):
 def rule_text(ladder, runs: int) -> str:
     """The rule in one paragraph, with this invocation's ladder and run count (the table's header)."""
     rungs = ", ".join(f"{v:g}" for v in ladder)
-    return (f"Rule: sigma_a (m/s^2, every estimated spacecraft alike, per-spacecraft values removed) takes each "
+    return (f"Rule: sigma_a (m/s^2, every estimated spacecraft alike, per-spacecraft values removed; a scenario "
+            f"whose process noise is an isotropic PSD takes q = sigma_a^2 dt, the same Q) takes each "
             f"rung of {{{rungs}}}; {runs} Monte Carlo runs per rung over the scenario's full arc (common random "
             f"numbers), statistics after the "
             f"settle time over the runs that finished. A rung passes when every run finished and every estimated "
@@ -144,13 +149,29 @@ def parse_ladder(text: str | None) -> tuple[float, ...]:
     return tuple(sorted(values))
 
 
+def takes_psd(scenario: Scenario) -> bool:
+    """Whether every estimated spacecraft takes an isotropic PSD (given, or the default): then the ladder sets
+    filter.process_noise_psd_m2_s3 (module docstring)."""
+    estimated = [sc for sc in scenario.spacecraft if sc.role == "estimated"]
+    return bool(estimated) and all(scenario.filter.process_noise_of(sc)[0] == PROCESS_NOISE_PSD for sc in estimated)
+
+
+def rung_setting(scenario: Scenario) -> tuple[str, callable]:
+    """(the key a rung sets, sigma_a m/s^2 -> its value): sigma_a itself, or for a PSD scenario q = sigma_a^2 dt."""
+    if takes_psd(scenario):
+        interval_s = scenario.measurement.interval_s
+        return PSD_KEY, lambda sigma_a: sigma_a * sigma_a * interval_s
+    return SNC_KEY, lambda sigma_a: sigma_a
+
+
 def ladder_grid(scenario: Scenario, ladder) -> list[tuple[str, list]]:
-    """The sweep grid of the ladder: the filter's sigma_a over the rungs, every spacecraft's own value and the
-    filter's PSDs (when given) removed."""
-    grid = [(SNC_KEY, list(ladder))]
-    for key in (PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC):
-        if getattr(scenario.filter, key) is not None:
-            grid.append((f"filter.{key}", [None]))
+    """The sweep grid of the ladder: the rung's key over the rungs (rung_setting), every spacecraft's own value
+    and the filter's other process-noise keys (when given) removed."""
+    key, value_of = rung_setting(scenario)
+    grid = [(key, [value_of(v) for v in ladder])]
+    for other in (PROCESS_NOISE_SIGMA_A, PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC):
+        if getattr(scenario.filter, other) is not None and f"filter.{other}" != key:
+            grid.append((f"filter.{other}", [None]))
     for index, spacecraft in enumerate(scenario.spacecraft):
         for key in (PROCESS_NOISE_SIGMA_A, PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC):
             if getattr(spacecraft, key) is not None:
@@ -159,19 +180,17 @@ def ladder_grid(scenario: Scenario, ladder) -> list[tuple[str, list]]:
 
 
 def psd_refusal(label: str, scenario: Scenario) -> str | None:
-    """The one-line reason `tune` refuses an EKF scenario whose process noise is a PSD for some estimated
-    spacecraft (module docstring), or None when every estimated spacecraft uses the per-step sigma_a."""
+    """The one-line reason `tune` refuses an EKF scenario whose process noise is a PSD per RIC axis for some
+    estimated spacecraft (module docstring), or None."""
     if not scenario.estimator_descriptor().process_noise:
         return None
     flt = scenario.filter
-    psd = [sc for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[0] != PROCESS_NOISE_SIGMA_A]
-    if not psd:
+    ric = [sc for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[0] == PROCESS_NOISE_PSD_RIC]
+    if not ric:
         return None
-    keys = {flt.process_noise_of(sc)[0] for sc in psd}
-    given = any(getattr(section, key) is not None for section in (flt, *psd) for key in keys)
-    return (f"{label}: the process noise of {', '.join(sc.name for sc in psd)} is a PSD ({', '.join(sorted(keys))}"
-            f"{'' if given else ', the default when no process-noise key is given'}), and `liaison tune` ladders "
-            f"the per-step sigma_a only: give filter.{PROCESS_NOISE_SIGMA_A} instead of any PSD to tune this scenario")
+    return (f"{label}: the process noise of {', '.join(sc.name for sc in ric)} is a PSD per RIC axis "
+            f"({PROCESS_NOISE_PSD_RIC}), and `liaison tune` ladders one scale; allowed: filter.{PROCESS_NOISE_PSD} "
+            f"(an isotropic PSD) or filter.{PROCESS_NOISE_SIGMA_A} for every estimated spacecraft")
 
 
 def ladder_base(scenario: Scenario, ladder) -> Scenario:
@@ -182,10 +201,12 @@ def ladder_base(scenario: Scenario, ladder) -> Scenario:
 
 
 def shipped_snc(scenario: Scenario) -> dict:
-    """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's); None where there is no
-    sigma_a (a PSD, or a batch scenario without the key)."""
+    """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's; an isotropic PSD q as the
+    sigma_a of the same Q, sqrt(q / dt)); None where there is neither (a PSD per RIC axis, a batch)."""
     settings = {sc.name: scenario.filter.process_noise_of(sc) for sc in scenario.spacecraft if sc.role == "estimated"}
-    return {name: (value if convention == PROCESS_NOISE_SIGMA_A else None)
+    interval_s = scenario.measurement.interval_s
+    return {name: (value if convention == PROCESS_NOISE_SIGMA_A else
+                   float(np.sqrt(value / interval_s)) if convention == PROCESS_NOISE_PSD else None)
             for name, (convention, value) in settings.items()}
 
 
@@ -316,7 +337,8 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
         for row in stats.to_dict("records"):
             snc = shipped[row["spacecraft"]] if setting == "shipped" else value
             rows.append({"scenario": case.label, "setting": setting, "spacecraft": row["spacecraft"],
-                         "snc_m_s2": snc, "settle_days": scenario.settle_days(),
+                         "snc_m_s2": snc, "psd_m2_s3": _psd(snc, scenario.measurement.interval_s),
+                         "ladder_key": rung_setting(scenario)[0], "settle_days": scenario.settle_days(),
                          "chosen": setting == "rung" and value == chosen, "verdict": verdict,
                          "shipped_passes_rule": shipped_passes,
                          "lowest_rung": setting == "rung" and value == ladder_stats[0][0],
@@ -325,16 +347,23 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
     return pd.DataFrame(rows)
 
 
+def _psd(sigma_a, interval_s: float) -> float:
+    """The isotropic PSD (m^2/s^3) whose Q equals the per-step sigma_a's under the continuous model."""
+    return float("nan") if sigma_a is None else float(sigma_a) ** 2 * interval_s
+
+
 def _rung_sweep(case: TuningCase, base: Scenario, values, estimated, runs: int, folder: Path, jobs: int,
                 progress: bool, where: Backend):
     """One sweep over the rungs `values` -> ([(rung, its estimated spacecraft's statistics)], the statistics of
     the rung that is the shipped scenario itself, or None)."""
-    plan, table = _run_point_sweep(case, base, [(SNC_KEY, list(values))], runs, folder, jobs, progress, where)
+    key, value_of = rung_setting(case.scenario)
+    rung_of = {value_of(v): v for v in values}
+    plan, table = _run_point_sweep(case, base, [(key, list(rung_of))], runs, folder, jobs, progress, where)
     stats = rung_statistics(table)
     shipped_hash, rungs, shipped = scenario_hash(case.scenario), [], None
     for point in plan.points:
         mine = stats[(stats.point == point.index) & stats.spacecraft.isin(estimated)]
-        rungs.append((dict(point.overrides)[SNC_KEY], mine))
+        rungs.append((rung_of[dict(point.overrides)[key]], mine))
         if point.point_hash == shipped_hash:  # the shipped settings are this rung: no second campaign
             shipped = mine
     return rungs, shipped
@@ -370,7 +399,7 @@ def _climb(run_rungs, ladder, extend_below: bool):
 def tune(cases: list[TuningCase], ladder, runs: int, work: Path, jobs: int = 1, progress: bool = False,
          on_case=None, where: Backend = LOCAL) -> pd.DataFrame:
     """Every case's rows (tune_case), in the order given; `on_case(label)` is called as each one starts. A case
-    whose process noise is a PSD is refused before any runs (psd_refusal)."""
+    whose process noise is a PSD per RIC axis is refused before any runs (psd_refusal)."""
     refused = [reason for case in cases if (reason := psd_refusal(case.label, case.scenario)) is not None]
     if refused:
         raise TuningError(refused[0])

@@ -1,5 +1,6 @@
 """Issue 26 item 2: process noise chosen by a stated consistency rule (`liaison tune`, campaign/studies/tuning.py)."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -15,6 +16,7 @@ from liaison_cli.campaign.studies.tuning import (
     ladder_grid,
     parse_ladder,
     rule_failure,
+    shipped_snc,
 )
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
@@ -135,19 +137,54 @@ def test_a_filter_psd_no_spacecraft_uses_is_removed_on_the_ladder():
     assert rung.filter.process_noise_psd_m2_s3 is None and rung.filter.process_noise_accel_m_s2 == 1e-9
 
 
-def test_a_scenario_whose_process_noise_is_a_psd_is_refused_in_one_line(tmp_path):
-    """The ladder is of per-step sigma_a (m/s^2); a PSD scenario (here by default: no key given) is refused
-    before anything runs, naming the key that would make it tunable."""
+def test_a_psd_scenario_is_laddered_in_its_own_key_with_the_same_q_as_sigma_a():
+    """A scenario whose spacecraft take an isotropic PSD (given, or by default) is laddered on
+    filter.process_noise_psd_m2_s3 with q = sigma_a^2 dt: the filter's Q at each rung is the sigma_a rung's under
+    the continuous white-acceleration model, to rounding."""
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    psd = apply_overrides(scenario, {"spacecraft.0.process_noise_accel_m_s2": None,
+                                     "spacecraft.1.process_noise_accel_m_s2": None, "duration_days": 1})
+    assert psd.filter.process_noise_of(psd.spacecraft[0])[0] == "process_noise_psd_m2_s3"  # the default
+    dt = psd.measurement.interval_s
+    grid = ladder_grid(psd, (1e-9, 1e-8))
+    assert grid[0][0] == "filter.process_noise_psd_m2_s3" and grid[0][1] == pytest.approx([1e-18 * dt, 1e-16 * dt])
+    rung = apply_overrides(psd, {key: values[-1] for key, values in grid})
+    snc = apply_overrides(psd, {"filter.process_noise_accel_m_s2": 1e-8,
+                                "filter.process_noise_model": "continuous_white_acceleration"})
+    q_psd, q_snc = prepare_problem(rung).filter.Q, prepare_problem(snc).filter.Q
+    np.testing.assert_allclose(q_psd, q_snc, rtol=1e-12, atol=0)
+    assert shipped_snc(psd)["EML2"] == pytest.approx(np.sqrt(1e-12 / dt))
+
+
+def test_a_psd_per_ric_axis_is_refused_in_one_line(tmp_path):
+    """One scale does not ladder three densities: a RIC PSD is refused before anything runs, naming what is
+    allowed."""
     text = (SCENARIOS / "smoke.yaml").read_text()
     assert text.count("process_noise_accel_m_s2: 1.0e-10") == 2
-    path = tmp_path / "psd_smoke.yaml"
-    path.write_text(text.replace("process_noise_accel_m_s2: 1.0e-10", "process_noise_psd_m2_s3: 1.0e-12"))
+    path = tmp_path / "ric_smoke.yaml"
+    path.write_text(text.replace("process_noise_accel_m_s2: 1.0e-10",
+                                 "process_noise_psd_ric_m2_s3: [1.0e-12, 1.0e-12, 1.0e-12]"))
     proc = cli("tune", path, "--runs", "1", "--work", tmp_path / "work", "--table", tmp_path / "t.md")
-    assert_one_line_error(proc, "psd_smoke", ["is a PSD", "filter.process_noise_accel_m_s2"])
+    assert_one_line_error(proc, "ric_smoke", ["per RIC axis", "filter.process_noise_psd_m2_s3"])
     assert not (tmp_path / "work").exists()
-    path.write_text("".join(line for line in text.splitlines(keepends=True) if "process_noise" not in line))
-    proc = cli("tune", path, "--runs", "1", "--work", tmp_path / "work", "--table", tmp_path / "t.md")
-    assert_one_line_error(proc, "psd_smoke", ["the default when no process-noise key is given"])
+
+
+def test_a_template_with_a_psd_is_tuned_and_the_table_gives_the_psd_to_set(tmp_path):
+    """`liaison new --from crosslink-pair` (its filter and its orbiter give PSDs): tune runs it on the PSD
+    ladder, the Parquet carries each rung's q beside its sigma_a, and the text names the PSD to set."""
+    path = tmp_path / "pair.yaml"
+    assert cli("new", path, "--from", "crosslink-pair").returncode == 0
+    table = tmp_path / "t.md"
+    proc = cli("tune", path, "--ladder", "1e-9,1e-8", "--runs", "6", "--jobs", "1", "--work", tmp_path / "work",
+               "--table", table)
+    assert proc.returncode == 0, proc.stderr
+    frame = pd.read_parquet(table.with_suffix(".parquet"))
+    rungs = frame[frame.setting == "rung"]
+    assert set(rungs.ladder_key) == {"filter.process_noise_psd_m2_s3"}
+    dt = load_scenario(path)[0].measurement.interval_s
+    np.testing.assert_allclose(rungs.psd_m2_s3, rungs.snc_m_s2 ** 2 * dt, rtol=1e-15)
+    if frame.chosen.any():
+        assert "filter.process_noise_psd_m2_s3:" in proc.stdout
 
 
 def test_ladder_values_are_sorted_and_bad_ones_refused():
