@@ -14,7 +14,7 @@ except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.0.0+source"
 
 # Compiled (numba) modules; their on-disk cache must be invalidated when any of them changes.
-COMPILED_PACKAGES = ("dynamics", "measurements", "estimation")
+COMPILED_PACKAGES = ("dynamics", "measurements", "estimation", "analysis")
 
 
 def core_source_hash(packages=COMPILED_PACKAGES) -> str:
@@ -91,7 +91,7 @@ def _numba_cache_dir() -> str:
     return os.path.join(user_cache_dir(), f"numba-{core_source_hash()}")
 
 
-COMPILED_PACKAGE_MODULES = tuple(f"{__name__}.{package}" for package in (*COMPILED_PACKAGES, "analysis"))
+COMPILED_PACKAGE_MODULES = tuple(f"{__name__}.{package}" for package in COMPILED_PACKAGES)
 
 
 def use_cache_dir(path: str) -> str:
@@ -114,8 +114,9 @@ def use_cache_dir(path: str) -> str:
 os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()
 # One compile target for every machine of an architecture, so a cache built on one serves another
 # (compiled_cache; measured to cost no run time, docs/performance.md). A user's own setting is kept.
-os.environ.setdefault("NUMBA_CPU_NAME", "generic")
-if "numba" in sys.modules:
+# Only before numba is imported: afterwards its code generator may exist already for the host CPU, and a
+# changed setting would label host code "generic" in the cache's keys (that process compiles for its host).
+if "numba" not in sys.modules:
+    os.environ.setdefault("NUMBA_CPU_NAME", "generic")
+else:
     sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
-    if sys.modules["numba"].config.CPU_NAME is None and os.environ["NUMBA_CPU_NAME"] == "generic":
-        sys.modules["numba"].config.CPU_NAME, sys.modules["numba"].config.CPU_FEATURES = "generic", ""

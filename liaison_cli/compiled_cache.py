@@ -8,19 +8,27 @@ entries that heal.
 - **Locator.** numba files a function's cache under a hash of its source folder's absolute path, so a second
   checkout, a wheel in another environment or a copied cache missed every entry. `PackageLocator` files it
   under the module's folder inside the package, in `NUMBA_CACHE_DIR` (the package root sets that to
-  `user_cache_dir()/numba-<hash of the compiled code>`), and stamps it with the sha256 of the module's bytes,
-  not its modification time.
+  `user_cache_dir()/numba-<hash of the compiled code>`), and stamps it with the module's code digest (its
+  syntax tree without docstrings: liaison_cli.code_digest, as the folder's hash), not its modification
+  time. A folder that cannot be written is still read (a cache shipped read-only in an image); nothing is
+  saved there, and no other locator (one keyed on a single file, blind to the callees) takes a package file.
 - **Healing.** A damaged entry (a truncated or foreign index or data file, as an interrupted copy leaves)
-  made every later run fail with numba's UnpicklingError traceback. Now such an entry is removed with one
-  line on stderr, compiled again and saved.
+  made every later run fail with numba's UnpicklingError traceback. Now such an entry (an error that says the
+  bytes are not a cache entry; an OS error is a miss and deletes nothing) is removed with one line on stderr,
+  compiled again and saved. A loaded entry built for another signature is a miss.
+- **Saves in turn.** numba reads an index, adds its entry and writes it back with no lock: two processes
+  saving one function at once (test workers, warm-up's processes) could lose an entry or point one signature
+  at the other's data file. A save holds an exclusive lock on the index's `.lock` file.
 
 `install()` is called by each package that compiles (dynamics, measurements, estimation, analysis) before its
 first `@njit(cache=True)`: numba picks a function's locator when the decorator runs.
 """
 
-import hashlib
 import os
+import pickle
 import sys
+from contextlib import contextmanager
+from functools import lru_cache
 from pathlib import Path
 
 PACKAGE_ROOT = Path(__file__).resolve().parent
@@ -36,9 +44,29 @@ def _package_folder(py_file: str) -> tuple[str, ...] | None:
         return None
 
 
-def _file_digest(path: str) -> str:
+@lru_cache(maxsize=None)
+def _code_digest(path: str, mtime_ns: int, size: int) -> str:
+    """code_digest of the file, through the package's memo (core_source_hash filled it at import)."""
+    from liaison_cli import _DigestMemo
+
     with open(path, "rb") as handle:
-        return hashlib.sha256(handle.read()).hexdigest()
+        return _memo(_DigestMemo).code_digest(handle.read())
+
+
+@lru_cache(maxsize=1)
+def _memo(memo_class):
+    return memo_class()
+
+
+def _file_digest(path: str) -> str:
+    """The module's code digest (docstrings and comments do not count: the folder's hash ignores them too)."""
+    stat = os.stat(path)
+    return _code_digest(path, stat.st_mtime_ns, stat.st_size)
+
+
+# Errors that say a cache file's bytes are not a cache entry (truncated, foreign, another format).
+DAMAGE = (pickle.UnpicklingError, EOFError, ValueError, TypeError, AttributeError, ImportError, IndexError,
+          KeyError)
 
 
 def install() -> None:
@@ -74,8 +102,8 @@ def install() -> None:
             locator = cls(py_func, py_file, folder)
             try:
                 locator.ensure_cache_path()
-            except OSError:  # a cache folder that cannot be written: numba's next locator, or no cache
-                return None
+            except OSError:  # read-only (or missing and not creatable): read what is there, save nothing
+                pass
             return locator
 
     impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
@@ -85,42 +113,73 @@ def install() -> None:
 
 
 def _heal_damaged_entries(cache_class, locator_class) -> None:
-    """Wrap numba's Cache.load_overload / save_overload: for a liaison function, an entry that cannot be read
-    (any error but a missing file) is removed, said in one line, and reported as a miss, so numba compiles it
-    again and saves a sound entry; a save first reads the index it merges into, and removes it the same way if
-    it is damaged. Nothing else of a save is touched (a compile interrupted by Ctrl-C fails its save as numba
-    made it). Other packages' caches behave as numba made them."""
+    """Wrap numba's Cache.load_overload / save_overload for liaison's functions (other packages' caches behave as
+    numba made them): a damaged entry (DAMAGE) is removed, said in one line, and reported as a miss, so numba
+    compiles it again and saves a sound entry; a loaded entry of another signature is a miss; a save holds the
+    index's lock, first removes a damaged index it would merge into, and fails quietly where the folder cannot
+    be written (the run goes on with its code in memory)."""
     load, save = cache_class.load_overload, cache_class.save_overload
 
     def ours(cache) -> bool:
         return isinstance(getattr(cache._impl, "locator", None), locator_class)
 
     def load_overload(self, sig, target_context):
-        try:
+        if not ours(self):
             return load(self, sig, target_context)
-        except Exception as exc:  # noqa: BLE001 - any damage to an entry: UnpicklingError, EOFError, ...
-            if not ours(self):
-                raise
+        try:
+            result = load(self, sig, target_context)
+        except DAMAGE as exc:
             _discard_index(self, exc)
             return None
+        except OSError:  # unreadable now (permissions, a network file system): a miss, nothing deleted
+            return None
+        signature = getattr(result, "signature", None)
+        if result is not None and signature is not None and tuple(signature.args) != tuple(sig):
+            return None  # an index that points this signature at another's data: compile it
+        return result
 
     def save_overload(self, sig, data):
-        if ours(self):  # a save merges into the index: a damaged one is removed first (a missing one reads {})
-            try:
-                self._cache_file._load_index()
-            except Exception as exc:  # noqa: BLE001 - any damage to the index
-                _discard_index(self, exc)
-        save(self, sig, data)  # numba's own errors (an interrupted compile, a full disk) stay numba's
+        if not ours(self):
+            return save(self, sig, data)
+        try:
+            with _index_lock(self):
+                try:
+                    self._cache_file._load_index()
+                except DAMAGE as exc:
+                    _discard_index(self, exc)
+                save(self, sig, data)  # numba's own errors (an interrupted compile) stay numba's
+        except OSError:
+            pass  # a folder that cannot be written: nothing cached, the compiled code serves this process
 
     cache_class.load_overload, cache_class.save_overload = load_overload, save_overload
 
 
+@contextmanager
+def _index_lock(cache):
+    """An exclusive lock on the function's `<index>.lock` while it saves (POSIX; elsewhere no lock)."""
+    try:
+        import fcntl
+    except ImportError:  # Windows: numba's unlocked save
+        yield
+        return
+    os.makedirs(cache._cache_path, exist_ok=True)
+    with open(f"{cache._cache_file._index_path}.lock", "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def _discard_index(cache, exc: Exception) -> None:
     """Remove a function's cache index (its data files are then unreferenced and overwritten as numbered), with
-    one line on stderr naming the file and the error."""
+    one line on stderr naming the file and the error, and whether it could be removed."""
     index = getattr(cache._cache_file, "_index_path", "")
     try:
         os.remove(index)
-    except OSError:
-        pass
-    print(f"{DAMAGED_NOTICE}: {index} ({type(exc).__name__}: {exc})"[:400], file=sys.stderr, flush=True)
+        done = DAMAGED_NOTICE
+    except FileNotFoundError:
+        done = DAMAGED_NOTICE
+    except OSError as cause:
+        done = f"liaison: a damaged compiled-code cache entry could not be removed ({cause.strerror}); it is compiled again in memory"
+    print(f"{done}: {index} ({type(exc).__name__}: {exc})"[:400], file=sys.stderr, flush=True)

@@ -105,17 +105,24 @@ def pytest_sessionstart(session):
     """On a cold compiled-code cache, `liaison warm-up` once, before the test processes start: each estimator is
     one compiled body for every scenario, and test processes that all met it at once compiled it side by side
     (a cold suite took 7:18 instead of 4:30 on 2 cores). The controller only (an xdist worker finds the cache
-    filled); nothing when the cache holds the core already."""
+    filled); nothing when the cache holds the core already, with one test process (`-n 0`) or with
+    LIAISON_TEST_NO_WARM_UP set."""
     import os
     import subprocess
     import time
 
     config = session.config
-    if hasattr(config, "workerinput") or config.getoption("collectonly") or _core_cached():
-        return
+    workers = config.getoption("numprocesses", None) or 0
+    if (hasattr(config, "workerinput") or config.getoption("collectonly") or os.environ.get("LIAISON_TEST_NO_WARM_UP")
+            or (isinstance(workers, int) and workers < 2) or _core_cached()):
+        return  # a worker, a listing, the opt-out, one test process (nothing side by side) or a warm cache
     started = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "liaison_cli", "warm-up", "--jobs", str(min(os.cpu_count() or 1, 2))],
-                          capture_output=True, text=True, cwd=REPO)
+    try:
+        proc = subprocess.run([sys.executable, "-m", "liaison_cli", "warm-up", "--jobs",
+                               str(min(os.cpu_count() or 1, 2))], capture_output=True, text=True, cwd=REPO,
+                              timeout=900)
+    except subprocess.TimeoutExpired:
+        proc = subprocess.CompletedProcess([], -1, "", "timed out after 900 s")
     reporter = config.pluginmanager.get_plugin("terminalreporter")
     line = (f"compiled-code cache was cold: `liaison warm-up` filled it in {time.perf_counter() - started:.0f} s"
             if proc.returncode == 0 else f"`liaison warm-up` failed ({proc.returncode}); each test compiles what it "

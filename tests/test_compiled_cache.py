@@ -116,6 +116,7 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
 # A small kernel and how to tell whether numba compiled it or loaded it: the compile events of liaison code.
 _JACOBI = """
 import sys
+import liaison_cli  # first, as the CLI does: its compile target (generic) is set before numba is imported
 from numba.core import event
 compiled = []
 class Recorder(event.Listener):

@@ -8,8 +8,12 @@ the NEES by direction, the runs that diverged) and names one key:
   empirical acceleration: `filter.empirical_acceleration`, naming the force;
 - optimistic, with the common time shift the largest named direction, under the geometric range model:
   `filter.range_model: light_time` (the estimate lags the truth by the signal's flight time);
-- optimistic otherwise: more process noise (the key in force and its value) or `liaison tune`;
-- pessimistic: less process noise (the key in force and its value) or `liaison tune`.
+- optimistic otherwise: more process noise for the spacecraft whose verdict fails on the optimistic side (the
+  key in force for each and its value) or `liaison tune`;
+- pessimistic: less of it for those whose verdict fails on the pessimistic side only.
+
+A spacecraft's side is read from the tests its verdict fails (each says optimistic or pessimistic): any
+optimistic failure makes it optimistic (the more dangerous).
 
 The last three are for estimators that carry process noise (their descriptor says so); a batch gets none.
 
@@ -19,7 +23,7 @@ report.run_text prints each as an `advice:` line under the verdict.
 import math
 from dataclasses import dataclass
 
-from liaison_cli.analysis.consistency import NEES_REQUIRED_SHARE, campaign_verdict
+from liaison_cli.analysis.consistency import campaign_verdict
 
 # A direction whose mean NEES component exceeds this share of the whole-state NEES is the cause named.
 DOMINANT_SHARE = 0.5
@@ -42,40 +46,42 @@ def campaign_advice(scenario, summary: list[dict], spacecraft, columns) -> list[
                           f"{len(diverged)} run(s) diverged while the truth feels {force}, which the filter does not "
                           "model: add filter.empirical_acceleration (sigma_m_s2 and time_constant_s matched to "
                           "it; docs/filter.md)"))
-    sides = set()
+    sides = {}  # spacecraft -> optimistic / pessimistic, from the tests its verdict fails
     for name in spacecraft:
         rows = [row for row in summary if row.get("spacecraft") == name and row.get("status") == "ok"]
         if not rows:
             continue
         verdict = campaign_verdict({column: [row.get(column, math.nan) for row in rows] for column in columns})
-        if verdict["consistent_settled"]:
-            continue
-        sides.add(_side(verdict))
+        side = _side(verdict["consistency_failed"]) if not verdict["consistent_settled"] else ""
+        if side:
+            sides[name] = side
     if not scenario.estimator_descriptor().process_noise:  # a batch: no process noise to name
         return out
-    if "optimistic" in sides:
-        if _time_shift_dominates(summary, spacecraft[0]) and scenario.filter_range_model() == "geometric":
-            out.append(Advice("time_shift", "the estimate lags the truth along the common time shift (the "
-                              "signal's flight time the geometric range model leaves out): set "
-                              "filter.range_model: light_time"))
-        else:
-            out.append(Advice("optimistic", f"the filter is optimistic (its sigma too small): raise "
-                              f"{_process_noise(scenario)}, or let `liaison tune` choose it"))
-    if "pessimistic" in sides:
-        out.append(Advice("pessimistic", f"the filter is pessimistic (its sigma too large): lower "
-                          f"{_process_noise(scenario)}, or let `liaison tune` choose it"))
+    optimistic = [name for name, side in sides.items() if side == "optimistic"]
+    pessimistic = [name for name, side in sides.items() if side == "pessimistic"]
+    if optimistic and _time_shift_dominates(summary, spacecraft[0]) and scenario.filter_range_model() == "geometric":
+        out.append(Advice("time_shift", "the estimate lags the truth along the common time shift (the "
+                          "signal's flight time the geometric range model leaves out): set "
+                          "filter.range_model: light_time"))
+    elif optimistic:
+        out.append(Advice("optimistic", f"the filter is optimistic (its sigma too small) for "
+                          f"{', '.join(optimistic)}: raise {_process_noise(scenario, optimistic)}, or let "
+                          "`liaison tune` choose it"))
+    if pessimistic:
+        out.append(Advice("pessimistic", f"the filter is pessimistic (its sigma too large) for "
+                          f"{', '.join(pessimistic)}: lower {_process_noise(scenario, pessimistic)}, or let "
+                          "`liaison tune` choose it"))
     return out
 
 
-def _side(verdict: dict) -> str:
-    """optimistic or pessimistic: the NEES band's side with more of the settled epochs when the NEES test
-    failed, else the side of the error / sigma ratio."""
-    inside = verdict.get("frac_nees_in_band_settled", math.nan)
-    above = verdict.get("frac_nees_above_band_settled", math.nan)
-    if math.isfinite(inside) and inside < NEES_REQUIRED_SHARE and math.isfinite(above):
-        return "optimistic" if above >= 1.0 - inside - above else "pessimistic"
-    ratio = verdict.get("position_error_to_sigma_settled", math.nan)
-    return "optimistic" if math.isfinite(ratio) and ratio > 1.0 else "pessimistic"
+def _side(failed: str) -> str:
+    """optimistic when any failed test of the verdict (analysis.consistency.verdict's text, one test per
+    '; '-separated part, each ending in its side) is optimistic, else pessimistic; '' when no test names a side
+    (a ratio not available)."""
+    sides = {part.rsplit(":", 1)[-1].strip(" )") for part in failed.split("; ")}
+    if "optimistic" in sides:
+        return "optimistic"
+    return "pessimistic" if "pessimistic" in sides else ""
 
 
 def _time_shift_dominates(summary: list[dict], name: str) -> bool:
@@ -92,15 +98,19 @@ def _mean(values) -> float:
     return sum(finite) / len(finite) if finite else math.nan
 
 
-def _process_noise(scenario) -> str:
-    """The process-noise key in force for the first estimated spacecraft and its value, as the scenario says
-    it (a spacecraft's own key, else the filter's, else the default)."""
-    spacecraft = next(sc for sc in scenario.spacecraft if sc.role == "estimated")
-    key, value = scenario.filter.process_noise_of(spacecraft)
-    own = getattr(spacecraft, key, None) is not None
-    where = f"spacecraft {spacecraft.name}'s {key}" if own else f"filter.{key}"
-    shown = ", ".join(f"{v:g}" for v in value) if isinstance(value, tuple) else f"{value:g}"
-    return f"{where} (now {shown})"
+def _process_noise(scenario, names) -> str:
+    """The process-noise key in force for the named spacecraft and its value, as the scenario says it (a
+    spacecraft's own key, else the filter's, else the default); one phrase per distinct setting."""
+    phrases = []
+    for spacecraft in (sc for sc in scenario.spacecraft if sc.name in names):
+        key, value = scenario.filter.process_noise_of(spacecraft)
+        own = getattr(spacecraft, key, None) is not None
+        where = f"spacecraft {spacecraft.name}'s {key}" if own else f"filter.{key}"
+        shown = ", ".join(f"{v:g}" for v in value) if isinstance(value, tuple) else f"{value:g}"
+        phrase = f"{where} (now {shown})"
+        if phrase not in phrases:
+            phrases.append(phrase)
+    return " and ".join(phrases)
 
 
 def _declared_force(scenario) -> str:

@@ -118,5 +118,5 @@ def format_ladder(table: pd.DataFrame) -> str:
             "scenario").to_dict("records"):  # a PSD scenario: the value to give, in its own key
         lines.append(f"{row['scenario']}: its process noise is a PSD; the chosen rung is "
                      f"filter.process_noise_psd_m2_s3: {row['psd_m2_s3']:.3g} (m^2/s^3, the same Q as sigma_a "
-                     f"{row['snc_m_s2']:g} m/s^2)")
+                     f"{row['snc_m_s2']:g} m/s^2 under the continuous white-acceleration model)")
     return "\n".join(lines)

@@ -152,6 +152,8 @@ def parse_ladder(text: str | None) -> tuple[float, ...]:
 def takes_psd(scenario: Scenario) -> bool:
     """Whether every estimated spacecraft takes an isotropic PSD (given, or the default): then the ladder sets
     filter.process_noise_psd_m2_s3 (module docstring)."""
+    if not scenario.estimator_descriptor().process_noise:  # a batch: no process noise, no ladder
+        return False
     estimated = [sc for sc in scenario.spacecraft if sc.role == "estimated"]
     return bool(estimated) and all(scenario.filter.process_noise_of(sc)[0] == PROCESS_NOISE_PSD for sc in estimated)
 
@@ -204,6 +206,9 @@ def shipped_snc(scenario: Scenario) -> dict:
     """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's; an isotropic PSD q as the
     sigma_a of the same Q, sqrt(q / dt)); None where there is neither (a PSD per RIC axis, a batch)."""
     settings = {sc.name: scenario.filter.process_noise_of(sc) for sc in scenario.spacecraft if sc.role == "estimated"}
+    if not scenario.estimator_descriptor().process_noise:  # a batch: its key as given, no PSD converted
+        return {name: (value if convention == PROCESS_NOISE_SIGMA_A else None)
+                for name, (convention, value) in settings.items()}
     interval_s = scenario.measurement.interval_s
     return {name: (value if convention == PROCESS_NOISE_SIGMA_A else
                    float(np.sqrt(value / interval_s)) if convention == PROCESS_NOISE_PSD else None)
