@@ -8,7 +8,9 @@ import inspect
 import io
 import re
 
-from tests.conftest import REPO
+import pytest
+
+from tests.conftest import REPO, SCENARIOS
 
 PAGE = REPO / "docs" / "python-api.md"
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
@@ -71,3 +73,27 @@ def test_the_calls_the_page_names_exist_with_their_parameters():
     assert {"problem", "outcomes"} <= {f.name for f in CampaignResult.__dataclass_fields__.values()}
     for field in ("run", "status", "reason", "fail_time_s", "summary", "norms", "nees"):
         assert field in RunOutcome.__dataclass_fields__ and f"`{field}`" in page, field
+
+
+@pytest.mark.parametrize("arguments, fragment", [({"runs": -1}, "runs: -1"), ({"runs": 0}, "runs: 0"),
+                                                 ({"runs": 2.5}, "runs: 2.5"), ({"jobs": 0}, "jobs: 0"),
+                                                 ({"runs": True}, "runs: True")])
+def test_run_campaign_refuses_a_count_the_cli_would_refuse(arguments, fragment):
+    """The API answers as the CLI does (issue 47: runs=-1 returned an empty result): one LiaisonError naming the
+    argument, its value and what is allowed, before anything runs."""
+    from liaison_cli.campaign.engine.runner import run_campaign
+    from liaison_cli.errors import LiaisonError
+    from liaison_cli.scenario.schema import load_scenario
+
+    scenario = load_scenario(SCENARIOS / "smoke.yaml")[0]
+    with pytest.raises(LiaisonError, match="allowed: a whole number, 1 or more") as refused:
+        run_campaign(scenario, progress=False, **arguments)
+    assert fragment in str(refused.value)
+
+
+def test_run_campaign_refuses_a_path_for_a_scenario_in_one_line():
+    from liaison_cli.campaign.engine.runner import run_campaign
+    from liaison_cli.errors import LiaisonError
+
+    with pytest.raises(LiaisonError, match="scenario: str given; allowed: a Scenario"):
+        run_campaign(str(SCENARIOS / "smoke.yaml"))

@@ -1,6 +1,8 @@
 """What every scenario section shares: the strict base model (frozen, unknown keys refused with the allowed
 ones named, numbers finite), the name pattern, and the JSON Schema words the sections use."""
 
+import types
+import typing
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -39,6 +41,24 @@ ONE_PROCESS_NOISE_CONVENTION = Rule(
     "both of any two")
 
 
+def _has_boolean(value) -> bool:
+    return isinstance(value, bool) or (isinstance(value, (list, tuple)) and any(isinstance(v, bool) for v in value))
+
+
+def _numeric_only(annotation) -> bool:
+    """Whether a field takes numbers (int, float, or tuples / lists of them, optionally None) and no boolean."""
+    origin = typing.get_origin(annotation)
+    if origin is Annotated:
+        return _numeric_only(typing.get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        members = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return bool(members) and all(_numeric_only(a) for a in members)
+    if origin in (tuple, list):
+        members = [a for a in typing.get_args(annotation) if a is not Ellipsis]
+        return bool(members) and all(_numeric_only(a) for a in members)
+    return annotation in (int, float)
+
+
 class StrictModel(BaseModel):
     # allow_inf_nan=False: every number in a scenario must be finite (.inf / .nan are refused, one line).
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
@@ -53,4 +73,7 @@ class StrictModel(BaseModel):
                 raise ValueError(
                     f"unknown key {unknown[0]!r}; allowed keys here: {', '.join(sorted(allowed))}"
                 )
+            for key, value in data.items():  # YAML's true / false is no number (pydantic would take it as 1 / 0)
+                if _has_boolean(value) and _numeric_only(cls.model_fields[key].annotation):
+                    raise ValueError(f"{key}: {str(value).lower()} is a boolean; allowed: a number")
         return data

@@ -32,6 +32,10 @@ CASES = {
     "infinite_snc": (GOOD.replace("process_noise_accel_m_s2: 1.0e-10   # per spacecraft",
                                   "process_noise_accel_m_s2: .inf   # per spacecraft"),
                      ["spacecraft[1].process_noise_accel_m_s2", "finite"]),
+    # YAML's booleans are no numbers (pydantic alone took true as 1): issue 47.
+    "boolean_sigma": (GOOD.replace("sigma_m: 150", "sigma_m: true"), ["noise", "sigma_m: true is a boolean",
+                                                                      "allowed: a number"]),
+    "boolean_runs": (GOOD.replace("runs: 2", "runs: yes"), ["monte_carlo", "runs: true is a boolean"]),
 }
 
 

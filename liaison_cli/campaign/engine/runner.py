@@ -2,6 +2,7 @@
 run_tasks_in_order is its one path, with a tqdm progress bar and Ctrl-C checks: a scenario's runs
 (iter_outcomes, run_campaign) and the error budget's check runs (studies.error_budget) go through it."""
 
+import numbers
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import closing
 from dataclasses import dataclass
@@ -13,6 +14,7 @@ from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.campaign.engine.backends import LOCAL, Backend, map_batches
 from liaison_cli.campaign.engine.worker import RunOutcome, RunTask, execute_run
 from liaison_cli import interrupts
+from liaison_cli.errors import LiaisonError
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,6 +107,19 @@ def in_task_order(fn, shared, tasks: Sequence, jobs: int, where: Backend):
             yield from batch
 
 
+def check_campaign_arguments(scenario, runs, jobs) -> None:
+    """The Python API's arguments checked as the CLI checks its options: a validated Scenario (load_scenario's),
+    whole run and job counts of at least 1 (None: the scenario's runs), one clear line otherwise."""
+    if not isinstance(scenario, Scenario):
+        raise LiaisonError(f"scenario: {type(scenario).__name__} given; allowed: a Scenario from "
+                           "liaison_cli.scenario.schema.load_scenario (or apply_overrides)")
+    for name, value, optional in (("runs", runs, True), ("jobs", jobs, False)):
+        if optional and value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+            raise LiaisonError(f"{name}: {value!r}; allowed: a whole number, 1 or more")
+
+
 def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, progress: bool = True,
                  description: str | None = None, truth_cache: dict | None = None,
                  where: Backend = LOCAL) -> CampaignResult:
@@ -114,6 +129,7 @@ def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, pro
     The numbers of a run depend only on (scenario, seed, run index), never on `jobs` or the backend.
     `truth_cache`: see `prepare_problem`.
     """
+    check_campaign_arguments(scenario, runs, jobs)
     problem = prepare_problem(scenario, truth_cache)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     outcomes = tuple(iter_outcomes(problem, n_runs, jobs, progress, description, where))
