@@ -15,6 +15,7 @@ from liaison_cli.scenario.exchange_specs import (
 from liaison_cli.scenario.schema_rules import (
     Rule, all_of, any_of, check_rules, equals, given, negate, not_given, one_of, schema_rules, together, when)
 from liaison_cli.scenario.spec_base import (
+    NAME_MAX_LENGTH,
     NAME_PATTERN,
     ONE_PROCESS_NOISE_CONVENTION,
     UNIQUE,
@@ -207,8 +208,9 @@ class SpacecraftSpec(StrictModel):
              "a known spacecraft's clock is not estimated; remove 'clock' or make it role: estimated"))
     model_config = ConfigDict(json_schema_extra=schema_rules(*RULES))
 
-    name: str = Field(pattern=NAME_PATTERN, description="unique among spacecraft and ground stations; letters, "
-                      "digits, '_', '.', '-'")
+    name: str = Field(pattern=NAME_PATTERN, max_length=NAME_MAX_LENGTH, description="unique among spacecraft and "
+                      "ground stations, ignoring case; letters, digits, '_', '.', '-'; at most "
+                      f"{NAME_MAX_LENGTH} characters")
     role: Literal["estimated", "known"] = Field(
         "estimated", description="estimated by the filter, or known (its true trajectory is given to the filter)")
     orbit: str = Field(description="a catalog orbit; an orbit family (with period_days or amplitude_km); "
@@ -298,8 +300,9 @@ class GroundStationSpec(StrictModel):
         any_of(given("site"), all_of(given("latitude_deg"), given("longitude_deg"))),
         optional=("latitude_deg", "longitude_deg")))
 
-    name: str = Field(pattern=NAME_PATTERN, description="unique among spacecraft and ground stations; letters, "
-                      "digits, '_', '.', '-'")
+    name: str = Field(pattern=NAME_PATTERN, max_length=NAME_MAX_LENGTH, description="unique among spacecraft and "
+                      "ground stations, ignoring case; letters, digits, '_', '.', '-'; at most "
+                      f"{NAME_MAX_LENGTH} characters")
     site: str | None = Field(None, description="a named site (dynamics: ephemeris), a DSN 70 m antenna or a VLBA "
                              "dish: its coordinates instead of latitude_deg / longitude_deg / altitude_m",
                              json_schema_extra=lambda schema: allowed_names(schema, "site"))

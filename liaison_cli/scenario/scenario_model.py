@@ -29,7 +29,7 @@ from liaison_cli.scenario.participants import (
 from liaison_cli.scenario.radio_settings import NoiseSpec
 from liaison_cli.scenario.schema_rules import (
     all_of, any_of, each, equals, given, negate, not_given, schema_rules, together, when)
-from liaison_cli.scenario.spec_base import NAME_PATTERN, UNIQUE, StrictModel
+from liaison_cli.scenario.spec_base import NAME_MAX_LENGTH, NAME_PATTERN, UNIQUE, StrictModel
 
 
 # Epochs per run (t0 included): a run holds ~1.0-1.5 kB per epoch (measured peak RSS, 2-3 spacecraft: truth,
@@ -56,8 +56,8 @@ class Scenario(StrictModel):
                     each("ground_stations", not_given("site")))),
         optional=("links",)))
 
-    name: str = Field(pattern=NAME_PATTERN, description="the result folder's default name (results/<name>); "
-                      "letters, digits, '_', '.', '-'")
+    name: str = Field(pattern=NAME_PATTERN, max_length=NAME_MAX_LENGTH, description="the result folder's default "
+                      f"name (results/<name>); letters, digits, '_', '.', '-'; at most {NAME_MAX_LENGTH} characters")
     description: str = Field("", description="one line for people")
     duration_days: float = Field(gt=0, le=365, description="span from t0 to the last measurement epoch (days)")
     spacecraft: list[SpacecraftSpec] = Field(min_length=1, description="at least one with role: estimated",
@@ -97,9 +97,10 @@ class Scenario(StrictModel):
     @model_validator(mode="after")
     def _consistent(self):
         names = self.participant_names()
-        dupes = sorted({n for n in names if names.count(n) > 1})
-        if dupes:
-            raise ValueError(f"participant names must be unique; repeated: {', '.join(dupes)}")
+        folded = [n.casefold() for n in names]
+        dupes = sorted({n for n, f in zip(names, folded) if folded.count(f) > 1})
+        if dupes:  # ignoring case: an export's files per participant would collide on macOS and Windows
+            raise ValueError(f"participant names must be unique, ignoring case; repeated: {', '.join(dupes)}")
         if not any(sc.role == "estimated" for sc in self.spacecraft):
             raise ValueError("no spacecraft to estimate: give at least one spacecraft with role: estimated")
         check_repeated_links(self)

@@ -11,6 +11,9 @@ from liaison_cli.scenario.schema_rules import Rule, all_of, given, not_given, wh
 
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$"
+# A name becomes part of file names (results/<name>, an export's <scenario>-<participant> files): at most this
+# long, far below a file system's 255 bytes (a 300-character name passed validation and failed after setup).
+NAME_MAX_LENGTH = 64
 UNIQUE = {"uniqueItems": True}  # the JSON Schema word for a list the loader refuses repeats in
 
 

@@ -36,6 +36,11 @@ CASES = {
     "boolean_sigma": (GOOD.replace("sigma_m: 150", "sigma_m: true"), ["noise", "sigma_m: true is a boolean",
                                                                       "allowed: a number"]),
     "boolean_runs": (GOOD.replace("runs: 2", "runs: yes"), ["monte_carlo", "runs: true is a boolean"]),
+    # Names become file names (issue 47): a 300-character one failed only after the setup ...
+    "long_name": (GOOD.replace("name: smoke", "name: " + "s" * 300), ["name", "at most 64 characters"]),
+    # ... and two participants differing only by case wrote colliding export files on macOS and Windows.
+    "case_duplicates": (GOOD.replace("name: Lunar", "name: eml2").replace("transponder: Lunar", "transponder: eml2"),
+                        ["unique, ignoring case", "EML2, eml2"]),
 }
 
 

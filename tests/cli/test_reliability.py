@@ -100,6 +100,25 @@ def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path):
     assert len(stderr_lines(proc.stderr)) == 1 and not out.exists()
     proc = run_cli_in_process(*_sweep_args(out, runs=1))  # free again
     assert proc.returncode == 0, proc.stderr
+    assert not list(tmp_path.glob(".*.lock")), "a finished sweep leaves no lock file (issue 47)"
+
+
+def test_the_lock_file_is_removed_by_its_holder_and_a_stale_handle_locks_again(tmp_path):
+    """A process that opened the lock file just before its holder removed it locks a removed inode: it must
+    see another file at the path and lock that one, or two sweeps would both hold 'the' lock."""
+    import fcntl
+    import os
+
+    from liaison_cli.campaign.sweep.manifest import sweep_lock
+
+    out = tmp_path / "folder"
+    with sweep_lock(out):
+        stale = open(tmp_path / ".folder.lock", "a")  # opened while held, as a second process might
+    assert not (tmp_path / ".folder.lock").exists()
+    fcntl.flock(stale.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # it can lock the removed inode ...
+    with sweep_lock(out):  # ... but a new sweep locks the file at the path, which the stale handle is not
+        assert os.fstat(stale.fileno()).st_ino != os.stat(tmp_path / ".folder.lock").st_ino
+    stale.close()
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
