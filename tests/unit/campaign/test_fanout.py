@@ -143,3 +143,21 @@ def test_errors_without_a_check_refuses_a_malformed_scheduler_and_does_not_ask_a
                               "--scheduler-timeout", "0.5", "--output", tmp_path / "ok")
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "ok" / "budget.parquet").exists()
+
+
+def test_local_workers_are_capped_at_the_cores_with_one_note(monkeypatch, caplog):
+    """--jobs above the cores starts no more processes than can run at once (issue 47: 16 on 2 cores started 17
+    processes); the note comes once per value, and a count within the cores is kept."""
+    import logging
+    import os
+
+    from liaison_cli.campaign.engine import backends
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(backends, "_CAPPED", set())
+    with caplog.at_level(logging.WARNING, logger="liaison"):
+        assert backends.local_workers(16) == 2 and backends.local_workers(16) == 2
+        assert backends.local_workers(2) == 2 and backends.local_workers(1) == 1
+    notes = [r.getMessage() for r in caplog.records if "--jobs" in r.getMessage()]
+    assert notes == ["--jobs 16 on 2 cores: 2 worker processes (more cannot run at once; the numbers do not "
+                     "depend on it)"]
