@@ -102,6 +102,10 @@ def _segment_tracks(path, segment) -> list[Track]:
         raise ExchangeFileError(f"{path}: TIME_SYSTEM = {meta.time_system}: not supported; allowed: "
                                 f"{', '.join(READABLE_TIME_SYSTEMS)}")
     units = _enum_text(meta.range_units)
+    timetag_ref = _enum_text(getattr(meta, "timetag_ref", None))
+    if timetag_ref not in (None, "RECEIVE"):  # read as receive time, it would shift every epoch silently
+        raise ExchangeFileError(f"{path}: TIMETAG_REF = {timetag_ref}: not read; allowed: RECEIVE (liaison's "
+                                "measurements are tagged at reception)")
     participants, paths = _paths(path, meta)
     by_keyword: dict[str, list] = {}
     for observation in segment.data.observation:
@@ -113,7 +117,11 @@ def _segment_tracks(path, segment) -> list[Track]:
                                         f"{', '.join(KEYWORD_UNITS)}")
             if keyword == "RANGE" and units not in (None, "KM"):
                 raise ExchangeFileError(f"{path}: RANGE_UNITS = {units}: only km is read")
-            by_keyword.setdefault(keyword, []).append((observation.epoch, float(getattr(observation, key))))
+            value = float(getattr(observation, key))
+            if not np.isfinite(value):  # as the OEM reader: a non-finite value is refused, not dropped
+                raise ExchangeFileError(f"{path}: {keyword} = {value} at {observation.epoch}: not a finite "
+                                        "number; allowed: finite values (leave a missing one out of the file)")
+            by_keyword.setdefault(keyword, []).append((observation.epoch, value))
     tracks = []
     for keyword, rows in by_keyword.items():
         tags = [tag for tag, _ in rows]

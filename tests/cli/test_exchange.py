@@ -297,17 +297,17 @@ PARTICIPANT_1 = EML2
 PARTICIPANT_2 = {other}
 MODE = SEQUENTIAL
 PATH = 1,2,1
-RANGE_UNITS = km
+RANGE_UNITS = km{extra}
 META_STOP
 DATA_START
-RANGE = 0000-001T00:03:07.500000 70317.6
+RANGE = 0000-001T00:03:07.500000 {value}
 DATA_STOP
 """
 
 
 def _tdm_case(tmp_path, **fields):
     tdm = tmp_path / "bad.tdm"
-    tdm.write_text(TDM.format(**{"time_system": "MET", "other": "Lunar", **fields}))
+    tdm.write_text(TDM.format(**{"time_system": "MET", "other": "Lunar", "extra": "", "value": "70317.6", **fields}))
     path = tmp_path / "smoke_tdm.yaml"
     path.write_text(SMOKE + f"measurements: {{tdm: {tdm}}}\n")
     return path, tdm
@@ -316,6 +316,11 @@ def _tdm_case(tmp_path, **fields):
 @pytest.mark.parametrize("fields, fragments", [
     ({"other": "Gateway"}, ["participant 'Gateway' is not in the scenario", "EML2, Lunar"]),
     ({"time_system": "GPS"}, ["TIME_SYSTEM = GPS", "not supported", "MET"]),
+    # Issue 47: a transmit-time tag was read as receive time (exit 0, the estimate unchanged to the last digit),
+    # and non-finite values were dropped without a word.
+    ({"extra": "\nTIMETAG_REF = TRANSMIT"}, ["TIMETAG_REF = TRANSMIT", "allowed: RECEIVE"]),
+    ({"value": "NaN"}, ["RANGE = nan", "not a finite number"]),
+    ({"value": "Inf"}, ["RANGE = inf", "not a finite number"]),
 ])
 def test_bad_tdm_gives_one_line(tmp_path, fields, fragments):
     path, tdm = _tdm_case(tmp_path, **fields)
