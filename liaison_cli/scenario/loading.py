@@ -124,7 +124,34 @@ def read_scenario_text(path) -> tuple[dict, str]:
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise ScenarioError(f"{path}: malformed YAML{where}: {problem}") from None
+    except RecursionError:  # PyYAML composes nested collections recursively
+        raise ScenarioError(f"{path}: YAML nested too deeply to read; allowed: at most {MAX_NESTING} levels of "
+                            "mappings and lists (a scenario needs fewer than 10)") from None
+    if _nesting(data) > MAX_NESTING:  # validation, copies and the schema recurse too
+        raise ScenarioError(f"{path}: YAML nested deeper than {MAX_NESTING} levels of mappings and lists; "
+                            f"allowed: at most {MAX_NESTING} (a scenario needs fewer than 10)")
     return data, text
+
+
+MAX_NESTING = 64  # levels of mappings and lists a scenario or link file may nest (issue 47: a RecursionError)
+
+
+def _nesting(data) -> int:
+    """How many levels of mappings and lists `data` nests (0 for a scalar), without recursion."""
+    deepest, stack = 0, [(data, 0)]
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((v, depth + 1) for v in value.values())
+        elif isinstance(value, list):
+            stack.extend((v, depth + 1) for v in value)
+        else:
+            deepest = max(deepest, depth)
+            continue
+        deepest = max(deepest, depth + 1)
+        if deepest > MAX_NESTING:
+            return deepest
+    return deepest
 
 
 def load_scenario(path) -> tuple[Scenario, str]:

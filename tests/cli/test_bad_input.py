@@ -39,6 +39,10 @@ CASES = {
     # Names become file names (issue 47): a 300-character one failed only after the setup ...
     "long_name": (GOOD.replace("name: smoke", "name: " + "s" * 300), ["name", "at most 64 characters"]),
     # ... and two participants differing only by case wrote colliding export files on macOS and Windows.
+    # Issue 47: a deeply nested file (well under the size cap) was a RecursionError traceback.
+    "nested_too_deep_to_read": ("a: " + "[" * 3000 + "]" * 3000 + "\n", ["nested too deeply to read",
+                                                                        "at most 64 levels"]),
+    "nested_deeper_than_allowed": ("a: " + "[" * 80 + "]" * 80 + "\n", ["nested deeper than 64 levels"]),
     "case_duplicates": (GOOD.replace("name: Lunar", "name: eml2").replace("transponder: Lunar", "transponder: eml2"),
                         ["unique, ignoring case", "EML2, eml2"]),
 }
