@@ -44,8 +44,10 @@ class EmpiricalAccelerationSpec(StrictModel):
     """filter.empirical_acceleration: a first-order Gauss-Markov acceleration per estimated spacecraft, three
     states on the dynamics model's axes (dynamic model compensation; estimation.process_noise)."""
 
-    sigma_m_s2: float = Field(..., gt=0, le=1e-5, description="its steady-state 1-sigma per axis, which is also its "
-                              "a priori (the SRP on a 0.01 m^2/kg cannonball is ~7e-8) (m/s^2)")
+    # At least 1e-12 m/s^2 (issue 47: 1e-300 made its variance underflow to zero in filter units, and every run
+    # of a healthy scenario stop as 'covariance not positive'); far below any force a filter would model.
+    sigma_m_s2: float = Field(..., ge=1e-12, le=1e-5, description="its steady-state 1-sigma per axis, which is also "
+                              "its a priori (the SRP on a 0.01 m^2/kg cannonball is ~7e-8), at least 1e-12 (m/s^2)")
     time_constant_s: float = Field(..., gt=0, description="its correlation time tau: the acceleration decays as "
                                    "exp(-t / tau) between updates; at least measurement.interval_s (shorter is "
                                    "white noise: use the process noise) (s)")

@@ -43,6 +43,10 @@ CASES = {
     "nested_too_deep_to_read": ("a: " + "[" * 3000 + "]" * 3000 + "\n", ["nested too deeply to read",
                                                                         "at most 64 levels"]),
     "nested_deeper_than_allowed": ("a: " + "[" * 80 + "]" * 80 + "\n", ["nested deeper than 64 levels"]),
+    # Issue 47: a vanishing empirical-acceleration sigma underflowed in filter units and every run diverged.
+    "tiny_empirical_sigma": (GOOD + "filter:\n  empirical_acceleration: {sigma_m_s2: 1.0e-300, "
+                             "time_constant_s: 21600}\n",
+                             ["empirical_acceleration.sigma_m_s2", "= 1e-300", "greater than or equal to"]),
     "case_duplicates": (GOOD.replace("name: Lunar", "name: eml2").replace("transponder: Lunar", "transponder: eml2"),
                         ["unique, ignoring case", "EML2, eml2"]),
 }
