@@ -11,6 +11,10 @@ from liaison_cli.errors import LiaisonError, UnreadableFileError
 # Written by every `liaison run` (campaign.engine.results.write_outcomes); clocks and bias are empty (no columns)
 # when the scenario has no clock states or range biases.
 REQUIRED_TABLES = ("summary", "timeseries", "consistency", "residuals")
+# The columns the figures read first from each required table: a table without them is another table (issue 47:
+# a summary.parquet of some other kind was a traceback).
+REQUIRED_COLUMNS = {"summary": ("run", "spacecraft", "status"), "timeseries": ("run", "t_s", "spacecraft"),
+                    "consistency": ("t_s", "mean_nees"), "residuals": ("run", "t_s", "link", "innovation")}
 OPTIONAL_TABLES = ("clocks", "bias", "links")
 
 
@@ -37,6 +41,11 @@ def load_run_result(folder) -> RunResult:
         raise LiaisonError(f"{folder}: not a 'liaison run' result (no {', '.join(missing)}); allowed: a folder "
                            "written by 'liaison run' (a sweep or study folder holds its own figures)")
     tables = {name: _read(folder / f"{name}.parquet") for name in REQUIRED_TABLES}
+    for name, columns in REQUIRED_COLUMNS.items():
+        lacking = [c for c in columns if c not in tables[name].columns]
+        if lacking:
+            raise UnreadableFileError(f"{folder / f'{name}.parquet'}: not the table 'liaison run' writes (no column "
+                                      f"{', '.join(lacking)}); rerun the scenario to rebuild it")
     for name in OPTIONAL_TABLES:
         path = folder / f"{name}.parquet"
         tables[name] = _read(path) if path.is_file() else pd.DataFrame()

@@ -84,3 +84,21 @@ def test_a_folder_that_is_not_a_run_result_is_one_line(tmp_path, what):
     line = result.stderr.strip()
     assert "\n" not in line and str(target) in line and "liaison run" in line and "Traceback" not in line
     assert not (target / "plots").exists() if target.is_dir() else True
+
+
+@pytest.mark.parametrize("table", ["summary", "timeseries", "consistency", "residuals"])
+def test_a_result_whose_table_is_another_table_is_one_line(results, tmp_path, table):
+    """Issue 47: a summary.parquet of some other kind was a traceback. Each required table without the columns
+    the figures read first is one line naming the file, exit 4, and nothing is drawn."""
+    import shutil
+
+    import pandas as pd
+
+    target = tmp_path / "result"
+    shutil.copytree(results / sorted(CASES)[0], target)
+    pd.DataFrame({"a": [1, 2], "b": [3.0, 4.0]}).to_parquet(target / f"{table}.parquet")
+    result = invoke("plot", "run", target)
+    assert result.exit_code == 4 and result.stdout == "", result.output
+    line = result.stderr.strip()
+    assert "\n" not in line and f"{table}.parquet" in line and "not the table 'liaison run' writes" in line
+    assert not (target / "plots").exists()
