@@ -280,3 +280,22 @@ def test_a_scenario_that_is_not_a_small_regular_file_is_refused_unread(tmp_path)
         assert outcome, f"{path}: the loader blocked"
         assert_one_line_error(outcome[0], path, [fragment])
     assert not (tmp_path / "o").exists()
+
+
+def test_a_failure_before_any_connection_is_not_called_an_answer(monkeypatch):
+    """Issue 47: an error raised before a connection was made read 'answered, but not as a dask scheduler' when
+    nothing had answered; it is 'cannot connect' with the cause."""
+    pytest.importorskip("distributed")
+    import distributed.comm
+
+    from liaison_cli.campaign.engine.backends import probe_scheduler
+    from liaison_cli.errors import LiaisonError
+
+    async def refuse(address, timeout=None, **kwargs):
+        raise ValueError("no route to the named host")
+
+    monkeypatch.setattr(distributed.comm, "connect", refuse)
+    with pytest.raises(LiaisonError) as refused:
+        probe_scheduler("tcp://127.0.0.1:8786", 1.0)
+    assert "cannot connect (ValueError: no route to the named host)" in str(refused.value)
+    assert "answered" not in str(refused.value)

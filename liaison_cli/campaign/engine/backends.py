@@ -113,6 +113,8 @@ def probe_scheduler(scheduler: str, timeout_s: float) -> None:
     except OSError as exc:  # refused, reset, unreachable; distributed's CommClosedError is an OSError
         raise BackendUnavailableError(f"{where}: cannot connect ({type(exc).__name__}: {exc})") from None
     except Exception as exc:  # noqa: BLE001 - bytes that are not dask's protocol fail in many ways
+        if not stage:  # it failed before a connection was made: nothing answered (issue 47)
+            raise BackendUnavailableError(f"{where}: cannot connect ({type(exc).__name__}: {exc})") from None
         raise BackendUnavailableError(f"{where}: answered, but not as a dask scheduler "
                                       f"({type(exc).__name__})") from None
     if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
