@@ -50,7 +50,7 @@ def run(
     scheduler: SchedulerOption = None,
     scheduler_timeout: SchedulerTimeoutOption = 20.0,
     output: Path = typer.Option(None, "--output", help="result folder (default: results/<scenario name>, "
-                                "replaced by the next run of the same command)"),
+                                "replaced by the next run of the same command; what other commands wrote into it is kept)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder given by --output"),
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
     quiet: QuietOption = False,

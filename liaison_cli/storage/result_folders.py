@@ -4,6 +4,7 @@ commands left beside NAME (storage.leftovers) and refuses to replace what liaiso
 (storage.ownership)."""
 
 import errno
+import logging
 import os
 import shutil
 import tempfile
@@ -15,7 +16,7 @@ from liaison_cli.errors import OutputExistsError
 from liaison_cli.storage.atomic import current_umask
 from liaison_cli.storage.leftovers import recover_output
 from liaison_cli.storage.locks import claim
-from liaison_cli.storage.ownership import check_replaceable, is_ours, mark_ours
+from liaison_cli.storage.ownership import RESULT_MARKER, check_replaceable, is_ours, mark_ours
 from liaison_cli.storage.swap import swap_in
 
 
@@ -37,6 +38,36 @@ def _make_parent(path: Path) -> None:
         if ancestor.exists() and not ancestor.is_dir():
             raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(ancestor))
     path.parent.mkdir(parents=True, exist_ok=True)
+
+
+def carry_over(old: Path, stage: Path) -> list[str]:
+    """Link into the stage every entry of the result folder `old` that the new result does not write (another
+    command's output: `plots/`, an export's `ccsds-run<K>/`, a user's notes), so replacing a result deletes only
+    what the replacing command writes again. Hard links (a copy where the file system has none): the old
+    folder stays whole until the swap, so a kill before it loses nothing. Returns the names carried over."""
+    if not old.is_dir() or old.is_symlink():
+        return []
+    kept = []
+    for entry in sorted(old.iterdir()):
+        target = stage / entry.name
+        if entry.name == RESULT_MARKER or target.exists() or target.is_symlink():
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.copytree(entry, target, symlinks=True, copy_function=_link_or_copy)
+        else:
+            _link_or_copy(entry, target)
+        kept.append(entry.name + ("/" if entry.is_dir() and not entry.is_symlink() else ""))
+    return kept
+
+
+def _link_or_copy(source, destination) -> None:
+    if os.path.islink(source):
+        os.symlink(os.readlink(source), destination)
+        return
+    try:
+        os.link(source, destination)
+    except OSError:
+        shutil.copy2(source, destination)
 
 
 @contextmanager
@@ -61,7 +92,12 @@ def staged_output(path, overwrite: bool):
             if interrupts.requested():  # Ctrl-C that compiled code swallowed: the old result stays
                 raise KeyboardInterrupt
             os.chmod(stage, 0o777 & ~current_umask())
+            kept = carry_over(path, stage) if replace else []
             swap_in(stage, path, replace)
+            if kept:  # other commands' outputs (plots, exports) made from the result this one replaced
+                logging.getLogger("liaison").warning(
+                    f"{path}: kept from the result it replaced: {', '.join(kept)} (made from that result: rerun "
+                    "`liaison plot run` or `liaison export` to remake them)")
             interrupts.result_written(path)
     except OSError as exc:
         shutil.rmtree(stage, ignore_errors=True)

@@ -426,3 +426,26 @@ def test_no_permission_is_one_line_exit_4(tmp_path, monkeypatch):
     result = CliRunner().invoke(app, ["run", str(SCENARIOS / "smoke.yaml"), "--runs", "1", "--output", str(out)])
     assert result.exit_code == 4, result.output
     assert result.output.strip() == f"error: {out}: Permission denied"
+
+
+def test_a_rerun_keeps_what_other_commands_wrote_into_the_result(tmp_path):
+    """Issue 47: a second `liaison run` removed the plots and CCSDS files other commands had written into the
+    result folder. It replaces only what it writes again; the rest is kept, with one note naming it."""
+    out = tmp_path / "result"
+    args = ("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--quiet", "--output", out)
+    assert run_cli_in_process(*args).returncode == 0
+    (out / "plots").mkdir()
+    (out / "plots" / "errors.png").write_bytes(b"a figure")
+    (out / "ccsds-run0").mkdir()
+    (out / "ccsds-run0" / "truth.oem").write_text("an export")
+    (out / "notes.txt").write_text("mine")
+    before = (out / "summary.parquet").stat().st_mtime_ns
+    proc = run_cli_in_process(*args, "--overwrite")
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "plots" / "errors.png").read_bytes() == b"a figure"
+    assert (out / "ccsds-run0" / "truth.oem").read_text() == "an export"
+    assert (out / "notes.txt").read_text() == "mine"
+    assert (out / "summary.parquet").stat().st_mtime_ns != before  # the run's own tables are the new ones
+    notes = [line for line in proc.stderr.splitlines() if "kept from the result it replaced" in line]
+    assert len(notes) == 1 and "ccsds-run0/, notes.txt, plots/" in notes[0], proc.stderr
+    assert not list(tmp_path.glob(".result.*")), "no staging folder left beside it"
