@@ -32,13 +32,14 @@ def errors(
     from liaison_cli.campaign.studies.error_budget import budget_study, select_sources
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.error_budget import draw_budget, format_consistency, format_shares
-    from liaison_cli.scenario.loading import read_scenario_text, validate_scenario
+    from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
 
     common.check_runs(check_runs, "--check-runs")
     # The scheduler is asked only when the check will use it; a wrong backend is refused either way.
     where = common.fan_out(backend, scheduler, scheduler_timeout, connect=check_runs > 0)
     chosen = select_sources(sources)
+    scenario_path = scenario_file(scenario_path)  # or the shipped scenario its name stands for
     data, text = read_scenario_text(scenario_path)
     scenario = validate_scenario(data, str(scenario_path))  # the filter `run` would build, defaults included
     progress = not quiet and not as_json and sys.stderr.isatty()

@@ -2,6 +2,7 @@
 one line per problem naming the file, the key, the value and what is allowed, and apply dotted overrides."""
 
 import copy
+import logging
 import re
 from pathlib import Path
 
@@ -154,8 +155,22 @@ def _nesting(data) -> int:
     return deepest
 
 
+def scenario_file(path) -> Path:
+    """`path` itself, or, when no such file exists here, the shipped scenario it names (scenario.shipped:
+    `liaison run eml2_lunar` from any folder), said in one note."""
+    from liaison_cli.scenario.shipped import shipped_by_name
+
+    shipped = shipped_by_name(path)
+    if shipped is None:
+        return Path(path)
+    logging.getLogger("liaison").warning(f"{path}: no such file here; the shipped scenario {shipped}")
+    return shipped
+
+
 def load_scenario(path) -> tuple[Scenario, str]:
-    """Read and validate a scenario file. Returns (scenario, original text)."""
+    """Read and validate a scenario file (or the shipped one its name stands for: scenario_file). Returns
+    (scenario, original text)."""
+    path = scenario_file(path)
     data, text = read_scenario_text(path)
     return validate_scenario(resolve_exchange_files(data, Path(path).parent), str(path)), text
 
@@ -173,6 +188,7 @@ def check_file(path) -> str:
     """Every check `liaison run` makes of a scenario before it computes (reading, keys, values, the rules
     between them, dates, orbit families' ranges), or `liaison budget` of a link file; nothing is propagated
     or compiled. Returns what the file is ('scenario' or 'link file'); a problem raises ScenarioError."""
+    path = scenario_file(path)
     data, _ = read_scenario_text(path)
     if isinstance(data, dict) and "spacecraft" not in data and any(k in data for k in LINK_FILE_KEYS):
         validate_scenario(data, str(path), RangingLinkFile)

@@ -6,6 +6,10 @@ The rule, for every command with default scenarios (`sweep` without a scenario, 
 package's file, wherever the command runs; a path the user gives is used as given (relative to the working
 folder), and wins. A scenarios/ folder in the working folder is not looked at for a default: the package's
 copy is the one that matches the code that runs it.
+
+A scenario named on the command line that is no file here is looked up among the shipped ones (shipped_by_name:
+`eml2_lunar`, `eml2_lunar.yaml`, `scenarios/eml2_lunar.yaml`, `004/dro`), so what `liaison warm-up --list`
+names runs from any folder after `pip install`; a file here always wins, and the run says which it took.
 """
 
 from importlib.resources import files
@@ -32,6 +36,25 @@ def shipped_scenario(name: str) -> Path:
         raise LiaisonError(f"{path}: a shipped scenario is missing from this installation (package data "
                            "liaison_cli/shipped_scenarios); reinstall liaison, or name the scenario files")
     return path
+
+
+def shipped_by_name(given) -> Path | None:
+    """The shipped scenario a name that is no file in the working folder stands for (the module docstring), or
+    None: the name relative to the shipped folder, with or without `.yaml` and a leading `scenarios/`."""
+    text = str(given).replace("\\", "/")
+    if Path(given).exists() or Path(text).is_absolute() or ".." in Path(text).parts:
+        return None
+    if text.startswith("scenarios/"):
+        text = text[len("scenarios/"):]
+    try:
+        root = shipped_dir()
+    except LiaisonError:
+        return None
+    for candidate in (text, f"{text}.yaml"):
+        path = root / candidate
+        if candidate.endswith(".yaml") and path.is_file() and "links" not in Path(candidate).parts[:1]:
+            return path
+    return None
 
 
 def scenario_paths(given, defaults) -> list[Path]:

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from liaison_cli.cli import app
 
-from tests.conftest import REPO
+from tests.conftest import REPO, SCENARIOS
 HEAVY = ["pandas", "numba", "matplotlib", "pyarrow", "scipy", "liaison_cli.campaign", "liaison_cli.scenario.loading",
          "liaison_cli.scenario.scenario_model"]
 
@@ -82,3 +82,26 @@ def test_version_with_verbose_runs_no_command():
     result = CliRunner().invoke(app, ["-v", "--version", "run", "no-such-file.yaml"])
     assert result.exit_code == 0 and result.stdout.splitlines()[0] == __version__, result.output
     assert "no-such-file" not in result.output
+
+
+def test_shipped_scenarios_run_by_name_from_any_folder(tmp_path):
+    """Issue 47: after `pip install`, `liaison run eml2_lunar` in an empty folder was 'no such scenario file'.
+    A name that is no file there is the shipped scenario it names (with or without .yaml or scenarios/), with
+    one note; a file there wins; another name is still refused in one line."""
+    from tests.conftest import run_cli
+
+    for name in ("smoke", "smoke.yaml", "scenarios/smoke.yaml", "004/dro"):
+        proc = run_cli("validate", name, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr
+        assert "the shipped scenario" in proc.stderr and proc.stdout.strip() == f"ok: {name}"
+    ran = run_cli("run", "smoke", "--runs", "1", "--jobs", "1", "--quiet", cwd=tmp_path)
+    assert ran.returncode == 0, ran.stderr
+    assert (tmp_path / "results" / "smoke" / "summary.parquet").is_file()
+    errors = run_cli("errors", "smoke", "--quiet", cwd=tmp_path)
+    assert errors.returncode == 0, errors.stderr
+    own = tmp_path / "smoke.yaml"  # a file of the user's wins, and no note is said
+    own.write_text((SCENARIOS / "smoke.yaml").read_text().replace("name: smoke", "name: mine"))
+    proc = run_cli("validate", "smoke.yaml", cwd=tmp_path)
+    assert proc.returncode == 0 and "shipped" not in proc.stderr, proc.stderr
+    missing = run_cli("validate", "no_such_scenario", cwd=tmp_path)
+    assert missing.returncode == 2 and "no such scenario file" in missing.stderr
