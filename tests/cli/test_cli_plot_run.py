@@ -102,3 +102,26 @@ def test_a_result_whose_table_is_another_table_is_one_line(results, tmp_path, ta
     line = result.stderr.strip()
     assert "\n" not in line and f"{table}.parquet" in line and "not the table 'liaison run' writes" in line
     assert not (target / "plots").exists()
+
+
+def test_the_ric_bars_are_the_run_texts_means(results):
+    """Issue 47: ric.png's 'error RMS' bars were 2-5 % above the run text's numbers under the same label (the RMS
+    over the runs against the mean over the runs). Both are now the mean over the healthy runs of each run's
+    value: the first spacecraft's position bars equal the summary columns' means that format_ric prints."""
+    import numpy as np
+
+    from liaison_cli.analysis.ric import AXES
+    from liaison_cli.report.consistency_plots import draw_ric
+    from liaison_cli.report.run_result import load_run_result
+
+    result = load_run_result(results / "ekf_crtbp")
+    fig = draw_ric(result, 0)
+    healthy = result.summary[result.summary.status == "ok"]
+    first = healthy[healthy.spacecraft == healthy.spacecraft.iloc[0]]
+    bars = [patch.get_height() for patch in fig.axes[0].patches]
+    for stat, offset in (("rms", 0), ("sigma", 2 * len(AXES))):
+        expected = [np.nanmean(first[f"{stat}_{axis}_position_settled_m"]) for axis in AXES]
+        np.testing.assert_allclose(bars[offset : offset + len(AXES)], expected, rtol=1e-12)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
