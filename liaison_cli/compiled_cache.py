@@ -47,15 +47,15 @@ def _package_folder(py_file: str) -> tuple[str, ...] | None:
 @lru_cache(maxsize=None)
 def _code_digest(path: str, mtime_ns: int, size: int) -> str:
     """code_digest of the file, through the package's memo (core_source_hash filled it at import)."""
-    from liaison_cli import _DigestMemo
-
     with open(path, "rb") as handle:
-        return _memo(_DigestMemo).code_digest(handle.read())
+        return _memo().code_digest(handle.read())
 
 
 @lru_cache(maxsize=1)
-def _memo(memo_class):
-    return memo_class()
+def _memo():
+    from liaison_cli import _DigestMemo
+
+    return _DigestMemo()
 
 
 def _file_digest(path: str) -> str:
@@ -78,7 +78,7 @@ def install() -> None:
 
     class PackageLocator(caching._CacheLocator):
         """A liaison module's cache folder: NUMBA_CACHE_DIR / liaison_cli / the module's folder in the package;
-        freshness: the sha256 of the module's bytes. Not for files outside the package."""
+        freshness: the module's code digest (_file_digest). Not for files outside the package."""
 
         def __init__(self, py_func, py_file, folder):
             self._py_file = py_file

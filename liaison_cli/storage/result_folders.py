@@ -1,5 +1,5 @@
 """Result folders: created empty (`prepare_output_dir`), built in a hidden sibling and swapped in whole
-(`staged_output`), or resumed in place by a sweep (`resumable_output`). Each first settles what killed
+(`staged_output`; what other commands wrote into the folder it replaces is carried over, `carry_over`), or resumed in place by a sweep (`resumable_output`). Each first settles what killed
 commands left beside NAME (storage.leftovers) and refuses to replace what liaison did not write
 (storage.ownership)."""
 

@@ -196,7 +196,6 @@ def test_cr_column_matches_central_differences(msl_window):
 
     @numba.njit
     def step(model, params, cr_scale, state, t_tu, dt_tu, n):
-        numba.literally(model)
         y = np.empty(PROPAGATION_SIZE)
         propagate_parameter_into(model, params, cr_scale, state, t_tu, dt_tu, n, y, np.empty((5, 42)))
         return y
@@ -224,15 +223,14 @@ def test_cr_column_matches_central_differences(msl_window):
 
 
 def _state_stm_step():
-    """dynamics.model.propagate_state_stm_into behind a compiled caller that makes the model code a constant:
-    (state (6,), Phi (6, 6))."""
+    """dynamics.model.propagate_state_stm_into behind a compiled caller (the model code read at run time, as the
+    estimators read it): (state (6,), Phi (6, 6))."""
     import numba
 
     from liaison_cli.dynamics.model import STM_SIZE, propagate_state_stm_into
 
     @numba.njit
     def step(model, params, state, t_tu, dt_tu, n):
-        numba.literally(model)
         y = np.empty(STM_SIZE)
         propagate_state_stm_into(model, params, state, t_tu, dt_tu, n, y, np.empty((5, STM_SIZE)))
         return y[0:6].copy(), y[6:].copy().reshape(6, 6)
