@@ -6,6 +6,9 @@ the NEES by direction, the runs that diverged) and names one key:
 
 - runs diverged while the scenario declares an unmodelled force (model_error) and the filter carries no
   empirical acceleration: `filter.empirical_acceleration`, naming the force;
+- runs diverged or a spacecraft optimistic while `filter.rk4_substeps` fixes fewer substeps than the
+  integration tolerance asks for it (scenario.integration_steps): that key, naming the count each needs; such a
+  spacecraft is not also told to raise its process noise;
 - optimistic, with the common time shift the largest named direction, under the geometric range model:
   `filter.range_model: light_time` (the estimate lags the truth by the signal's flight time);
 - optimistic otherwise: more process noise for the spacecraft whose verdict fails on the optimistic side (the
@@ -31,13 +34,14 @@ DOMINANT_SHARE = 0.5
 
 @dataclass(frozen=True)
 class Advice:
-    cause: str  # diverged_unmodelled_force, time_shift, optimistic, pessimistic
+    cause: str  # diverged_unmodelled_force, integration_step, time_shift, optimistic, pessimistic
     text: str
 
 
-def campaign_advice(scenario, summary: list[dict], spacecraft, columns) -> list[Advice]:
+def campaign_advice(scenario, summary: list[dict], spacecraft, columns, step_choices=None) -> list[Advice]:
     """The advice for a campaign (summary rows of every run, `columns` the consistency columns the verdict
-    reads): at most one line per cause, in the order of the module docstring."""
+    reads, step_choices the Problem's {spacecraft: dynamics.step_choice.StepChoice}): at most one line per cause,
+    in the order of the module docstring."""
     out = []
     diverged = {row.get("run") for row in summary if row.get("status") == "diverged"}
     force = _declared_force(scenario)
@@ -59,6 +63,14 @@ def campaign_advice(scenario, summary: list[dict], spacecraft, columns) -> list[
         return out
     optimistic = [name for name, side in sides.items() if side == "optimistic"]
     pessimistic = [name for name, side in sides.items() if side == "pessimistic"]
+    short = _short_steps(step_choices or {})
+    if short and (diverged or optimistic):
+        out.append(Advice("integration_step", f"the integration step is too long for {_step_text(short)}: "
+                          f"filter.rk4_substeps = {next(iter(short.values())).substeps} misses "
+                          f"filter.integration_tolerance_m ({scenario.filter.integration_tolerance_m:g} m per "
+                          "interval): remove filter.rk4_substeps (each spacecraft's step is then chosen by "
+                          "accuracy) or raise it"))
+        optimistic = [name for name in optimistic if name not in short]
     if optimistic and _time_shift_dominates(summary, spacecraft[0]) and scenario.filter_range_model() == "geometric":
         out.append(Advice("time_shift", "the estimate lags the truth along the common time shift (the "
                           "signal's flight time the geometric range model leaves out): set "
@@ -72,6 +84,16 @@ def campaign_advice(scenario, summary: list[dict], spacecraft, columns) -> list[
                           f"{', '.join(pessimistic)}: lower {_process_noise(scenario, pessimistic)}, or let "
                           "`liaison tune` choose it"))
     return out
+
+
+def _short_steps(step_choices: dict) -> dict:
+    """{spacecraft: its StepChoice} where filter.rk4_substeps fixed fewer substeps than the tolerance asks."""
+    return {name: choice for name, choice in step_choices.items()
+            if choice.source != "auto" and choice.accurate_substeps > choice.substeps}
+
+
+def _step_text(short: dict) -> str:
+    return ", ".join(f"{name} (needs {choice.accurate_substeps})" for name, choice in short.items())
 
 
 def _side(failed: str) -> str:
@@ -106,7 +128,8 @@ def _process_noise(scenario, names) -> str:
         key, value = scenario.filter.process_noise_of(spacecraft)
         own = getattr(spacecraft, key, None) is not None
         where = f"spacecraft {spacecraft.name}'s {key}" if own else f"filter.{key}"
-        shown = ", ".join(f"{v:g}" for v in value) if isinstance(value, tuple) else f"{value:g}"
+        shown = ("the default derived for the scenario" if value is None else
+                 ", ".join(f"{v:g}" for v in value) if isinstance(value, tuple) else f"{value:g}")
         phrase = f"{where} (now {shown})"
         if phrase not in phrases:
             phrases.append(phrase)

@@ -109,11 +109,14 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
         f"{config.name}: {len(problem.spacecraft)} spacecraft, {len(config.links)} link(s), "
         f"sigma {problem.sigma_m:.1f} m, {span}, seed {config.monte_carlo.seed}"
     )
+    for setting in _setting_lines(config, problem):
+        typer.echo(setting)
     typer.echo(_format_summary(summary, problem.spacecraft))
     typer.echo(_format_consistency(summary, problem.spacecraft, config.settle_days()))
     from liaison_cli.campaign.advice import campaign_advice  # here: a tab press must not load numba (cli.root)
 
-    advice = _format_advice(campaign_advice(config, summary, problem.spacecraft, CONSISTENCY_COLUMNS))
+    advice = _format_advice(campaign_advice(config, summary, problem.spacecraft, CONSISTENCY_COLUMNS,
+                                            problem.step_choices))
     if advice:
         typer.echo(advice)
     for optional in (_format_ric(summary, problem.spacecraft, config.settle_days()),
@@ -127,6 +130,21 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
     for line in _coverage_lines(problem, config.duration_days):
         typer.echo(line)
     typer.echo(f"results: {out_dir}")
+
+
+def _setting_lines(config, problem) -> list[str]:
+    """The settings the tool chose for the scenario, with where each came from: the integration step and the
+    default process noise."""
+    from liaison_cli.scenario.default_noise import describe as describe_noise
+    from liaison_cli.scenario.integration_steps import describe as describe_steps
+
+    if config.batch is not None or not problem.step_choices:
+        return []
+    lines = [describe_steps(problem.step_choices, config.measurement.interval_s,
+                            config.filter.integration_tolerance_m)]
+    if problem.default_noises:
+        lines.append(describe_noise(problem.default_noises))
+    return lines
 
 
 def _coverage_lines(problem, duration_days: float) -> list[str]:

@@ -178,6 +178,18 @@ class EphemerisDynamicsModel:
 
         return with_body_gm_scaled(with_cr_scaled(self.filter_params, cr_factor), BODY_MOON, moon_gm_factor)
 
+    def field_accelerations(self, params, states, times_tu) -> np.ndarray:
+        """The field with packed parameters `params` at scaled states (m, 6), times_tu past the epoch: (m, 3),
+        LU/TU^2 (the truth's unmodelled acceleration not included)."""
+        return ephemeris_accelerations_scaled(np.ascontiguousarray(params, dtype=float),
+                                              np.ascontiguousarray(states, dtype=float),
+                                              np.ascontiguousarray(times_tu, dtype=float))
+
+    @property
+    def unmodelled_acceleration_lu_tu2(self) -> np.ndarray:
+        """The truth's constant acceleration the filter never models (3,), LU/TU^2."""
+        return self.truth_acceleration_km_s2 / AU_KM_S2
+
     def body_positions_lu(self, times_s) -> dict:
         """The Earth (origin) and the Moon's geocentric positions (m, 3) at times_s past the epoch, scaled."""
         from liaison_cli.dynamics.ephemeris import BODY_MOON, geocentric_state

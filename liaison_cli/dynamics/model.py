@@ -16,6 +16,7 @@ from numba import njit
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
+from liaison_cli.dynamics.crtbp import derivative
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.integrators.rk8 import rk8_advance, step_counts
 from liaison_cli.dynamics.registry import CRTBP, DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
@@ -29,8 +30,13 @@ PROPAGATION_SIZE = SENSITIVITY_SIZE
 
 # Truth: compiled fixed-step RK4 of at most 10 s. Over 10 days it agrees with DOP853 at rtol 1e-13 to
 # 2.0 mm for the 9,000 km lunar orbiter (DOP853 at the former rtol 1e-12 is itself 2 cm off); see
-# tests/unit/dynamics/test_dynamics.py.
+# tests/unit/dynamics/test_dynamics.py. A low orbit needs a shorter step (a 100 km lunar orbit at 10 s is
+# 0.4 mm off per 600 s interval): the step is halved until the Richardson estimate of the truth's error grows
+# by no more than TRUTH_TOLERANCE_M over any interval (DynamicsModel.truth_states), a tenth of the filter's
+# default integration tolerance (dynamics.step_choice).
 TRUTH_MAX_STEP_S = 10.0
+TRUTH_MIN_STEP_S = 0.3125  # five halvings
+TRUTH_TOLERANCE_M = 1e-5
 
 
 @njit(cache=True)  # a call, not inlined: compiled and cached once, shared by every estimator and kind set
@@ -113,8 +119,25 @@ class DynamicsModel:
         forcing = np.broadcast_to(self.truth_acceleration_lu_tu2, (times_tu.shape[0], 3))
         if extra_acceleration_lu_tu2 is not None:
             forcing = forcing + extra_acceleration_lu_tu2
-        return rk4_states_forced(np.asarray(state0, dtype=float), times_tu, TRUTH_MAX_STEP_S / TU_S,
-                                 self.params[0], np.ascontiguousarray(forcing, dtype=float))
+        state0, forcing = np.asarray(state0, dtype=float), np.ascontiguousarray(forcing, dtype=float)
+        step_s = TRUTH_MAX_STEP_S
+        states = rk4_states_forced(state0, times_tu, step_s / TU_S, self.params[0], forcing)
+        while step_s > TRUTH_MIN_STEP_S:  # the 10 s result is kept wherever it meets the tolerance
+            finer = rk4_states_forced(state0, times_tu, 0.5 * step_s / TU_S, self.params[0], forcing)
+            if truth_error_growth_m(states, finer) <= TRUTH_TOLERANCE_M:
+                return states
+            states, step_s = finer, 0.5 * step_s
+        return states
+
+    def field_accelerations(self, params, states, times_tu) -> np.ndarray:
+        """The model's field with parameters `params` at states (m, 6): accelerations (m, 3), LU/TU^2 (the CRTBP's
+        rotating-frame terms included; the truth's unmodelled acceleration not)."""
+        return np.array([derivative(np.asarray(state, dtype=float), float(params[0]))[3:6] for state in states])
+
+    @property
+    def unmodelled_acceleration_lu_tu2(self) -> np.ndarray:
+        """The truth's constant acceleration the filter never models (3,), LU/TU^2."""
+        return np.asarray(self.truth_acceleration_lu_tu2, dtype=float)
 
     def body_positions_lu(self, times_s) -> dict:
         """Occulting bodies' centres for measurements.visibility.not_occulted: the CRTBP's are fixed (its
@@ -145,6 +168,13 @@ class DynamicsModel:
     def rk8_step_counts(self, positions_lu, dt_tu: float) -> np.ndarray:
         """Steps per interval (m - 1,) for the RK8 propagator along sampled positions (m, k, 3)."""
         return step_counts(positions_lu, dt_tu, self.params[0])
+
+
+def truth_error_growth_m(coarse, fine) -> float:
+    """The largest growth over one interval of the Richardson estimate of the coarse RK4 truth's position error,
+    (coarse - fine) 16 / 15, between two samplings (m, 6) of one trajectory at steps h and h / 2 (m)."""
+    error_m = np.linalg.norm(coarse[:, :3] - fine[:, :3], axis=1) * (16.0 / 15.0) * M_PER_LU
+    return float(np.max(np.abs(np.diff(error_m)))) if len(error_m) > 1 else 0.0
 
 
 def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0)) -> DynamicsModel:

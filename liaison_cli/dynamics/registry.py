@@ -32,7 +32,8 @@ class Dynamics:
     (the model objects, dynamics.model.DynamicsModel and EphemerisDynamicsModel, take theirs from here);
     summary: one phrase for the schema. dated: epochs are dates (TDB), so stations turn with the Earth, dated
     orbits and CCSDS dates apply; rotating_frame: the states' frame turns (measurements on a rotating frame,
-    exports in it); parameters: what the filter may estimate of the model; observability:
+    exports in it); parameters: what the filter may estimate of the model; integrator_order: the order of
+    the filter's fixed-step integrator (RK4: 4, RK8: 8), which dynamics.step_choice's error estimate needs; observability:
     analysis.observability can map its partials with this model's STM (the CRTBP's adaptive DOP853). How each
     side integrates, with its measured accuracy, is docs/model.md's."""
 
@@ -43,6 +44,7 @@ class Dynamics:
     rotating_frame: bool
     parameters: tuple[DynamicsParameter, ...] = ()
     observability: bool = False
+    integrator_order: int = 4  # the order of the filter's fixed-step integrator (dynamics.step_choice)
 
     def parameter(self, name: str) -> DynamicsParameter | None:
         return next((p for p in self.parameters if p.name == name), None)
@@ -59,6 +61,6 @@ CRTBP = Dynamics("crtbp", MODEL_CRTBP, "the Earth-Moon CRTBP, undated", dated=Fa
                  observability=True)
 
 EPHEMERIS = Dynamics("ephemeris", MODEL_EPHEMERIS, "DE421 point masses + SRP from ephemeris.epoch_utc", dated=True,
-                     rotating_frame=False, parameters=(CR,))
+                     rotating_frame=False, parameters=(CR,), integrator_order=8)
 
 DYNAMICS = {d.name: d for d in (CRTBP, EPHEMERIS)}

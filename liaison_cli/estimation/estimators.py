@@ -47,7 +47,8 @@ class FilterArrays:
 
     layout: StateLayout; P0, Q (n, n); known_states (m, K, 6), or (m, K, 9) with the accelerations a
     light-time TDoA reads (measurements.tdoa); channel_kind (C,), channel_ends (C, 4), channel_flags (C,),
-    channel_mod_index / channel_mod_coeff (C, M), sigma (C,); model / model_params: dynamics; dt_tu, substeps: step and RK4 substeps; divergence_position_lu: health bound.
+    channel_mod_index / channel_mod_coeff (C, M), sigma (C,); model / model_params: dynamics; dt_tu: the interval; substeps (B,): each block's integrator steps per interval
+    (spacecraft blocks; scenario.integration_steps); divergence_position_lu: health bound.
     """
 
     layout: StateLayout
@@ -63,7 +64,7 @@ class FilterArrays:
     model: int
     model_params: np.ndarray
     dt_tu: float
-    substeps: int
+    substeps: np.ndarray
     divergence_position_lu: float
     batch: BatchArrays | None = None
     underweight: float = 0.0  # Lear's gain underweighting (ekf.update_scalar)

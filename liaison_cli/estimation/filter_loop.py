@@ -141,11 +141,12 @@ def time_update(x_hat, x_bar, Phi, layout, model, dynamics, t_tu, y, work):
     moves its spacecraft (_empirical_update; spacecraft blocks come first in a layout, so their x_bar is there
     to add to). y (PROPAGATION_SIZE,) and work (5, STM_SIZE): scratch for the state + STM propagation."""
     block_kind, block_start, block_size, block_parameter = layout.kind, layout.start, layout.size, layout.parameter
-    model_params, dt_tu, substeps = dynamics.params, dynamics.dt_tu, dynamics.substeps
+    model_params, dt_tu = dynamics.params, dynamics.dt_tu
     empirical_tau_tu = dynamics.empirical_tau_tu
     for b in range(block_kind.shape[0]):
         a, size = block_start[b], block_size[b]
         if block_kind[b] == BLOCK_SPACECRAFT:
+            substeps = dynamics.substeps[b]  # this spacecraft's own step (scenario.integration_steps)
             p = block_parameter[b]
             if p >= 0:  # flown with its own parameter's value; the coupling column goes into Phi
                 propagate_parameter_into(model, model_params, x_hat[p], x_hat[a : a + 6], t_tu, dt_tu, substeps,

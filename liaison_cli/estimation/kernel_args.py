@@ -8,7 +8,7 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
   dynamics-parameter block start (-1: none), an empirical-acceleration block's spacecraft block start, -1 for
   every other block (estimation.blocks.StateLayout.arrays);
 - Dynamics: the model's parameter vector, the measurement interval dt_tu, the filter's propagation
-  substeps per interval, t0_tu, the time of epoch 0 from the model's origin, and empirical_tau_tu, the time
+  substeps per interval of each block (B,) (a spacecraft block's; scenario.integration_steps), t0_tu, the time of epoch 0 from the model's origin, and empirical_tau_tu, the time
   constant of the empirical-acceleration blocks (0: none; estimation.process_noise) (the model code itself goes
   first, on its own: read at run time, dynamics.model.propagate_state_stm_into);
 - EkfSettings: n_gain (states from it on are consider parameters, -1: none), n_nees (states the NEES
@@ -70,8 +70,10 @@ def channels_of(kind, ends, flags, mod_index, mod_coeff, sigma) -> Channels:
                     np.ascontiguousarray(mod_coeff, dtype=np.float64), np.ascontiguousarray(sigma, dtype=np.float64))
 
 
-def dynamics_of(params, dt_tu: float, substeps: int, t0_tu: float = 0.0, empirical_tau_tu: float = 0.0) -> Dynamics:
-    return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu), int(substeps), float(t0_tu),
+def dynamics_of(params, dt_tu: float, substeps, t0_tu: float = 0.0, empirical_tau_tu: float = 0.0) -> Dynamics:
+    """substeps: (B,) per block of the layout."""
+    return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu),
+                    np.ascontiguousarray(np.atleast_1d(substeps), dtype=np.int64), float(t0_tu),
                     float(empirical_tau_tu))
 
 

@@ -1,8 +1,8 @@
 """State-noise compensation (SNC) for a spacecraft's 6-state block: the process noise Q of one step dt.
 
 Two conventions, chosen per spacecraft by the scenario (FilterSpec.process_noise_of: a spacecraft's own key,
-else the filter's, else the default PSD):
-- A power spectral density q (m^2/s^3, `process_noise_psd_m2_s3`; the default, DEFAULT_PSD_M2_S3): an
+else the filter's, else a default PSD derived for the scenario: scenario.default_noise):
+- A power spectral density q (m^2/s^3, `process_noise_psd_m2_s3`; the default's convention): an
   acceleration that is white noise in continuous time, isotropic (the same q on every axis, so the same
   matrix in the inertial frame and in any rotated one such as radial / in-track / cross-track; a density per
   RIC axis is estimation.ric_noise's, rebuilt at every step), integrated exactly over the step through the double integrator
@@ -37,12 +37,6 @@ from scipy.linalg import expm
 
 PROCESS_NOISE_MODELS = ("continuous_white_acceleration", "velocity_only")
 
-# The PSD of a scenario that gives neither process-noise key (m^2/s^3). It adds sqrt(q * 86400 s) = 0.29 mm/s
-# of velocity 1-sigma per day per axis (and sqrt(q T^3 / 3) = 15 m of position over T = 1 d on its own), the
-# order of the velocity an unmodelled 1e-8 m/s^2 (a 10 % error of the SRP on a spacecraft of 0.02 m^2/kg,
-# C_R 1.3) builds in a day, 0.86 mm/s. It is also the order of the former default, sigma_a = 1e-7 m/s^2 at
-# 001's interval of 187.5 s: q = 1.9e-12, rounded down to its decade.
-DEFAULT_PSD_M2_S3 = 1e-12
 
 
 def psd_process_noise(q_m2_s3: float, dt_s: float, m_per_lu: float, m_s_per_vu: float) -> np.ndarray:

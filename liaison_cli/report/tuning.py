@@ -119,4 +119,9 @@ def format_ladder(table: pd.DataFrame) -> str:
         lines.append(f"{row['scenario']}: its process noise is a PSD; the chosen rung is "
                      f"filter.process_noise_psd_m2_s3: {row['psd_m2_s3']:.3g} (m^2/s^3, the same Q as sigma_a "
                      f"{row['snc_m_s2']:g} m/s^2 under the continuous white-acceleration model)")
+    for row in table[table.chosen & (table.get("ladder_key", "") == "filter.process_noise_psd_ric_m2_s3")
+                     ].drop_duplicates("scenario").to_dict("records"):  # RIC densities: the triple to give
+        lines.append(f"{row['scenario']}: its process noise is a PSD per RIC axis; the chosen rung is "
+                     f"filter.process_noise_psd_ric_m2_s3: [{', '.join(f'{q:.3g}' for q in row['ric_m2_s3'])}] "
+                     f"(m^2/s^3, in the scenario's proportions; the largest {row['psd_m2_s3']:.3g})")
     return "\n".join(lines)

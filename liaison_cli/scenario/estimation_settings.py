@@ -6,7 +6,7 @@ from typing import Annotated, ClassVar, Literal
 from pydantic import ConfigDict, Field, model_validator
 
 from liaison_cli.dynamics.registry import DYNAMICS
-from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3
+from liaison_cli.dynamics.step_choice import DEFAULT_TOLERANCE_M
 from liaison_cli.scenario.schema_rules import Rule, at_least, check_rules, equals, given, schema_rules, when
 from liaison_cli.scenario.spec_base import ONE_PROCESS_NOISE_CONVENTION, RicDensities, StrictModel
 
@@ -68,7 +68,9 @@ class FilterSpec(StrictModel):
         "every axis of every frame (isotropic: inertial and radial / in-track / cross-track alike; a PSD per RIC "
         "axis: process_noise_psd_ric_m2_s3), for every spacecraft (a spacecraft's own key overrides it): Q = q [[dt^3/3, dt^2/2], "
         "[dt^2/2, dt]] per axis, so the noise per day does not depend on measurement.interval_s. Not with "
-        f"process_noise_accel_m_s2; neither given: {DEFAULT_PSD_M2_S3:g} (m^2/s^3)")
+        "process_noise_accel_m_s2; neither given (here or on the spacecraft): a PSD derived for the scenario, a "
+        "floor of 3e-18 plus what the truth holds that the filter does not model (scenario.default_noise) "
+        "(m^2/s^3)")
     process_noise_accel_m_s2: float | None = Field(
         None, ge=0, description="per-step sigma_a: q = sigma_a^2 dt, dt the measurement interval — the convention "
         "of 001/003/004's reproductions (the noise per day grows with measurement.interval_s), for every "
@@ -86,8 +88,13 @@ class FilterSpec(StrictModel):
         100.0, ge=1, description="a run whose NEES stays above this many times its 99.9 % chi-square quantile "
         "for divergence_window_days is diverged (dimensionless)")
     divergence_window_days: float = Field(1.0, gt=0, description="see divergence_nees_factor (days)")
-    rk4_substeps: int = Field(4, ge=1, le=256, description="RK4 steps of the filter's propagation per "
-                              "measurement interval (count)")
+    rk4_substeps: int | None = Field(None, ge=1, le=256, description="steps of the filter's integrator (RK4; "
+                                     "RK8 with dynamics: ephemeris) per measurement interval, for every spacecraft; "
+                                     "absent: chosen per spacecraft by accuracy (integration_tolerance_m) (count)")
+    integration_tolerance_m: float = Field(
+        DEFAULT_TOLERANCE_M, gt=0, le=1000, description="without rk4_substeps: each spacecraft's substeps are the "
+        "fewest (at least 4) whose one-interval error along the nominal trajectory, position or velocity x "
+        "interval, stays within this (dynamics.step_choice) (m)")
     range_model: Literal["geometric", "light_time"] | None = Field(
         None, description="the filter's range model: light_time (each path with its light time, tagged at "
         "reception as the truth is) or geometric (001 Eq. 17: the instantaneous distance at the reception epoch; "
@@ -160,15 +167,15 @@ class FilterSpec(StrictModel):
     def _rules(self):
         return check_rules(self, self.RULES)
 
-    def process_noise_of(self, spacecraft) -> tuple[str, float | tuple]:
+    def process_noise_of(self, spacecraft) -> tuple[str, float | tuple | None]:
         """(PROCESS_NOISE_PSD, q in m^2/s^3), (PROCESS_NOISE_PSD_RIC, (q_R, q_I, q_C) in m^2/s^3) or
-        (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its own key, else the filter's, else the
-        default PSD (estimation.process_noise)."""
+        (PROCESS_NOISE_SIGMA_A, sigma_a in m/s^2) for a spacecraft: its own key, else the filter's; neither
+        given: (PROCESS_NOISE_PSD, None), the PSD derived for the scenario at setup (scenario.default_noise)."""
         for section in (spacecraft, self):
             for key in (PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A):
                 if getattr(section, key) is not None:
                     return key, getattr(section, key)
-        return PROCESS_NOISE_PSD, DEFAULT_PSD_M2_S3
+        return PROCESS_NOISE_PSD, None
 
     def uses_ric_process_noise(self, spacecraft_list) -> bool:
         """Whether an estimated spacecraft of the list takes its process noise per RIC axis."""

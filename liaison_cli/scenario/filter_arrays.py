@@ -25,6 +25,8 @@ from liaison_cli.estimation.process_noise import (coupled_process_noise, gauss_m
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A
+from liaison_cli.scenario.default_noise import default_psd
+from liaison_cli.scenario.integration_steps import step_choices, substeps_per_block
 from liaison_cli.scenario.links import link_label
 from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.scenario.truth import burn_step, link_observables
@@ -161,8 +163,9 @@ def biased_filter_params(scenario: Scenario, model, cr_draw: float = 0.0, moon_g
     return model.scaled_filter_params(cr_factor, gm_factor)
 
 
-def _matrices(scenario: Scenario, layout: StateLayout):
-    """P0 and Q (n, n), block by block."""
+def _matrices(scenario: Scenario, layout: StateLayout, defaults: dict):
+    """P0 and Q (n, n), block by block; defaults: {spacecraft: DefaultNoise} for those that name no process
+    noise (scenario.default_noise)."""
     n = layout.n
     P0, Q = np.zeros((n, n)), np.zeros((n, n))
     flt = scenario.filter
@@ -177,6 +180,8 @@ def _matrices(scenario: Scenario, layout: StateLayout):
             # State-noise compensation (estimation.process_noise): a PSD, or the papers' per-step sigma_a.
             # A PSD per RIC axis is added at each step in the frame of the moment (_ric_noise).
             convention, value = flt.process_noise_of(by_name[block.owner])
+            if value is None:  # the derived default; none for an estimator without process noise (the batch)
+                value = defaults[block.owner].psd_m2_s3 if block.owner in defaults else 0.0
             if convention == PROCESS_NOISE_PSD:
                 Q[s, s] = psd_process_noise(value, interval_s, M_PER_LU, M_S_PER_VU)
             elif convention == PROCESS_NOISE_SIGMA_A:
@@ -342,6 +347,8 @@ class EstimatorSetup:
     layout: StateLayout
     channels: tuple[Channel, ...]
     manoeuvres: tuple
+    step_choices: dict  # {estimated spacecraft: dynamics.step_choice.StepChoice}
+    default_noises: dict  # {estimated spacecraft naming no process noise: scenario.default_noise.DefaultNoise}
 
 
 def _initial_batch(scenario: Scenario) -> InitialBatchSettings | None:
@@ -368,18 +375,21 @@ def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajector
     layout = state_layout(scenario)
     burns, manoeuvres = _manoeuvres(scenario, layout)
     channels = _channels(scenario)
-    P0, Q = _matrices(scenario, layout)
+    defaults = default_noises(scenario, model, times_s, trajectories)
+    P0, Q = _matrices(scenario, layout, defaults)
     ric_noise, primaries = _ric_noise(scenario, layout, model, times_s)
     ends, flags, mod_index, mod_coeff = _channel_tables(scenario, channels, layout, index_of_known)
     if model.rotating_frame:
         flags |= FLAG_ROTATING_FRAME
     flt = scenario.filter
+    dt_tu = scenario.measurement.interval_s / TU_S
+    choices = step_choices(scenario, model, dt_tu, trajectories)
     arrays = FilterArrays(
         layout=layout, P0=P0, Q=Q, known_states=known_states,
         channel_kind=np.array([ch.kind for ch in channels], dtype=np.int64), channel_ends=ends,
         channel_flags=flags, channel_mod_index=mod_index, channel_mod_coeff=mod_coeff,
         sigma=_channel_sigmas(scenario, channels), model=model.code, model_params=biased_filter_params(scenario, model),
-        dt_tu=scenario.measurement.interval_s / TU_S, substeps=flt.rk4_substeps,
+        dt_tu=dt_tu, substeps=substeps_per_block(layout, choices),
         divergence_position_lu=flt.divergence_position_km / LU_KM, underweight=flt.underweighting, burns=burns,
         residual_gate_sigma=flt.residual_gate_sigma or 0.0, residual_gate_after=flt.residual_gate_after,
         smoother=flt.smoother == "rts",
@@ -389,4 +399,14 @@ def estimator_setup(scenario: Scenario, model: DynamicsModel, times_s, trajector
                           if flt.empirical_acceleration is not None else 0.0),
         ric_noise=ric_noise, primaries=primaries,
     )
-    return EstimatorSetup(arrays, layout, tuple(channels), manoeuvres)
+    return EstimatorSetup(arrays, layout, tuple(channels), manoeuvres, choices, defaults)
+
+
+def default_noises(scenario: Scenario, model: DynamicsModel, times_s, trajectories) -> dict:
+    """{estimated spacecraft that names no process noise: its derived default} (scenario.default_noise); none for
+    an estimator without process noise (the batch)."""
+    if not scenario.estimator_descriptor().process_noise:
+        return {}
+    flt = scenario.filter
+    return {sc.name: default_psd(scenario, model, trajectories[sc.name].states, times_s)
+            for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[1] is None}

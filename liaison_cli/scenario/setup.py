@@ -63,6 +63,10 @@ class Problem:
     # the nominal trajectories of the participants it leaves alone (known spacecraft, ground stations), which
     # the workers receive with the problem; else None.
     unforced: dict | None = None
+    # Each estimated spacecraft's integration step: {name: dynamics.step_choice.StepChoice}.
+    step_choices: dict | None = None
+    # The derived default process noise of the estimated spacecraft that name none: {name: DefaultNoise}.
+    default_noises: dict | None = None
 
     @property
     def n_spacecraft(self) -> int:
@@ -131,4 +135,6 @@ def prepare_problem(scenario: Scenario, truth_cache: dict | None = None) -> Prob
         observed=observed_measurements(scenario, estimator.channels, times_s, model),
         unforced=(unforced_participants(scenario, trajectories)
                   if scenario.model_error.truth_acceleration_sigma_m_s2 > 0.0 else None),
+        step_choices=estimator.step_choices,
+        default_noises=estimator.default_noises,
     )

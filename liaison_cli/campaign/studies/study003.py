@@ -102,6 +102,8 @@ def with_dsn_noise(scenario: Scenario, reading: str) -> Scenario:
 
 def _number_text(value) -> str:
     """A density or sigma_a as %g, or a RIC triple as [q_R, q_I, q_C]."""
+    if value is None:
+        return "the derived default"
     return f"[{', '.join(f'{q:g}' for q in value)}]" if isinstance(value, tuple) else f"{value:g}"
 
 

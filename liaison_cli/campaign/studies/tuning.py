@@ -9,8 +9,11 @@ The rule, for one EKF scenario:
   default: the templates' and an untuned scenario's) is laddered in its own convention: each rung sigma_a sets
   `filter.process_noise_psd_m2_s3` to q = sigma_a^2 dt (dt the measurement interval), the same Q as the
   per-step sigma_a under the continuous white-acceleration model (estimation.process_noise), so the rule, its
-  ladder and its table are the same; the table gives each rung's q (psd_m2_s3) beside it. A PSD per RIC axis
-  is refused before anything runs (psd_refusal): one scale does not ladder three densities.
+  ladder and its table are the same; the table gives each rung's q (psd_m2_s3) beside it. One whose estimated
+  spacecraft all take a PSD per RIC axis in the same proportions (ric_shape) is laddered in that key: each
+  rung sets `filter.process_noise_psd_ric_m2_s3` to q times the proportions, q = sigma_a^2 dt the largest
+  axis's density (psd_m2_s3 in the table). RIC densities in different proportions are refused before anything
+  runs (psd_refusal): one scale does not ladder them.
 - Runs: each rung is a Monte Carlo campaign of `runs` runs (default DEFAULT_RUNS = 20) over the scenario's
   whole arc, seeded from the scenario seed and the run index, so every rung sees the same initial errors and
   measurement noise (common random numbers: a difference between rungs is the process noise's, not luck's).
@@ -73,6 +76,7 @@ from liaison_cli.storage import resumable_output
 
 SNC_KEY = "filter.process_noise_accel_m_s2"
 PSD_KEY = f"filter.{PROCESS_NOISE_PSD}"
+PSD_RIC_KEY = f"filter.{PROCESS_NOISE_PSD_RIC}"
 RULE_NEES_SHARE = 0.90  # the rule's margin over the verdict's NEES_REQUIRED_SHARE (module docstring)
 LADDER_FLOOR_M_S2 = 1e-13  # the default ladder extends no lower than this when its lowest rung is pessimistic
 DEFAULT_RUNS = 20
@@ -158,11 +162,27 @@ def takes_psd(scenario: Scenario) -> bool:
     return bool(estimated) and all(scenario.filter.process_noise_of(sc)[0] == PROCESS_NOISE_PSD for sc in estimated)
 
 
+def ric_shape(scenario: Scenario) -> tuple[float, float, float] | None:
+    """The common shape (q_R, q_I, q_C) / max of the RIC densities when every estimated spacecraft takes a PSD
+    per RIC axis and all in the same proportions (the ladder then scales them together); else None."""
+    if not scenario.estimator_descriptor().process_noise:
+        return None
+    settings = [scenario.filter.process_noise_of(sc) for sc in scenario.spacecraft if sc.role == "estimated"]
+    if not settings or any(key != PROCESS_NOISE_PSD_RIC for key, _ in settings):
+        return None
+    shapes = {tuple(float(q) / max(value) for q in value) if max(value) > 0 else None for _, value in settings}
+    return shapes.pop() if len(shapes) == 1 and None not in shapes else None
+
+
 def rung_setting(scenario: Scenario) -> tuple[str, callable]:
-    """(the key a rung sets, sigma_a m/s^2 -> its value): sigma_a itself, or for a PSD scenario q = sigma_a^2 dt."""
+    """(the key a rung sets, sigma_a m/s^2 -> its value): sigma_a itself; for an isotropic PSD scenario
+    q = sigma_a^2 dt; for a RIC PSD scenario the triple of that largest density in the scenario's proportions."""
+    interval_s = scenario.measurement.interval_s
     if takes_psd(scenario):
-        interval_s = scenario.measurement.interval_s
         return PSD_KEY, lambda sigma_a: sigma_a * sigma_a * interval_s
+    shape = ric_shape(scenario)
+    if shape is not None:
+        return PSD_RIC_KEY, lambda sigma_a: tuple(sigma_a * sigma_a * interval_s * part for part in shape)
     return SNC_KEY, lambda sigma_a: sigma_a
 
 
@@ -188,11 +208,12 @@ def psd_refusal(label: str, scenario: Scenario) -> str | None:
         return None
     flt = scenario.filter
     ric = [sc for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[0] == PROCESS_NOISE_PSD_RIC]
-    if not ric:
+    if not ric or ric_shape(scenario) is not None:
         return None
     return (f"{label}: the process noise of {', '.join(sc.name for sc in ric)} is a PSD per RIC axis "
-            f"({PROCESS_NOISE_PSD_RIC}), and `liaison tune` ladders one scale; allowed: filter.{PROCESS_NOISE_PSD} "
-            f"(an isotropic PSD) or filter.{PROCESS_NOISE_SIGMA_A} for every estimated spacecraft")
+            f"({PROCESS_NOISE_PSD_RIC}) that is not one shape for every estimated spacecraft, and `liaison tune` "
+            f"ladders one scale; allowed: the same {PROCESS_NOISE_PSD_RIC} proportions for every estimated "
+            f"spacecraft, filter.{PROCESS_NOISE_PSD} (an isotropic PSD) or filter.{PROCESS_NOISE_SIGMA_A}")
 
 
 def ladder_base(scenario: Scenario, ladder) -> Scenario:
@@ -204,14 +225,17 @@ def ladder_base(scenario: Scenario, ladder) -> Scenario:
 
 def shipped_snc(scenario: Scenario) -> dict:
     """{estimated spacecraft: its sigma_a as shipped} (its own value, else the filter's; an isotropic PSD q as the
-    sigma_a of the same Q, sqrt(q / dt)); None where there is neither (a PSD per RIC axis, a batch)."""
+    sigma_a of the same Q, sqrt(q / dt); a PSD per RIC axis as that of its largest density); None where there is
+    neither (the derived default, a batch)."""
     settings = {sc.name: scenario.filter.process_noise_of(sc) for sc in scenario.spacecraft if sc.role == "estimated"}
     if not scenario.estimator_descriptor().process_noise:  # a batch: its key as given, no PSD converted
         return {name: (value if convention == PROCESS_NOISE_SIGMA_A else None)
                 for name, (convention, value) in settings.items()}
     interval_s = scenario.measurement.interval_s
     return {name: (value if convention == PROCESS_NOISE_SIGMA_A else
-                   float(np.sqrt(value / interval_s)) if convention == PROCESS_NOISE_PSD else None)
+                   float(np.sqrt(value / interval_s)) if convention == PROCESS_NOISE_PSD and value is not None
+                   else float(np.sqrt(max(value) / interval_s)) if convention == PROCESS_NOISE_PSD_RIC
+                   else None)
             for name, (convention, value) in settings.items()}
 
 
@@ -343,6 +367,8 @@ def tune_case(case: TuningCase, ladder, runs: int, work: Path, jobs: int = 1, pr
             snc = shipped[row["spacecraft"]] if setting == "shipped" else value
             rows.append({"scenario": case.label, "setting": setting, "spacecraft": row["spacecraft"],
                          "snc_m_s2": snc, "psd_m2_s3": _psd(snc, scenario.measurement.interval_s),
+                         "ric_m2_s3": (rung_setting(scenario)[1](snc) if ric_shape(scenario) is not None
+                                       and snc is not None else None),
                          "ladder_key": rung_setting(scenario)[0], "settle_days": scenario.settle_days(),
                          "chosen": setting == "rung" and value == chosen, "verdict": verdict,
                          "shipped_passes_rule": shipped_passes,
@@ -362,16 +388,22 @@ def _rung_sweep(case: TuningCase, base: Scenario, values, estimated, runs: int, 
     """One sweep over the rungs `values` -> ([(rung, its estimated spacecraft's statistics)], the statistics of
     the rung that is the shipped scenario itself, or None)."""
     key, value_of = rung_setting(case.scenario)
-    rung_of = {value_of(v): v for v in values}
-    plan, table = _run_point_sweep(case, base, [(key, list(rung_of))], runs, folder, jobs, progress, where)
+    rung_of = {_hashable(value_of(v)): v for v in values}
+    plan, table = _run_point_sweep(case, base, [(key, [list(k) if isinstance(k, tuple) else k for k in rung_of])],
+                                   runs, folder, jobs, progress, where)
     stats = rung_statistics(table)
     shipped_hash, rungs, shipped = scenario_hash(case.scenario), [], None
     for point in plan.points:
         mine = stats[(stats.point == point.index) & stats.spacecraft.isin(estimated)]
-        rungs.append((rung_of[dict(point.overrides)[key]], mine))
+        rungs.append((rung_of[_hashable(dict(point.overrides)[key])], mine))
         if point.point_hash == shipped_hash:  # the shipped settings are this rung: no second campaign
             shipped = mine
     return rungs, shipped
+
+
+def _hashable(value):
+    """A rung's value as a dict key: a RIC triple (a list after the sweep plan's round trip) as a tuple."""
+    return tuple(float(v) for v in value) if isinstance(value, (list, tuple)) else value
 
 
 def _climb(run_rungs, ladder, extend_below: bool):

@@ -79,3 +79,28 @@ def test_the_headline_scenario_is_told_to_fly_the_light_time_range_model(tmp_pat
     assert proc.returncode == 0, proc.stderr
     lines = [line for line in proc.stdout.splitlines() if line.startswith("advice: ")]
     assert any("filter.range_model: light_time" in line for line in lines), proc.stdout
+
+
+def test_a_fixed_step_short_of_the_tolerance_is_named_before_more_process_noise(tmp_path):
+    """A 100 km lunar orbit at 600 s with the former fixed 4 substeps: every run diverges, and the advice names
+    filter.rk4_substeps with the count the tolerance asks (not the process noise); without the key the same
+    formation is consistent."""
+    text = "\n".join([
+        "name: fixed_step", "duration_days: 6",
+        "spacecraft:", "  - {name: DRO, orbit: dro, period_days: 14.0}",
+        "  - name: LLO", "    orbit: lunar_keplerian",
+        "    elements: {a_km: 1837.4, e: 0.0, i_deg: 90, raan_deg: 30, argp_deg: 0, ta_deg: 0}",
+        "links:", "  - {receiver: DRO, transponder: LLO, observables: [range, range_rate]}",
+        "measurement: {interval_s: 600}", "noise: {sigma_m: 5.0, range_rate_sigma_m_s: 0.001}",
+        "monte_carlo: {runs: 4, seed: 11}", ""])
+    fixed = tmp_path / "fixed_step.yaml"
+    fixed.write_text(text + "filter: {rk4_substeps: 4}\n")
+    proc = run_cli_in_process("run", fixed, "--jobs", "1", "--output", tmp_path / "fixed")
+    advice = [line for line in proc.stdout.splitlines() if line.startswith("advice: ")]
+    assert "0/4 runs ok" in proc.stdout
+    assert len(advice) == 1 and "integration step is too long for LLO (needs" in advice[0]
+    assert "remove filter.rk4_substeps" in advice[0]
+    chosen = tmp_path / "chosen.yaml"
+    chosen.write_text(text)
+    proc = run_cli_in_process("run", chosen, "--jobs", "1", "--output", tmp_path / "chosen")
+    assert proc.returncode == 0 and "4/4 runs ok" in proc.stdout and "advice: " not in proc.stdout

@@ -153,20 +153,48 @@ def test_a_psd_scenario_is_laddered_in_its_own_key_with_the_same_q_as_sigma_a():
                                 "filter.process_noise_model": "continuous_white_acceleration"})
     q_psd, q_snc = prepare_problem(rung).filter.Q, prepare_problem(snc).filter.Q
     np.testing.assert_allclose(q_psd, q_snc, rtol=1e-12, atol=0)
-    assert shipped_snc(psd)["EML2"] == pytest.approx(np.sqrt(1e-12 / dt))
+    assert shipped_snc(psd)["EML2"] is None  # the default is derived per scenario at setup (scenario.default_noise)
+    given = apply_overrides(psd, {"filter.process_noise_psd_m2_s3": 1e-12})
+    assert shipped_snc(given)["EML2"] == pytest.approx(np.sqrt(1e-12 / dt))
 
 
-def test_a_psd_per_ric_axis_is_refused_in_one_line(tmp_path):
-    """One scale does not ladder three densities: a RIC PSD is refused before anything runs, naming what is
-    allowed."""
+def test_ric_densities_in_different_proportions_are_refused_in_one_line(tmp_path):
+    """One scale does not ladder two shapes: RIC PSDs whose proportions differ between spacecraft are refused
+    before anything runs, naming what is allowed."""
     text = (SCENARIOS / "smoke.yaml").read_text()
     assert text.count("process_noise_accel_m_s2: 1.0e-10") == 2
     path = tmp_path / "ric_smoke.yaml"
     path.write_text(text.replace("process_noise_accel_m_s2: 1.0e-10",
-                                 "process_noise_psd_ric_m2_s3: [1.0e-12, 1.0e-12, 1.0e-12]"))
+                                 "process_noise_psd_ric_m2_s3: [1.0e-12, 1.0e-12, 1.0e-12]", 1)
+                    .replace("process_noise_accel_m_s2: 1.0e-10", "process_noise_psd_ric_m2_s3: [1.0e-13, 1.0e-12, 0]"))
     proc = cli("tune", path, "--runs", "1", "--work", tmp_path / "work", "--table", tmp_path / "t.md")
-    assert_one_line_error(proc, "ric_smoke", ["per RIC axis", "filter.process_noise_psd_m2_s3"])
+    assert_one_line_error(proc, "ric_smoke", ["per RIC axis", "proportions", "filter.process_noise_psd_m2_s3"])
     assert not (tmp_path / "work").exists()
+
+
+def test_ric_densities_in_one_proportion_are_laddered_in_their_own_key(tmp_path):
+    """Every estimated spacecraft's RIC PSD in the same proportions: each rung sets
+    filter.process_noise_psd_ric_m2_s3 to q = sigma_a^2 dt times the proportions (the largest axis at q), the
+    spacecraft keys removed; the text names the triple to set."""
+    text = (SCENARIOS / "smoke.yaml").read_text()
+    path = tmp_path / "ric_smoke.yaml"
+    path.write_text(text.replace("process_noise_accel_m_s2: 1.0e-10", "process_noise_psd_ric_m2_s3: [1.0e-13, 1.0e-12, 5.0e-13]"))
+    scenario = load_scenario(path)[0]
+    dt = scenario.measurement.interval_s
+    grid = dict(ladder_grid(scenario, (1e-9, 1e-8)))
+    assert grid["filter.process_noise_psd_ric_m2_s3"] == [
+        pytest.approx((1e-19 * dt, 1e-18 * dt, 5e-19 * dt)), pytest.approx((1e-17 * dt, 1e-16 * dt, 5e-17 * dt))]
+    assert grid["spacecraft.0.process_noise_psd_ric_m2_s3"] == [None]
+    table = tmp_path / "t.md"
+    proc = cli("tune", path, "--ladder", "1e-7,1e-6", "--runs", "4", "--jobs", "1", "--work", tmp_path / "work",
+               "--table", table)
+    assert proc.returncode == 0, proc.stderr
+    frame = pd.read_parquet(table.with_suffix(".parquet"))
+    assert set(frame[frame.setting == "rung"].ladder_key) == {"filter.process_noise_psd_ric_m2_s3"}
+    chosen = frame[frame.chosen].iloc[0]  # on these 4 runs 1e-6 passes (1e-7 is optimistic for the orbiter)
+    q = chosen.snc_m_s2**2 * dt
+    np.testing.assert_allclose(list(chosen.ric_m2_s3), [0.1 * q, q, 0.5 * q], rtol=1e-12)
+    assert f"filter.process_noise_psd_ric_m2_s3: [{0.1 * q:.3g}, {q:.3g}, {0.5 * q:.3g}]" in proc.stdout
 
 
 def test_a_template_with_a_psd_is_tuned_and_the_table_gives_the_psd_to_set(tmp_path):

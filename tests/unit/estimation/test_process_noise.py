@@ -4,7 +4,7 @@ of estimation.process_noise, against the continuous-time integral it discretises
 import numpy as np
 import pytest
 
-from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3, psd_process_noise, spacecraft_process_noise
+from liaison_cli.estimation.process_noise import psd_process_noise, spacecraft_process_noise
 
 SIGMA_A, DT = 1e-6, 187.5  # m/s^2, s (the lunar orbiter of eml2_lunar)
 
@@ -90,9 +90,3 @@ def test_the_variance_per_day_of_a_psd_does_not_depend_on_the_interval_but_sigma
 def test_the_continuous_sigma_a_form_is_the_psd_of_sigma_a_squared_dt():
     np.testing.assert_allclose(spacecraft_process_noise(SIGMA_A, DT, "continuous_white_acceleration", 1.0, 1.0),
                                psd_process_noise(SIGMA_A**2 * DT, DT, 1.0, 1.0), rtol=1e-14, atol=0)
-
-
-def test_the_default_psd_adds_its_stated_velocity_sigma_per_day():
-    """DEFAULT_PSD_M2_S3's comment: 0.29 mm/s of velocity and about 15 m of position 1-sigma per axis per day."""
-    P = _after(psd_process_noise(DEFAULT_PSD_M2_S3, 600.0, 1.0, 1.0), 600.0, DAY_S)
-    assert np.sqrt(P[3, 3]) == pytest.approx(2.94e-4, rel=1e-2) and np.sqrt(P[0, 0]) == pytest.approx(14.7, rel=1e-2)

@@ -7,9 +7,10 @@ import pytest
 from liaison_cli.campaign.studies.study003 import process_noise_text
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.errors import ScenarioError
-from liaison_cli.estimation.process_noise import DEFAULT_PSD_M2_S3, psd_process_noise, spacecraft_process_noise
+from liaison_cli.estimation.process_noise import psd_process_noise, spacecraft_process_noise
+from liaison_cli.scenario.default_noise import FLOOR_PSD_M2_S3
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_SIGMA_A
-from liaison_cli.scenario.filter_arrays import _matrices, state_layout
+from liaison_cli.scenario.setup import prepare_problem
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.templates import TEMPLATE_DIR, TEMPLATES
 from tests.conftest import SCENARIOS
@@ -26,7 +27,7 @@ def smoke():
 
 def _blocks(scenario):
     """Per estimated spacecraft, its 6 x 6 Q block in SI units (m, m/s)."""
-    Q = _matrices(scenario, state_layout(scenario))[1]
+    Q = prepare_problem(scenario).filter.Q
     scale = np.array([M_PER_LU] * 3 + [M_S_PER_VU] * 3)
     return [Q[a:a + 6, a:a + 6] * np.outer(scale, scale) for a in range(0, 12, 6)]
 
@@ -39,11 +40,11 @@ def _sigma_a(sigma_a, scenario, model="continuous_white_acceleration"):
     return spacecraft_process_noise(sigma_a, scenario.measurement.interval_s, model, 1.0, 1.0)
 
 
-def test_neither_key_gives_the_default_psd(smoke):
+def test_neither_key_gives_the_derived_default_psd_the_floor_without_model_error(smoke):
     scenario = apply_overrides(smoke, BARE)
     assert scenario.filter.process_noise_accel_m_s2 is None and scenario.filter.process_noise_psd_m2_s3 is None
     for block in _blocks(scenario):
-        np.testing.assert_allclose(block, _psd(DEFAULT_PSD_M2_S3, scenario), rtol=1e-12, atol=0)
+        np.testing.assert_allclose(block, _psd(FLOOR_PSD_M2_S3, scenario), rtol=1e-12, atol=0)
 
 
 def test_each_filter_key_gives_its_convention_and_velocity_only_applies_to_sigma_a_only(smoke):

@@ -1,0 +1,86 @@
+"""The default process noise of a spacecraft that names none (issue 50 item 2): a PSD derived from what the
+truth holds that the filter's model does not, plus a measured floor, instead of one constant for every scenario.
+
+q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum of
+- the floor, FLOOR_PSD_M2_S3: what a filter whose model is the truth's still needs, for its own linearisation
+  and arithmetic. Measured on five formations nobody tuned (tests' and benchmarks/untuned_formations.py's:
+  DRO + 100 km lunar orbit, NRHO + elliptical lunar orbit, L1 halo + lunar orbit, L2 halo + 200 km lunar orbit,
+  DRO + Lyapunov + elliptical orbit; 60, 300 and 600 s; the step chosen by accuracy): every one is consistent
+  from 1e-18 to 1e-17 except the DRO + 100 km orbit at 60 s, optimistic at 1e-18, and pessimistic from about
+  1e-16 (the 200 km orbit at 300 s: 83 % of settled epochs in the NEES band). The floor sits inside that window,
+  a factor 3 from its lower end and 30 from its upper one.
+- a declared random truth force (model_error.truth_acceleration_sigma_m_s2, time constant tau) that the filter
+  does not carry as empirical-acceleration states: its low-frequency density 2 sigma^2 tau (a first-order
+  Gauss-Markov process's spectrum at zero frequency);
+- every deterministic force the filter's model lacks or has wrong, evaluated along the spacecraft's nominal
+  trajectory: the truth's constant unmodelled acceleration, the lunar GM's and C_R's errors (bias and drawn
+  sigma together, sqrt(bias^2 + sigma^2)) and, in the dated model, the bodies the filter leaves out. A slowly
+  varying force has no white density of its own; it is taken as a Gauss-Markov process of that RMS and the
+  settle time's correlation (the time after which the filter's consistency is judged): 2 a_rms^2 T_settle.
+Each part is kept so the run can say where the default came from (describe).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from liaison_cli.dynamics.constants import M_S2_PER_AU, SECONDS_PER_DAY, TU_S
+from liaison_cli.scenario.scenario_model import Scenario
+
+FLOOR_PSD_M2_S3 = 3e-18
+MAX_SAMPLES = 500  # trajectory samples for the unmodelled forces' RMS
+
+
+@dataclass(frozen=True)
+class DefaultNoise:
+    """A spacecraft's default PSD (m^2/s^3) and its parts {what: q}."""
+
+    psd_m2_s3: float
+    parts: dict
+
+
+def _samples(m: int) -> np.ndarray:
+    return np.unique(np.linspace(0, m - 1, min(m, MAX_SAMPLES)).astype(np.int64))
+
+
+def _unmodelled_rms_m_s2(scenario: Scenario, model, states, times_s) -> float:
+    """RMS over the sampled trajectory of |truth field - filter field + truth's unmodelled acceleration|, m/s^2."""
+    error = scenario.model_error
+    cr_factor = 1.0 + float(np.hypot(error.cr_bias, error.cr_sigma))
+    gm_factor = 1.0 + float(np.hypot(error.moon_gm_bias, error.moon_gm_sigma))
+    if model.descriptor.parameter("cr") is None:
+        cr_factor = 1.0
+    filter_params = (model.scaled_filter_params(cr_factor, gm_factor) if (cr_factor, gm_factor) != (1.0, 1.0)
+                     else model.filter_params)
+    unmodelled = model.unmodelled_acceleration_lu_tu2
+    if filter_params is model.params and not np.any(unmodelled):
+        return 0.0
+    k = _samples(len(times_s))
+    times_tu = (np.asarray(times_s, dtype=float)[k] - float(times_s[0])) / TU_S
+    difference = (model.field_accelerations(model.params, states[k], times_tu)
+                  - model.field_accelerations(filter_params, states[k], times_tu) + unmodelled)
+    return float(np.sqrt(np.mean(np.sum(difference**2, axis=1)))) * M_S2_PER_AU
+
+
+def default_psd(scenario: Scenario, model, states, times_s) -> DefaultNoise:
+    """The default PSD of an estimated spacecraft flying states (m, 6) (filter units) at times_s (module
+    docstring)."""
+    parts = {"floor": FLOOR_PSD_M2_S3}
+    error = scenario.model_error
+    if error.truth_acceleration_sigma_m_s2 > 0.0 and scenario.filter.empirical_acceleration is None:
+        parts["model_error random force"] = (2.0 * error.truth_acceleration_sigma_m_s2**2
+                                             * error.truth_acceleration_time_constant_s)
+    rms = _unmodelled_rms_m_s2(scenario, model, states, times_s)
+    if rms > 0.0:
+        parts["unmodelled forces"] = 2.0 * rms**2 * scenario.settle_days() * SECONDS_PER_DAY
+    return DefaultNoise(float(sum(parts.values())), parts)
+
+
+def describe(defaults: dict) -> str:
+    """One line for the run text: the spacecraft that take the default and where it came from."""
+    phrases = []
+    for name, noise in defaults.items():
+        parts = " + ".join(f"{what} {q:.2g}" for what, q in noise.parts.items())
+        phrases.append(f"{name} {noise.psd_m2_s3:.2g}" + (f" ({parts})" if len(noise.parts) > 1 else ""))
+    return (f"process noise: default PSD, m^2/s^3: {'; '.join(phrases)} (the floor for the filter's own "
+            "linearisation, plus what the truth holds that the filter does not model; a process-noise key overrides)")

@@ -1,0 +1,50 @@
+"""Each estimated spacecraft's integration step (substeps per measurement interval) for a scenario: the key
+`filter.rk4_substeps` when given (every spacecraft alike), else chosen by accuracy along the spacecraft's
+nominal trajectory (dynamics.step_choice, to `filter.integration_tolerance_m`), and the per-block array the
+compiled time update reads (kernel_args.Dynamics.substeps)."""
+
+import numpy as np
+
+from liaison_cli.dynamics.constants import M_PER_LU
+from liaison_cli.dynamics.model import DynamicsModel
+from liaison_cli.dynamics.step_choice import StepChoice, choose_substeps
+from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
+from liaison_cli.scenario.scenario_model import Scenario
+
+SUBSTEPS_KEY = "filter.rk4_substeps"
+
+
+def step_choices(scenario: Scenario, model: DynamicsModel, dt_tu: float, trajectories) -> dict[str, StepChoice]:
+    """{estimated spacecraft: its StepChoice}, in the scenario's order."""
+    flt = scenario.filter
+    names = [sc.name for sc in scenario.spacecraft if sc.role == "estimated"]
+    params = model.filter_params
+    order = model.descriptor.integrator_order
+    tolerance_lu = flt.integration_tolerance_m / M_PER_LU
+    chosen = {name: choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu)
+              for name in names}
+    if flt.rk4_substeps is None:
+        return chosen
+    return {name: StepChoice(int(flt.rk4_substeps), float("nan"), True, SUBSTEPS_KEY, choice.substeps)
+            for name, choice in chosen.items()}
+
+
+def substeps_per_block(layout: StateLayout, choices: dict[str, StepChoice]) -> np.ndarray:
+    """(B,) int64: each spacecraft block's substeps, 1 for other blocks (they do not integrate)."""
+    return np.array([choices[block.owner].substeps if block.kind == BLOCK_SPACECRAFT else 1
+                     for block in layout.blocks], dtype=np.int64)
+
+
+def describe(choices: dict[str, StepChoice], interval_s: float, tolerance_m: float) -> str:
+    """One line for the run text: each spacecraft's substeps and where they came from."""
+    counts = ", ".join(f"{name} {choice.substeps}" for name, choice in choices.items())
+    sources = {choice.source for choice in choices.values()}
+    if sources == {"auto"}:
+        missed = [name for name, choice in choices.items() if not choice.met]
+        worst_m = max(choice.error_lu for choice in choices.values()) * M_PER_LU
+        text = (f"integration: substeps per {interval_s:g} s interval: {counts} (chosen for a one-step error "
+                f"within {tolerance_m:g} m; largest {worst_m:.2g} m; {SUBSTEPS_KEY} overrides)")
+        if missed:
+            text += f"; {', '.join(missed)} miss it at the most the ladder allows"
+        return text
+    return f"integration: substeps per {interval_s:g} s interval: {counts} ({SUBSTEPS_KEY})"

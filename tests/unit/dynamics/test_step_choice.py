@@ -1,0 +1,93 @@
+"""The integration step chosen by accuracy (dynamics.step_choice; scenario.integration_steps): the Richardson
+estimate against an independent reference, the choice meeting its tolerance, the key overriding it."""
+
+import numpy as np
+import pytest
+
+from liaison_cli.dynamics.constants import M_PER_LU, TU_S
+from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.registry import MODEL_CRTBP
+from liaison_cli.dynamics.step_choice import MIN_SUBSTEPS, choose_substeps, one_step_errors
+from liaison_cli.scenario.integration_steps import describe
+from liaison_cli.scenario.loading import validate_scenario
+from liaison_cli.scenario.setup import prepare_problem
+
+
+def _scenario(interval_s, lunar_a_km=1837.4, extra_filter=None, e=0.0):
+    data = {"name": "step", "duration_days": 0.5,
+            "spacecraft": [{"name": "Halo", "orbit": "eml2_halo"},
+                           {"name": "Low", "orbit": "lunar_keplerian",
+                            "elements": {"a_km": lunar_a_km, "e": e, "i_deg": 90, "raan_deg": 0, "argp_deg": 0,
+                                         "ta_deg": 0}}],
+            "links": [{"receiver": "Halo", "transponder": "Low"}], "measurement": {"interval_s": interval_s},
+            "noise": {"sigma_m": 10}, "monte_carlo": {"runs": 1, "seed": 1}}
+    if extra_filter:
+        data["filter"] = extra_filter
+    return validate_scenario(data, "step")
+
+
+@pytest.fixture(scope="module")
+def low_orbit_600():
+    return prepare_problem(_scenario(600.0))
+
+
+def _reference_errors_m(problem, name, substeps, samples):
+    """The filter's one-interval position error at `substeps` against scipy's DOP853 (rtol 1e-13), metres."""
+    from liaison_cli.dynamics.model import propagate_state_stm_into
+
+    index = problem.spacecraft.index(name)
+    states = problem.truth[:, 6 * index : 6 * index + 6]
+    mu, dt = float(problem.dynamics.params[0]), problem.dt_tu
+    y, work = np.empty(48), np.empty((5, 42))
+    errors = []
+    for k in samples:
+        propagate_state_stm_into(MODEL_CRTBP, problem.dynamics.params, states[k].copy(), k * dt, dt, substeps, y, work)
+        exact = dop853_states(states[k], np.array([0.0, dt]), mu, rtol=1e-13, atol=1e-16)[1]
+        errors.append(np.linalg.norm(y[:3] - exact[:3]) * M_PER_LU)
+    return np.array(errors)
+
+
+def test_the_richardson_estimate_matches_an_independent_reference(low_orbit_600):
+    """100 km lunar orbit, 600 s, 8 RK4 substeps: the estimate is within 10 % of the error against DOP853."""
+    problem = low_orbit_600
+    states = np.ascontiguousarray(problem.truth[:, 6:12])
+    samples = np.arange(0, 20, 4, dtype=np.int64)
+    estimate_m = one_step_errors(np.int64(MODEL_CRTBP), problem.dynamics.params, states, samples, problem.dt_tu,
+                                 np.int64(8), np.int64(4))[:, 0] * M_PER_LU
+    reference_m = _reference_errors_m(problem, "Low", 8, samples)
+    assert np.all(reference_m > 1e-3)  # metres-scale at 75 s steps: far above DOP853's own error
+    np.testing.assert_allclose(estimate_m, reference_m, rtol=0.1)
+
+
+def test_the_choice_meets_its_tolerance_and_a_halo_keeps_the_minimum(low_orbit_600):
+    problem = low_orbit_600
+    choices = problem.step_choices
+    assert choices["Halo"].substeps == MIN_SUBSTEPS and choices["Halo"].met
+    low = choices["Low"]
+    assert low.substeps > MIN_SUBSTEPS and low.met and low.error_lu * M_PER_LU <= 1e-4
+    samples = np.arange(0, problem.n_steps - 1, 7)
+    assert _reference_errors_m(problem, "Low", low.substeps, samples).max() <= 1e-4
+    np.testing.assert_array_equal(problem.filter.substeps[:2], [MIN_SUBSTEPS, low.substeps])
+    line = describe(choices, 600.0, 1e-4)
+    assert f"Halo {MIN_SUBSTEPS}, Low {low.substeps}" in line and "filter.rk4_substeps overrides" in line
+
+
+def test_a_tighter_tolerance_takes_more_substeps_and_the_key_overrides_the_choice():
+    tight = prepare_problem(_scenario(600.0, extra_filter={"integration_tolerance_m": 1e-6})).step_choices["Low"]
+    loose = prepare_problem(_scenario(600.0, extra_filter={"integration_tolerance_m": 1e-2})).step_choices["Low"]
+    assert tight.substeps > loose.substeps >= MIN_SUBSTEPS
+    fixed = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 6}))
+    assert {c.substeps for c in fixed.step_choices.values()} == {6}
+    assert "(filter.rk4_substeps)" in describe(fixed.step_choices, 600.0, 1e-4)
+
+
+def test_the_truth_of_a_low_orbit_is_far_more_accurate_than_the_tolerance(low_orbit_600):
+    """The truth's RK4 of at most 10 s against DOP853 at rtol 1e-13 over the half day: well below 0.1 mm per
+    interval, so the filter's step, not the truth's, is what the tolerance bounds."""
+    problem = low_orbit_600
+    states = problem.truth[:, 6:12]
+    times_tu = problem.times_s / TU_S
+    exact = dop853_states(states[0], times_tu, float(problem.dynamics.params[0]), rtol=1e-13, atol=1e-16)
+    drift_m = np.linalg.norm(states[:, :3] - exact[:, :3], axis=1) * M_PER_LU
+    per_interval_m = np.abs(np.diff(drift_m)).max()
+    assert per_interval_m < 1e-5

@@ -1,0 +1,74 @@
+"""The default process noise derived for the scenario (scenario.default_noise): the floor alone without model
+error, each declared error's part against an independent formula, the line the run prints."""
+
+import numpy as np
+import pytest
+
+from liaison_cli.dynamics.constants import M_PER_LU, SECONDS_PER_DAY, TU_S
+from liaison_cli.scenario.default_noise import FLOOR_PSD_M2_S3, describe
+from liaison_cli.scenario.loading import validate_scenario
+from liaison_cli.scenario.setup import prepare_problem
+
+GM_MOON_M3_S2 = 4.9028e12
+
+
+def _scenario(model_error=None, flt=None, spacecraft_noise=None):
+    lunar = {"name": "Lunar", "orbit": "lunar_keplerian",
+             "elements": {"a_km": 3000, "e": 0.2, "i_deg": 60, "raan_deg": 0, "argp_deg": 0, "ta_deg": 0}}
+    if spacecraft_noise:
+        lunar["process_noise_psd_m2_s3"] = spacecraft_noise
+    data = {"name": "noise", "duration_days": 1.5, "spacecraft": [{"name": "EML2", "orbit": "eml2_halo"}, lunar],
+            "links": [{"receiver": "EML2", "transponder": "Lunar"}], "measurement": {"interval_s": 300},
+            "noise": {"sigma_m": 10}, "monte_carlo": {"runs": 1, "seed": 1}}
+    if model_error:
+        data["model_error"] = model_error
+    if flt:
+        data["filter"] = flt
+    return validate_scenario(data, "noise")
+
+
+def test_without_model_error_the_default_is_the_floor_and_a_key_overrides_it():
+    problem = prepare_problem(_scenario(spacecraft_noise=4e-15))
+    assert set(problem.default_noises) == {"EML2"}  # Lunar names its own
+    assert problem.default_noises["EML2"].psd_m2_s3 == FLOOR_PSD_M2_S3
+    assert "EML2 3e-18" in describe(problem.default_noises)
+
+
+def test_a_random_truth_force_adds_its_low_frequency_density_unless_the_filter_carries_it():
+    sigma, tau = 1e-9, 3600.0
+    error = {"truth_acceleration_sigma_m_s2": sigma, "truth_acceleration_time_constant_s": tau}
+    noise = prepare_problem(_scenario(error)).default_noises["Lunar"]
+    assert noise.psd_m2_s3 == pytest.approx(FLOOR_PSD_M2_S3 + 2 * sigma**2 * tau, rel=1e-12)
+    matched = _scenario(error, {"empirical_acceleration": {"sigma_m_s2": sigma, "time_constant_s": tau}})
+    assert prepare_problem(matched).default_noises["Lunar"].psd_m2_s3 == FLOOR_PSD_M2_S3
+
+
+def test_a_constant_truth_acceleration_adds_twice_its_square_times_the_settle_time():
+    a = np.array([3e-10, -4e-10, 0.0])
+    noise = prepare_problem(_scenario({"truth_acceleration_m_s2": a.tolist()})).default_noises["EML2"]
+    settle_s = 0.75 * SECONDS_PER_DAY  # half of a scenario shorter than 2 d
+    assert noise.parts["unmodelled forces"] == pytest.approx(2 * (a @ a) * settle_s, rel=1e-9)
+
+
+def _gravity_lu(r, mu):
+    """The two primaries' attraction in the rotating frame (LU/TU^2), Earth at -mu and Moon at 1 - mu on x: the
+    only terms of the CRTBP that depend on mu besides the frame's (which do not)."""
+    earth, moon = np.array([-mu, 0.0, 0.0]), np.array([1.0 - mu, 0.0, 0.0])
+    d_e, d_m = r - earth, r - moon
+    return (-(1 - mu) * d_e / np.linalg.norm(d_e, axis=1, keepdims=True) ** 3
+            - mu * d_m / np.linalg.norm(d_m, axis=1, keepdims=True) ** 3)
+
+
+def test_a_lunar_gm_error_adds_the_rms_of_the_field_it_changes():
+    """moon_gm_bias 1e-3 on a 3,000 km orbiter: in the CRTBP the mass ratio moves too, so the filter's Moon sits
+    mu f LU (4.7 km) from the truth's; the part against the two primaries' attraction written out here."""
+    f = 1e-3
+    problem = prepare_problem(_scenario({"moon_gm_bias": f}))
+    mu = float(problem.dynamics.params[0])
+    mu_filter = mu * (1 + f) / (1 + mu * f)
+    r = problem.truth[:, 6:9]
+    difference = (_gravity_lu(r, mu) - _gravity_lu(r, mu_filter)) * M_PER_LU / TU_S**2
+    rms = np.sqrt(np.mean(np.sum(difference**2, axis=1)))
+    assert rms > 2 * f * GM_MOON_M3_S2 / (3000e3) ** 2  # the shifted Moon outweighs the GM itself
+    expected = 2 * rms**2 * problem.scenario.settle_days() * SECONDS_PER_DAY  # 0.75 d: half of a 1.5 d arc
+    assert problem.default_noises["Lunar"].parts["unmodelled forces"] == pytest.approx(expected, rel=0.02)
