@@ -8,6 +8,9 @@ request (`caused_by_interrupt`: the flag, or a KeyboardInterrupt in the exceptio
 the campaign runner and the result swap (storage.staged_output) ask `requested()` too, so an interrupt
 that compiled code swallowed whole still stops the command before a result is swapped in.
 
+SIGTERM is handled as SIGINT (`install`). A pool worker ends itself when its parent is gone (`_watch_parent`:
+a SIGKILL of the CLI reaches no handler).
+
 Pool worker processes receive the terminal's SIGINT too; they must leave the stop to the main process,
 which cancels the pool, so that no worker prints a traceback. `shield_pool_workers` makes joblib's (loky's)
 workers start with SIGINT blocked (a blocked signal stays blocked across fork and exec: a Ctrl-C reaching a
@@ -34,12 +37,17 @@ def _on_sigint(signum, frame):
 
 def install() -> None:
     """Use the remembering handler in this (main) process, unless SIGINT is ignored or handled by someone
-    else (a shell that started us in the background, a test runner's own handler). Clears an earlier request."""
+    else (a shell that started us in the background, a test runner's own handler). Clears an earlier request.
+    SIGTERM (a service manager's or `kill`'s stop) is handled as SIGINT when it is at its default: the same one
+    line, staging removed and workers stopped, where the default died at once with the pool still running."""
     global _requested
     _requested = False
     _written.clear()
     if threading.current_thread() is not threading.main_thread():
         return
+    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, _on_sigint):
+        signal.signal(signal.SIGTERM, _on_sigint)
+        _default_sigterm_in_forked_children()
     if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _on_sigint):
         signal.signal(signal.SIGINT, _on_sigint)
         if sys.unraisablehook is not _quiet_unraisable:
@@ -48,6 +56,26 @@ def install() -> None:
         if threading.excepthook is not _quiet_pool_thread:
             _quiet_pool_thread.previous = threading.excepthook
             threading.excepthook = _quiet_pool_thread
+
+
+_FORK_HOOK = False
+
+
+def _default_sigterm_in_forked_children() -> None:
+    """A process forked from the CLI (a concurrent.futures pool's worker) gets SIGTERM back at its default: its
+    pool stops it with SIGTERM, which must end it quietly, not raise the CLI's KeyboardInterrupt in it."""
+    import os
+
+    global _FORK_HOOK
+    if _FORK_HOOK:
+        return
+    _FORK_HOOK = True
+
+    def reset():
+        if signal.getsignal(signal.SIGTERM) is _on_sigint:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+    os.register_at_fork(after_in_child=reset)
 
 
 def _quiet_unraisable(unraisable) -> None:
@@ -84,6 +112,8 @@ def ignore_from_now_on() -> None:
     down) must not turn the documented exit code into death by signal."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if signal.getsignal(signal.SIGTERM) is _on_sigint:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
     # CPython (3.11-3.13) marks "the program ended by an unhandled KeyboardInterrupt" whenever one escapes code
     # run through exec() of a string (generated dataclass, numba and joblib code), even if we catch it later;
     # at exit it then kills itself with SIGINT instead of exiting 130. Each exec() of a string clears the mark.
@@ -98,6 +128,8 @@ def record_from_now_on() -> list | None:
         return None
     caught: list = []
     signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    if signal.getsignal(signal.SIGTERM) is _on_sigint:
+        signal.signal(signal.SIGTERM, lambda signum, frame: caught.append(signum))
     return caught
 
 
@@ -137,6 +169,47 @@ def ignore_in_worker_process() -> None:
     if multiprocessing.parent_process() is not None and threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        _watch_parent()
+
+
+PARENT_WATCH_S = 0.5
+
+
+def _name_this_thread(name: bytes) -> None:
+    """The OS-level name of the calling thread (Linux: /proc/PID/task/TID/comm), so a test or an operator sees
+    that a worker watches its parent; nothing where prctl is not there."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).prctl(15, ctypes.c_char_p(name[:15]), 0, 0, 0)  # PR_SET_NAME
+    except (OSError, AttributeError):
+        pass
+_watching = False
+
+
+def _watch_parent() -> None:
+    """In a pool worker: a daemon thread that ends the worker when its parent is gone (killed with SIGKILL, which
+    no handler sees: the worker is handed to another parent, so its parent pid changes). Without it the workers
+    went on computing for a command nobody waits for. Started once per worker process, with its first task: a
+    worker killed before it had one is idle, and loky ends idle workers after its timeout (300 s)."""
+    import os
+
+    global _watching
+    if _watching:
+        return
+    _watching = True
+    parent = os.getppid()
+
+    def watch():
+        import time
+
+        _name_this_thread(b"liaison-watch")
+        while True:
+            time.sleep(PARENT_WATCH_S)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="liaison-parent-watch", daemon=True).start()
 
 
 @contextmanager

@@ -67,14 +67,14 @@ class StepChoice:
     """One spacecraft's integration step: substeps per interval; error_lu, the largest estimated position-
     equivalent one-step error over the samples at that count (position error, or velocity error x interval, LU);
     met: whether it is within the tolerance (False only at the ladder's top); source: 'auto' or the key that set
-    it; accurate_substeps: for a count the key fixed, the count the tolerance would have chosen (campaign.advice
-    names the key when the fixed count is short of it)."""
+    it; accurate_substeps: for a count the key fixed that misses the tolerance, the fewest counts above it that
+    meet it (campaign.advice names the key then); 0 otherwise."""
 
     substeps: int
     error_lu: float
     met: bool
     source: str = "auto"
-    accurate_substeps: int = 0  # with a fixed count (source: the key), what the tolerance would choose; else 0
+    accurate_substeps: int = 0  # a fixed count short of the tolerance: the fewest that meet it; else 0
 
 
 def sample_epochs(m: int) -> np.ndarray:
@@ -90,18 +90,19 @@ def worst_error_lu(model: int, params, states, dt_tu: float, substeps: int, orde
     return float(np.max(np.maximum(errors[:, 0], errors[:, 1] * abs(dt_tu)))) if len(errors) else 0.0
 
 
-def choose_substeps(model: int, params, states, dt_tu: float, order: int, tolerance_lu: float) -> StepChoice:
-    """The fewest ladder substeps (at least MIN_SUBSTEPS) whose worst one-step error along states (m, 6), the
-    nominal trajectory sampled at the measurement epochs, is within tolerance_lu (module docstring)."""
+def choose_substeps(model: int, params, states, dt_tu: float, order: int, tolerance_lu: float,
+                    minimum: int = MIN_SUBSTEPS) -> StepChoice:
+    """The fewest substeps, `minimum` or a ladder count above it, whose worst one-step error along states (m, 6),
+    the nominal trajectory sampled at the measurement epochs, is within tolerance_lu (module docstring)."""
     params = np.ascontiguousarray(params, dtype=np.float64)
     states = np.ascontiguousarray(states, dtype=np.float64)
     samples = sample_epochs(states.shape[0])
-    substeps = MIN_SUBSTEPS
+    substeps = int(minimum)
     while True:
         error = worst_error_lu(model, params, states, dt_tu, substeps, order, samples)
         if error <= tolerance_lu:
             return StepChoice(substeps, error, True)
-        if substeps == SUBSTEP_LADDER[-1]:
+        if substeps >= SUBSTEP_LADDER[-1]:
             return StepChoice(substeps, error, False)
         needed = substeps * SAFETY * (error / tolerance_lu) ** (1.0 / order)
         substeps = next((s for s in SUBSTEP_LADDER if s >= needed and s > substeps), SUBSTEP_LADDER[-1])

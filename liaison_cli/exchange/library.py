@@ -1,6 +1,7 @@
 """The ccsds-ndm library behind one door: loaded only when a CCSDS file is read or written, refused in one line
 (with the install command) when it is not installed."""
 
+import os
 from pathlib import Path
 
 from liaison_cli.errors import ExchangeFileError
@@ -30,8 +31,11 @@ def read_message(path, kind: str):
     io = _ndm_io()
     try:
         with open(path, "rb") as handle:
-            data = handle.read(MAX_MESSAGE_BYTES + 1)
-        if len(data) > MAX_MESSAGE_BYTES:
+            # A regular file's size is known before reading: refused without reading it (a device or a pipe is
+            # read up to the cap, which the length check below catches).
+            size = os.fstat(handle.fileno()).st_size
+            data = handle.read(MAX_MESSAGE_BYTES + 1) if size <= MAX_MESSAGE_BYTES else b""
+        if size > MAX_MESSAGE_BYTES or len(data) > MAX_MESSAGE_BYTES:
             raise ExchangeFileError(f"{path}: larger than {MAX_MESSAGE_BYTES // 2**20} MiB; allowed: a CCSDS {kind} "
                                     "file of at most that size")
         text = data.decode("utf-8")

@@ -59,7 +59,8 @@ def format_table(summary: pd.DataFrame, grid_keys: list[str] | None = None) -> s
 def format_rankings(rankings: pd.DataFrame, grid_keys: list[str]) -> str:
     """The pairs best first per grid point and transmitter, by LinCov and by the EKF."""
     head = "".join(f"{k} | " for k in grid_keys)
-    lines = [f"| {head}transmitter | best first, LinCov steady 3σ | best first, EKF settled error RMS |",
+    lines = [f"| {head}transmitter | best first, LinCov steady 3σ | best first, EKF settled error RMS (converged runs; a pair "
+             "not all of whose runs converged is unrankable) |",
              f"|{'---|' * len(grid_keys)}---|---|---|"]
     for r in rankings.to_dict("records"):
         point = "".join(f"{r[k]:g} | " if isinstance(r[k], float) else f"{r[k]} | " for k in grid_keys)

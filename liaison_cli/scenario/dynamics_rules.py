@@ -226,6 +226,24 @@ def check_ric_process_noise(scenario) -> None:
                          "process noise over its window; allowed: one of the two (or process_noise_psd_m2_s3)")
 
 
+def check_dead_process_noise(scenario) -> None:
+    """A filter-level process-noise key applies to the estimated spacecraft that give none of their own; when
+    every one of them gives its own, the filter's key applies to none (it was silently dead)."""
+    from liaison_cli.scenario.spec_base import PROCESS_NOISE_KEYS
+
+    flt = scenario.filter
+    given = [key for key in PROCESS_NOISE_KEYS if getattr(flt, key) is not None]
+    estimated = [sc for sc in scenario.spacecraft if sc.role == "estimated"]
+    if not given or not estimated:
+        return
+    if all(any(getattr(sc, key) is not None for key in PROCESS_NOISE_KEYS) for sc in estimated):
+        value = getattr(flt, given[0])
+        shown = list(value) if isinstance(value, tuple) else value
+        raise ValueError(f"filter.{given[0]} = {shown} applies to no spacecraft: every estimated spacecraft "
+                         f"({', '.join(sc.name for sc in estimated)}) gives its own process noise; allowed: remove "
+                         "the filter's key, or a spacecraft's own key where the filter's should apply")
+
+
 def _carried_by_the_estimator(scenario, key: str, supports: str, what: str) -> None:
     """A setting that adds filter states (`key`): by an estimator whose descriptor flag `supports` is set (an
     initial batch solves for every filter state, these included)."""

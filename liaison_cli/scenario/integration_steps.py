@@ -21,12 +21,17 @@ def step_choices(scenario: Scenario, model: DynamicsModel, dt_tu: float, traject
     params = model.filter_params
     order = model.descriptor.integrator_order
     tolerance_lu = flt.integration_tolerance_m / M_PER_LU
-    chosen = {name: choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu)
-              for name in names}
     if flt.rk4_substeps is None:
-        return chosen
-    return {name: StepChoice(int(flt.rk4_substeps), float("nan"), True, SUBSTEPS_KEY, choice.substeps)
-            for name, choice in chosen.items()}
+        return {name: choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu)
+                for name in names}
+    out = {}
+    for name in names:  # the fixed count's own error, and the fewest counts above it that would meet the tolerance
+        fixed = choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu,
+                                minimum=int(flt.rk4_substeps))
+        short = fixed.substeps > flt.rk4_substeps
+        out[name] = StepChoice(int(flt.rk4_substeps), float("nan"), not short, SUBSTEPS_KEY,
+                               fixed.substeps if short else 0)
+    return out
 
 
 def substeps_per_block(layout: StateLayout, choices: dict[str, StepChoice]) -> np.ndarray:

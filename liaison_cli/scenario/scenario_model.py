@@ -22,7 +22,7 @@ from liaison_cli.scenario.link_rules import (check_observable, check_repeated_li
 from liaison_cli.scenario.links import LinkSpec, MeasurementSpec, TopologySpec, expand_topology
 from liaison_cli.scenario.dynamics_rules import (check_dynamics, check_empirical_acceleration,
                                                 check_estimated_parameters, check_model_error,
-                                                check_ric_process_noise)
+                                                check_dead_process_noise, check_ric_process_noise)
 from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.participants import (
     DATED_ONLY_ORBITS, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
@@ -135,6 +135,7 @@ class Scenario(StrictModel):
         check_estimated_parameters(self)
         check_empirical_acceleration(self)
         check_ric_process_noise(self)
+        check_dead_process_noise(self)
         if self.measurement.interval_s > self.duration_days * SECONDS_PER_DAY:
             raise ValueError(
                 f"measurement.interval_s = {self.measurement.interval_s} is longer than the "

@@ -15,7 +15,7 @@ from liaison_cli import interrupts
 from liaison_cli.errors import OutputExistsError
 from liaison_cli.storage.atomic import current_umask
 from liaison_cli.storage.leftovers import recover_output
-from liaison_cli.storage.locks import claim
+from liaison_cli.storage.locks import FolderBusy, claim, writer_lock
 from liaison_cli.storage.ownership import RESULT_MARKER, check_replaceable, is_ours, mark_ours
 from liaison_cli.storage.swap import swap_in
 
@@ -71,6 +71,26 @@ def _link_or_copy(source, destination) -> None:
 
 
 @contextmanager
+def _no_other_writer(path: Path):
+    """Hold the folder's writer lock (storage.locks.writer_lock) for the block; another holder (a sweep writing
+    into the folder) is one line, exit 2. Where the lock file cannot be made (a read-only parent), no sweep can
+    be writing there either: the block runs, and the write itself names the OS's reason."""
+    lock = writer_lock(path)
+    try:
+        lock.__enter__()
+    except FolderBusy:
+        raise OutputExistsError(f"{path}: another liaison command (a sweep) is writing into this folder; wait for it "
+                                "to finish or choose --output") from None
+    except OSError:
+        yield
+        return
+    try:
+        yield
+    finally:
+        lock.__exit__(None, None, None)
+
+
+@contextmanager
 def staged_output(path, overwrite: bool):
     """Yield a sibling temporary folder to write a result into; when the block completes, it takes the
     place of `path` (a previous liaison result there is swapped out, then removed). A failed or killed
@@ -80,6 +100,8 @@ def staged_output(path, overwrite: bool):
     recover_output(path)
     replace = check_replaceable(path, overwrite)
     _make_parent(path)
+    with _no_other_writer(path):  # refused before any work when a sweep is writing there now
+        pass
     try:
         # The pid in the name and the flock held on the folder tell a later command it is in use.
         stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-{os.getpid()}-", dir=path.parent))
@@ -92,6 +114,10 @@ def staged_output(path, overwrite: bool):
             if interrupts.requested():  # Ctrl-C that compiled code swallowed: the old result stays
                 raise KeyboardInterrupt
             os.chmod(stage, 0o777 & ~current_umask())
+            # A sweep writing into `path` holds its writer lock: checked again just before the swap (not held
+            # across it, so a kill mid-swap leaves no lock file beside the result).
+            with _no_other_writer(path):
+                pass
             kept = carry_over(path, stage) if replace else []
             swap_in(stage, path, replace)
             if kept:  # other commands' outputs (plots, exports) made from the result this one replaced

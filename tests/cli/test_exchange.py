@@ -443,6 +443,46 @@ def test_an_endless_file_is_refused_without_filling_the_memory(monkeypatch, tmp_
         library.read_message("/dev/zero", "OEM")
 
 
+def test_a_file_over_the_cap_is_refused_before_it_is_read(monkeypatch, tmp_path):
+    """Issue 47: a 600 MB OEM was read into memory before the cap refused it. A regular file's size is checked
+    first: a sparse 600 MiB file is refused without a byte of it read."""
+    from liaison_cli.exchange import library
+
+    big = tmp_path / "big.oem"
+    with open(big, "wb") as handle:
+        handle.truncate(600 * 2**20)  # sparse: no disk, and reading it would take seconds and 600 MiB
+    opened = []
+    real_open = open
+
+    class Watched:
+        def __init__(self, handle):
+            self.handle = handle
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.handle.close()
+
+        def fileno(self):
+            return self.handle.fileno()
+
+        def read(self, size=-1):
+            opened.append(size)
+            return self.handle.read(size)
+
+    def watched_open(path, mode="r", *args, **kwargs):
+        return Watched(real_open(path, mode, *args, **kwargs)) if str(path) == str(big) else real_open(
+            path, mode, *args, **kwargs)
+
+    import builtins
+
+    monkeypatch.setattr(builtins, "open", watched_open)
+    with pytest.raises(ExchangeFileError, match="larger than 512 MiB"):
+        library.read_message(big, "OEM")
+    assert opened == []
+
+
 def test_an_edited_orbit_file_is_another_scenario(tmp_path):
     """Issue 35 fault 3: a sweep over `orbit: {oem: FILE}` reused its old runs after FILE was edited; the files a
     scenario names are part of its hash (campaign.sweep.plan.scenario_hash)."""

@@ -142,6 +142,58 @@ def test_ctrl_c_while_the_errors_check_runs_in_the_pool_exits_130_and_stops_its_
     assert not any(map(_running, workers)), "a worker outlived the command"
 
 
+def test_sigterm_is_handled_as_ctrl_c_and_stops_the_pool(tmp_path):
+    """Issue 47: SIGTERM (to the CLI process alone, as `kill PID` sends it) exited 143 with no message, left its
+    staging folder and kept its workers computing. Now: exit 130 with the one line, no staging folder, no
+    result, and no worker left behind."""
+    out = tmp_path / "out"
+    proc = _start(["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400", "--jobs", "2", "--output", out])
+    _wait_for(lambda: len(_children(proc.pid)) >= 2, proc)
+    workers = _children(proc.pid)
+    time.sleep(1.0)
+    assert proc.poll() is None and len(workers) >= 2, "the check finished before its pool could be stopped"
+    os.kill(proc.pid, signal.SIGTERM)
+    _assert_stopped(proc)
+    assert not out.exists() and not list(tmp_path.glob(".out.partial-*"))
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and any(map(_running, workers)):
+        time.sleep(0.05)
+    assert not any(map(_running, workers)), "a worker outlived the command"
+
+
+def _watching(pid: int) -> list[str]:
+    """The children of pid that run the parent watch (a thread named liaison-watch: interrupts._watch_parent)."""
+    out = []
+    for child in _children(pid):
+        try:
+            names = [p.read_text().strip() for p in Path(f"/proc/{child}/task").glob("*/comm")]
+        except OSError:
+            continue
+        if "liaison-watch" in names:
+            out.append(child)
+    return out
+
+
+def test_pool_workers_end_when_the_cli_is_killed(tmp_path):
+    """Issue 47: after a SIGKILL of the CLI (no handler runs) its pool workers went on computing. Each worker
+    watches its parent and ends within a second or two of losing it."""
+    out = tmp_path / "out"
+    proc = _start(["errors", SCENARIOS / "eml2_lunar.yaml", "--check-runs", "400", "--jobs", "2", "--output", out])
+    _wait_for(lambda: len(_watching(proc.pid)) >= 2, proc)  # the watch starts with a worker's first task
+    workers = _watching(proc.pid)
+    assert proc.poll() is None and len(workers) >= 2, "the check finished before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=60)  # not communicate(): a worker still alive would hold the pipes open
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and any(map(_running, workers)):
+        time.sleep(0.05)
+    alive = [pid for pid in workers if _running(pid)]
+    for pid in alive:  # not left behind by the test either
+        os.kill(int(pid), signal.SIGKILL)
+    proc.communicate(timeout=60)
+    assert not alive, f"a worker outlived its killed parent: {[Path(f'/proc/{p}/cmdline').read_bytes()[:80] for p in alive]}"
+
+
 def test_a_ctrl_c_swallowed_by_a_c_callback_is_not_printed_and_what_it_broke_exits_130(monkeypatch, capsys):
     """A Ctrl-C that lands in LLVM's callback while numba compiles (a cold cache) cannot propagate: Python
     hands it to sys.unraisablehook, which used to print "Exception ignored ... Traceback", and numba then failed

@@ -103,6 +103,26 @@ def test_a_second_sweep_into_a_busy_folder_is_refused(tmp_path):
     assert not list(tmp_path.glob(".*.lock")), "a finished sweep leaves no lock file (issue 47)"
 
 
+def test_run_overwrite_leaves_a_folder_a_sweep_is_writing(tmp_path):
+    """Issue 47: `run --overwrite` replaced the folder a running sweep wrote into (the sweep then died with a
+    traceback and lost its finished tasks). The replacement takes the sweep's lock: refused in one line, before
+    any work, the folder untouched; once the sweep is done, the same command replaces it."""
+    from liaison_cli.campaign.sweep.manifest import sweep_lock
+    from liaison_cli.storage.ownership import mark_ours
+
+    out = tmp_path / "busy"
+    out.mkdir()
+    mark_ours(out)  # a sweep's folder, as liaison marks it
+    (out / "manifest.jsonl").write_text("{}\n")
+    args = ["run", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--output", out, "--overwrite"]
+    with sweep_lock(out):
+        proc = run_cli_in_process(*args)
+    assert proc.returncode == 2 and "a sweep) is writing into this folder" in proc.stderr, proc.stderr
+    assert len(stderr_lines(proc.stderr)) == 1
+    before = sorted(p.name for p in out.iterdir())
+    assert "manifest.jsonl" in before and not list(tmp_path.glob(".busy.partial-*"))
+
+
 def test_the_lock_file_is_removed_by_its_holder_and_a_stale_handle_locks_again(tmp_path):
     """A process that opened the lock file just before its holder removed it locks a removed inode: it must
     see another file at the path and lock that one, or two sweeps would both hold 'the' lock."""

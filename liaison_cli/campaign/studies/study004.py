@@ -15,7 +15,9 @@ Per transmitter and pair:
 - convergence time: the first epoch from which the position 3-sigma bound stays below twice its steady
   state for the rest of the arc;
 - `rankings`: per transmitter (and grid point, e.g. an SNC sensitivity through `--grid`), the pairs best
-  first by LinCov and by the EKF, so a ranking that flips with the tuning shows;
+  first by LinCov and by the EKF, so a ranking that flips with the tuning shows, each with its converged runs;
+  the EKF ranks only pairs all of whose runs converged, and lists the others as unrankable (a ranking that
+  drops failed runs is not a ranking); the claims' EKF reading does the same (not computable, naming them);
 - `check_claims`: every ordering and comparison 004 states (report/data/study004_claims.yaml), checked per grid
   point on the EKF's settled error RMS (primary) and on LinCov's steady 3-sigma (convergence claims: on their
   convergence times), with a flag where the two verdicts differ;
@@ -200,19 +202,39 @@ def run_study(transmitters: list[tuple[str, Scenario]], runs: int, jobs: int = 2
     return pd.DataFrame(rows), pd.concat(histories, ignore_index=True)
 
 
+def fully_converged(row) -> bool:
+    """Every EKF run of the pair converged: only then does its settled error RMS speak for all its runs (a pair
+    some of whose runs diverge is not ranked on the survivors: it is unrankable on the EKF's reading)."""
+    share = row.get("ekf_converged_share", 1.0)
+    return bool(np.isfinite(share) and share >= 1.0)
+
+
+def converged_text(row) -> str:
+    """'6/6': the pair's converged runs out of all its runs ('' when the table does not say)."""
+    runs = int(row.get("runs", 0) or 0)
+    share = row.get("ekf_converged_share", np.nan)
+    return f"{round(share * runs)}/{runs}" if runs and np.isfinite(share) else ""
+
+
 def rankings(summary: pd.DataFrame, grid_keys: list[str]) -> pd.DataFrame:
     """Per grid point and transmitter, the receiver pairs ordered best first by LinCov's steady 3-sigma
-    position and by the EKF's settled error RMS (converged runs), and whether the two orders agree: where a
-    ranking flips with the tuning, the table shows it."""
+    position and by the EKF's settled error RMS, each pair with its converged runs beside it. The EKF's order
+    ranks only the pairs all of whose runs converged (fully_converged); the others are listed after it as
+    unrankable, never ranked on their surviving runs. Where a ranking flips with the tuning, the table shows it."""
     rows = []
     group_keys = grid_keys + ["transmitter"]
     for _, part in summary.groupby(group_keys, sort=False, dropna=False):  # a null grid value is a grid point
         keys = [part[k].iloc[0] for k in group_keys]
         by_lincov = list(part.sort_values("steady_3sigma_position_m").pair)
-        ekf = part[np.isfinite(part.ekf_error_rms_position_settled_m)]
-        by_ekf = list(ekf.sort_values("ekf_error_rms_position_settled_m").pair)
+        records = part.to_dict("records")
+        rankable = [r for r in records if fully_converged(r) and np.isfinite(r["ekf_error_rms_position_settled_m"])]
+        by_ekf = " < ".join(r["pair"] + (f" ({converged_text(r)})" if converged_text(r) else "") for r in
+                            sorted(rankable, key=lambda r: r["ekf_error_rms_position_settled_m"]))
+        unrankable = [f"{r['pair']} ({converged_text(r)} converged)" for r in records if r not in rankable]
+        if unrankable:
+            by_ekf = (by_ekf + "; " if by_ekf else "") + "unrankable: " + ", ".join(unrankable)
         rows.append({**dict(zip(group_keys, keys)), "best_first_lincov": " < ".join(by_lincov),
-                     "best_first_ekf": " < ".join(by_ekf) if len(by_ekf) == len(part) else "—"})
+                     "best_first_ekf": by_ekf, "ekf_all_converged": not unrankable})
     return pd.DataFrame(rows)
 
 
@@ -334,7 +356,16 @@ def _transmitter_values(rows: pd.DataFrame, check: dict, reading: str, names: di
             if check["quantity"] == "convergence" and alias in by_alias and np.isnan(value):
                 value = float("inf")  # never converged
             values[alias] = value
+    partial = []  # the EKF's reading of a pair some of whose runs did not converge: not judged on the survivors
+    if reading == MONTE_CARLO_READING:
+        for alias, value in values.items():
+            row = by_alias.get(alias) if check["kind"] != "below" else by_alias.get(check["pair"])
+            if row is not None and not fully_converged(row) and np.isfinite(value):
+                partial.append(f"{alias} converged in {converged_text(row)} runs")
+                values[alias] = np.nan
     note = f"no {', '.join(missing)} pair" if missing else ""
+    if partial:
+        note = "; ".join(filter(None, [note, "unrankable: " + ", ".join(partial)]))
     if not note and any(np.isnan(v) for v in values.values()):
         note = "no converged EKF run" if reading == MONTE_CARLO_READING else "a value is missing"
     return values, note

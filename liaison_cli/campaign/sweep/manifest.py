@@ -15,7 +15,6 @@ A format newer than MANIFEST_FORMAT, or a header without one, is refused in one 
 file, and the file is left untouched. A new format must state here how each older one is read.
 """
 
-import errno
 import json
 import os
 from contextlib import contextmanager
@@ -24,49 +23,21 @@ from pathlib import Path
 from liaison_cli import __version__
 from liaison_cli.campaign.sweep.plan import MANIFEST_FORMAT, SweepError
 from liaison_cli.storage import fsync_folder, naming
+from liaison_cli.storage.locks import FolderBusy, writer_lock
 
 READABLE_MANIFEST_FORMATS = (1, 2)  # see the module docstring: older formats are read and resumed in place
 
 
 @contextmanager
 def sweep_lock(out_dir: Path):
-    """One sweep at a time per folder: an exclusive lock on `.<folder>.lock` beside it (outside the folder,
-    so `--overwrite` cannot remove it from under another sweep). A busy folder is one line, exit 2. The lock
-    file is removed by its holder before it lets go; a process that locked a file already removed (it opened it
-    just before) finds another inode at the path and locks again."""
-    import fcntl
-
-    out_dir = Path(out_dir)
-    # Keyed on the folder, not on how its path is spelled: through a symlink or `..` it is the same lock.
+    """One sweep at a time per folder (storage.locks.writer_lock, which a command replacing the folder takes
+    too): a busy folder is one line, exit 2."""
     try:
-        real = out_dir.resolve()
-    except RuntimeError:  # Python < 3.13 reports a symlink loop so, not as an OSError
-        raise OSError(errno.ELOOP, os.strerror(errno.ELOOP), str(out_dir)) from None
-    real.parent.mkdir(parents=True, exist_ok=True)
-    lock_path = real.parent / f".{real.name}.lock"
-    while True:
-        handle = open(lock_path, "a")
-        try:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            handle.close()
-            raise SweepError(f"{out_dir}: another liaison sweep is writing into this folder; wait for it to "
-                             "finish or choose --output") from None
-        try:  # the file locked is still the one at the path (a finishing sweep removes it), else lock again
-            if os.stat(lock_path).st_ino == os.fstat(handle.fileno()).st_ino:
-                break
-        except FileNotFoundError:
-            pass
-        handle.close()
-    try:
-        yield
-    finally:
-        try:  # removed while still held, so no lock file stays behind (issue 47)
-            os.unlink(lock_path)
-        except OSError:
-            pass
-        fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
-        handle.close()
+        with writer_lock(out_dir):
+            yield
+    except FolderBusy:
+        raise SweepError(f"{out_dir}: another liaison sweep is writing into this folder; wait for it to "
+                         "finish or choose --output") from None
 
 
 def read_manifest(path: Path) -> tuple[dict | None, dict, int]:

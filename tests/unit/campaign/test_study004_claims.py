@@ -172,3 +172,18 @@ def test_the_reproduction_page_lists_every_claim():
     page = (REPO / "docs" / "reproductions" / "004.md").read_text()
     missing = [c["id"] for c in claims_004()["claims"] if f"| `{c['id']}` |" not in page]
     assert not missing, missing
+
+
+def test_a_pair_some_of_whose_runs_diverge_is_unrankable_not_ranked_on_its_survivors():
+    """004's transfer with a C_R error: GEO converges in 2 of 6 runs. Its settled error over the 2 survivors is
+    the best of the three, but the EKF's order leaves it out as unrankable (naming 2/6), the claim that GEO is the
+    best pair cannot be told on the EKF's reading, and LinCov's reading still judges it."""
+    table = summary(runs=(6, 6, 6), ekf_converged_share=(1.0, 2 / 6, 1.0))
+    ranked = rankings(table, [])
+    assert ranked.best_first_ekf.iloc[0] == f"{L1} (6/6) < {GROUND} (6/6); unrankable: {GEO} (2/6 converged)"
+    assert not ranked.ekf_all_converged.iloc[0]
+    row = one("best", BEST_GEO, table).iloc[0]
+    assert row.ekf_holds == "not computable" and "geo converged in 2/6 runs" in row.note
+    assert row.lincov_holds == "yes"
+    full = rankings(summary(runs=(6, 6, 6), ekf_converged_share=(1.0, 1.0, 1.0)), [])
+    assert full.best_first_ekf.iloc[0] == f"{GEO} (6/6) < {L1} (6/6) < {GROUND} (6/6)"

@@ -126,13 +126,15 @@ def test_every_rung_gives_every_spacecraft_the_rung_value():
     assert ratio_q[6:12] == pytest.approx([(1e-8 / 1e-6) ** 2] * 6)  # Lunar: its own 1e-6 before
 
 
-def test_a_filter_psd_no_spacecraft_uses_is_removed_on_the_ladder():
-    """smoke's spacecraft both give their own sigma_a: a filter PSD beside them is not in force, and the rungs
-    (filter sigma_a) replace it."""
+def test_a_filter_psd_is_removed_on_the_sigma_a_ladder():
+    """smoke with its EML2 on a filter PSD and its orbiter on its own sigma_a: not every spacecraft takes a PSD,
+    so the ladder is on the filter's sigma_a, and the filter PSD and the orbiter's own key are removed (each rung
+    holds one convention)."""
     scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
-    scenario = apply_overrides(scenario, {"filter.process_noise_psd_m2_s3": 1e-12})
+    scenario = apply_overrides(scenario, {"filter.process_noise_psd_m2_s3": 1e-12,
+                                          "spacecraft.0.process_noise_accel_m_s2": None})
     grid = ladder_grid(scenario, (1e-9,))
-    assert ("filter.process_noise_psd_m2_s3", [None]) in grid
+    assert ("filter.process_noise_psd_m2_s3", [None]) in grid and ("spacecraft.1.process_noise_accel_m_s2", [None]) in grid
     rung = apply_overrides(scenario, {key: values[0] for key, values in grid})
     assert rung.filter.process_noise_psd_m2_s3 is None and rung.filter.process_noise_accel_m_s2 == 1e-9
 

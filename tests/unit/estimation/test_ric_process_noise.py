@@ -9,6 +9,7 @@ from numba import njit
 from liaison_cli.analysis.ric import ric_axes
 from liaison_cli.campaign.engine.results import summary_table
 from liaison_cli.campaign.engine.runner import run_campaign
+from liaison_cli.errors import ScenarioError
 from liaison_cli.estimation.ric_noise import step_process_noise
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.scenario.setup import prepare_problem
@@ -94,17 +95,10 @@ def test_the_error_budget_refuses_it_in_one_line():
         error_budget(_problem([1e-12, 1e-12, 1e-12]))
 
 
-def test_the_tuning_ladder_removes_a_filter_level_ric_density():
-    """Every spacecraft keeps its own sigma_a, so the filter's RIC density is not in force and `tune` takes the
-    scenario; its ladder must drop that key, or each rung would hold two conventions in the filter section."""
-    from liaison_cli.campaign.studies.tuning import ladder_grid, psd_refusal
-
+def test_a_filter_level_ric_density_no_spacecraft_takes_is_refused():
+    """Every spacecraft keeps its own sigma_a, so a filter RIC density would apply to none: refused in one line
+    when the scenario is read (issue 47: a dead key), so `tune` never meets it."""
     scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
-    scenario = apply_overrides(scenario, {"filter.process_noise_psd_ric_m2_s3": [1e-12, 1e-12, 1e-12]})
-    assert psd_refusal("smoke", scenario) is None
-    grid = dict(ladder_grid(scenario, [1e-9, 1e-8]))
-    assert grid["filter.process_noise_psd_ric_m2_s3"] == [None]
-    assert apply_overrides(scenario, {"filter.process_noise_accel_m_s2": 1e-9,
-                                      "filter.process_noise_psd_ric_m2_s3": None,
-                                      "spacecraft.0.process_noise_accel_m_s2": None,
-                                      "spacecraft.1.process_noise_accel_m_s2": None}).filter.process_noise_accel_m_s2 == 1e-9
+    with pytest.raises(ScenarioError, match=r"filter.process_noise_psd_ric_m2_s3 = \[1e-12, 1e-12, 1e-12\] applies "
+                                            r"to no spacecraft"):
+        apply_overrides(scenario, {"filter.process_noise_psd_ric_m2_s3": [1e-12, 1e-12, 1e-12]})

@@ -61,15 +61,18 @@ def test_each_filter_key_gives_its_convention_and_velocity_only_applies_to_sigma
 def test_a_spacecraft_key_overrides_the_filter_key_of_either_convention(smoke):
     mixed = apply_overrides(smoke, {"spacecraft.0.process_noise_accel_m_s2": None,
                                     "spacecraft.0.process_noise_psd_m2_s3": 3e-10,
+                                    "spacecraft.1.process_noise_accel_m_s2": None,
+                                    "filter.process_noise_accel_m_s2": 1e-9,
+                                    "filter.process_noise_model": "continuous_white_acceleration"})
+    first, second = _blocks(mixed)  # EML2's own PSD over the filter's sigma_a; Lunar takes the filter's
+    np.testing.assert_allclose(first, _psd(3e-10, mixed), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(second, _sigma_a(1e-9, mixed), rtol=1e-12, atol=0)
+    other = apply_overrides(smoke, {"spacecraft.0.process_noise_accel_m_s2": None,
                                     "spacecraft.1.process_noise_accel_m_s2": 1e-6,
                                     "filter.process_noise_psd_m2_s3": 1e-14})
-    first, second = _blocks(mixed)
-    np.testing.assert_allclose(first, _psd(3e-10, mixed), rtol=1e-12, atol=0)
-    np.testing.assert_allclose(second, _sigma_a(1e-6, mixed), rtol=1e-12, atol=0)
-    other = apply_overrides(mixed, {"filter.process_noise_psd_m2_s3": None, "filter.process_noise_accel_m_s2": 1e-9})
-    assert [other.filter.process_noise_of(sc) for sc in other.spacecraft] == [(PROCESS_NOISE_PSD, 3e-10),
+    assert [other.filter.process_noise_of(sc) for sc in other.spacecraft] == [(PROCESS_NOISE_PSD, 1e-14),
                                                                              (PROCESS_NOISE_SIGMA_A, 1e-6)]
-    assert "3e-10 m^2/s^3 for EML2" in process_noise_text(other) and "1e-06 m/s^2 for Lunar" in process_noise_text(other)
+    assert "1e-14 m^2/s^3 for EML2" in process_noise_text(other) and "1e-06 m/s^2 for Lunar" in process_noise_text(other)
 
 
 @pytest.mark.parametrize("overrides, where", [
@@ -108,3 +111,15 @@ def test_templates_are_new_scenarios_on_the_psd(kind):
     if scenario.estimator_descriptor().process_noise:
         assert "process_noise_accel_m_s2" not in path.read_text()
         assert scenario.filter.process_noise_psd_m2_s3 is not None
+
+
+def test_a_filter_key_every_spacecraft_overrides_is_refused_in_one_line(smoke):
+    """Issue 47: a filter-level process-noise key that every estimated spacecraft overrides applied to none,
+    silently; now refused naming the key, its value and the spacecraft. One spacecraft without its own key keeps it
+    alive."""
+    with pytest.raises(ScenarioError, match=r"filter.process_noise_psd_m2_s3 = 1e-15 applies to no spacecraft.*"
+                                            r"\(EML2, Lunar\)"):
+        apply_overrides(smoke, {"filter.process_noise_psd_m2_s3": 1e-15})
+    alive = apply_overrides(smoke, {"filter.process_noise_psd_m2_s3": 1e-15,
+                                    "spacecraft.0.process_noise_accel_m_s2": None})
+    assert alive.filter.process_noise_of(alive.spacecraft[0]) == (PROCESS_NOISE_PSD, 1e-15)
