@@ -9,12 +9,13 @@ import pandas as pd
 
 from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 
-MESH = "mesh"  # the `reading` of a scenario whose anchors also range to each other (campaign.studies.tables002)
+# The `reading` of a scenario (campaign.studies.tables002) as the consistency table names it after the case.
+READING_LABELS = {"mesh": " + anchor link", "visible": " always-visible station"}
 
 
 def format_consistency(table: pd.DataFrame) -> str:
-    """The consistency table as Markdown, one row per grid cell, case and spacecraft ('+ anchor link' after
-    the case for the mesh reading); '!' marks a ratio outside the ratio test's range, and a closing line
+    """The consistency table as Markdown, one row per grid cell, case and spacecraft ('+ anchor link' or
+    'always-visible station' after the case for a second reading); '!' marks a ratio outside the ratio test's range, and a closing line
     counts the rows that fail the verdict."""
     def ratio(value):
         inside = 1.0 / CONSISTENCY_RATIO_LIMIT <= value <= CONSISTENCY_RATIO_LIMIT
@@ -28,7 +29,7 @@ def format_consistency(table: pd.DataFrame) -> str:
              "| NEES in band |", "|---|---|---|---|---|---|---|---|---|---|"]
     for row in table.itertuples():
         share = "-" if row.nees_in_band_share != row.nees_in_band_share else f"{100 * row.nees_in_band_share:.0f} %"
-        case = f"{row.case} {row.measurements}" + (" + anchor link" if getattr(row, "reading", None) == MESH else "")
+        case = f"{row.case} {row.measurements}" + READING_LABELS.get(getattr(row, "reading", None), "")
         lines.append(f"| {row.span_periods:.2g} T | {row.interval_s / 60:g} min | {case} | "
                      f"{row.spacecraft} | {row.runs_ok}/{row.runs} | {row.error_rms_position_m:.3f} | "
                      f"{row.sigma_rms_position_m:.3f} | {ratio(row.position_error_to_sigma)} | "
@@ -66,32 +67,52 @@ def _cell(value, digits: int) -> str:
     return "-" if value != value else f"{value:.{digits}f}"
 
 
-def format_readings(drms: pd.DataFrame, clocks: pd.DataFrame) -> str:
-    """The two readings of 002's links side by side (autonomous case): per cell the star reading's p90 (Gateway
-    <-> each anchor, as shipped), the mesh reading's (anchor <-> anchor link added) and mesh / star, for the
-    DRMS and for the clocks. '' when the tables hold no mesh reading."""
-    if not any(column.endswith("_mesh_ratio") for column in drms.columns):
-        return ""
-    lines = ["Two readings of 002's links (autonomous case), DRMS p90 (m): shipped = crosslinks Gateway <-> each "
-             "anchor; + anchor link = the anchors also range to each other; ratio = + anchor link / shipped. "
-             "002 Table 3's values are withheld from our copy of the paper: no paper column, no ratio to the paper.",
-             "", "| span | interval | NORR shipped | NORR + anchor link | NORR ratio | RR shipped | RR + anchor link "
+EARTH_READINGS_TEXT = (
+    "Two readings of 002's Earth station (Earth-based case), DRMS p90 (m): shipped = one station at Canberra's "
+    "latitude, 10 deg elevation mask, the Moon occulting; always visible = an idealised station that sees every "
+    "spacecraft at every epoch (no horizon, no occultation), as a covariance analysis with a geocentric station "
+    "assumes; ratio = always visible / shipped. 002 does not describe its station, and its Table 3 is withheld from "
+    "our copy: no paper column.")
+LINK_READINGS_TEXT = (
+    "Two readings of 002's links (autonomous case), DRMS p90 (m): shipped = crosslinks Gateway <-> each anchor; "
+    "+ anchor link = the anchors also range to each other; ratio = + anchor link / shipped. 002 Table 3's values are "
+    "withheld from our copy of the paper: no paper column, no ratio to the paper.")
+
+
+def _drms_readings(drms: pd.DataFrame, case: str, reading: str, label: str, text: str) -> list[str]:
+    """One case's two readings side by side, per cell: the shipped reading's DRMS p90, the second reading's
+    (`reading`, shown as `label`) and their ratio, with the runs that finished; [] when the tables lack it."""
+    if not any(column == f"{case}_{m}_{reading}_ratio" for column in drms.columns for m in ("NORR", "RR")):
+        return []
+    lines = [text, "", f"| span | interval | NORR shipped | NORR {label} | NORR ratio | RR shipped | RR {label} "
              "| RR ratio |", "|---|---|---|---|---|---|---|---|"]
     for row in drms.itertuples():
         cells = []
         for measurements in ("NORR", "RR"):
-            cells += [_cell(getattr(row, f"autonomous_{measurements}_drms_p90_m", np.nan), 3),
-                      _cell(getattr(row, f"autonomous_mesh_{measurements}_drms_p90_m", np.nan), 3),
-                      _cell(getattr(row, f"autonomous_{measurements}_mesh_ratio", np.nan), 2)]
+            cells += [_cell(getattr(row, f"{case}_{measurements}_drms_p90_m", np.nan), 3),
+                      _cell(getattr(row, f"{case}_{reading}_{measurements}_drms_p90_m", np.nan), 3),
+                      _cell(getattr(row, f"{case}_{measurements}_{reading}_ratio", np.nan), 2)]
         lines.append(f"| {row.span_periods:.2g} T ({row.span_days:g} d) | {row.interval_min:g} min | "
                      + " | ".join(cells) + " |")
-    runs = [int(getattr(row, f"autonomous{mesh}_{m}_runs_ok", 0)) for row in drms.itertuples()
-            for mesh in ("", "_mesh") for m in ("NORR", "RR") if f"autonomous{mesh}_{m}_runs_ok" in drms]
-    total = [int(getattr(row, f"autonomous{mesh}_{m}_runs", 0)) for row in drms.itertuples()
-             for mesh in ("", "_mesh") for m in ("NORR", "RR") if f"autonomous{mesh}_{m}_runs" in drms]
+    columns = [f"{case}{second}_{m}" for second in ("", f"_{reading}") for m in ("NORR", "RR")]
+    runs = [int(getattr(row, f"{c}_runs_ok")) for row in drms.itertuples() for c in columns if f"{c}_runs_ok" in drms]
+    total = [int(getattr(row, f"{c}_runs")) for row in drms.itertuples() for c in columns if f"{c}_runs" in drms]
     if runs:
         finished = f"{min(runs)}" if min(runs) == max(runs) else f"{min(runs)}-{max(runs)}"
         lines += ["", f"Runs that finished, per cell and reading: {finished} of {max(total)}."]
+    return lines
+
+
+def format_readings(drms: pd.DataFrame, clocks: pd.DataFrame) -> str:
+    """The second readings of 002 beside the shipped ones: the Earth station's (shipped, and idealised always
+    visible) and the links' (autonomous case: Gateway <-> each anchor as shipped, and with the anchor <-> anchor
+    link), per cell the two DRMS p90 and their ratio, and for the links the clocks too. '' when the tables hold
+    neither second reading."""
+    earth = _drms_readings(drms, "earth", "visible", "always visible", EARTH_READINGS_TEXT)
+    links = _drms_readings(drms, "autonomous", "mesh", "+ anchor link", LINK_READINGS_TEXT)
+    lines = earth + ([""] if earth and links else []) + links
+    if not lines:
+        return ""
     if "mesh_clock_window_p90_ns" in clocks:
         lines += ["", "Two readings, clock RMS p90 (ns) of the anchors against the Gateway's clock; in both readings "
                   "the fit uses the Gateway <-> anchor offsets only. 002 Table 4's values are withheld from our copy "

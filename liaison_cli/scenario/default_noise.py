@@ -3,12 +3,11 @@ truth holds that the filter's model does not, plus a measured floor, instead of 
 
 q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum of
 - the floor, FLOOR_PSD_M2_S3: what a filter whose model is the truth's still needs, for its own linearisation
-  and arithmetic. Measured on five formations nobody tuned (tests' and benchmarks/untuned_formations.py's:
-  DRO + 100 km lunar orbit, NRHO + elliptical lunar orbit, L1 halo + lunar orbit, L2 halo + 200 km lunar orbit,
-  DRO + Lyapunov + elliptical orbit; 60, 300 and 600 s; the step chosen by accuracy): every one is consistent
-  from 1e-18 to 1e-17 except the DRO + 100 km orbit at 60 s, optimistic at 1e-18, and pessimistic from about
-  1e-16 (the 200 km orbit at 300 s: 83 % of settled epochs in the NEES band). The floor sits inside that window,
-  a factor 3 from its lower end and 30 from its upper one.
+  and arithmetic. Measured on five formations nobody tuned, each at 60, 300 and 600 s with the step chosen by
+  accuracy (`python -m benchmarks.untuned_formations --floors`, results/reference/untuned_floor_window.md): all
+  15 cases are consistent at 3e-18 and at 1e-17; 14 at 1e-18 (the DRO + 100 km orbit at 60 s optimistic); 13 at
+  1e-16 (the 200 km orbit at 60 and 300 s pessimistic); 10 at 1e-20, where the low orbits turn optimistic. The
+  floor is the lower of the two values every case passes.
 - a declared random truth force (model_error.truth_acceleration_sigma_m_s2, time constant tau) that the filter
   does not carry as empirical-acceleration states: its low-frequency density 2 sigma^2 tau (a first-order
   Gauss-Markov process's spectrum at zero frequency);

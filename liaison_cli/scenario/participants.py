@@ -310,8 +310,10 @@ class GroundStationSpec(StrictModel):
     longitude_deg: float = Field(ge=-180.0, le=360.0, description="longitude east: of the Earth-Moon line at t0 in "
                                  "the CRTBP, true with dynamics: ephemeris (deg)")
     altitude_m: float = Field(0.0, ge=-500.0, le=9000.0, description="height above the WGS84 ellipsoid (m)")
-    elevation_mask_deg: float = Field(10.0, ge=0.0, lt=90.0, description="the station measures spacecraft above "
-                                      "this elevation (deg)")
+    elevation_mask_deg: float = Field(10.0, ge=-90.0, lt=90.0, description="the station measures spacecraft above "
+                                      "this elevation; -90: no horizon at all, an idealised station that sees "
+                                      "through the Earth (with the links' occultation off: always visible, as "
+                                      "a covariance analysis with a geocentric station assumes) (deg)")
 
     @model_validator(mode="before")
     @classmethod

@@ -145,7 +145,7 @@ def test_observability_on_every_shipped_scenario_works_or_is_one_line():
         names, states0, times_s, links = scenario_inputs(scenario)
         known, visible = known_inputs(scenario, times_s)
         assert states0.shape == (len(names), 6) and visible.shape == (len(links), len(times_s))
-    assert len(paths) == 40 and refusals == 7
+    assert len(paths) == 42 and refusals == 7
 
 
 def test_observability_of_a_ground_station_scenario_counts_only_visible_epochs(tmp_path):

@@ -66,3 +66,41 @@ def test_tables002_prints_and_writes_both_readings_and_their_ratio(tmp_path):
             p90 = {reading: np.quantile(v[np.isfinite(v)], 0.9) for reading, v in values.items()}
             assert row[f"clock_{which}_mesh_ratio"] == pytest.approx(p90["mesh"] / p90["star"], rel=1e-12)
         assert row.mesh_runs_ok == 2 and row.runs_ok == 2
+
+
+@pytest.mark.parametrize("shipped", ["nrho_earth_station", "nrho_earth_station_norr"])
+def test_the_always_visible_station_is_the_shipped_one_without_horizon_or_occultation(shipped):
+    """002's second station reading: the same file with no elevation mask (-90) and no occultation; nothing else
+    differs. Its truth has a measurement at every epoch, the shipped one at a share of them."""
+    from liaison_cli.campaign.studies.tables002 import STAR, VISIBLE, _reading
+    from liaison_cli.scenario.setup import prepare_problem
+
+    station, _ = load_scenario(SCENARIOS / f"{shipped}.yaml")
+    visible, _ = load_scenario(SCENARIOS / f"{shipped.replace('station', 'station_visible')}.yaml")
+    assert visible.ground_stations[0].elevation_mask_deg == -90 and not any(l.occultation for l in visible.links)
+    differ = {key for key, value in visible.model_dump().items() if station.model_dump()[key] != value}
+    assert differ == {"name", "description", "links", "ground_stations"}
+    assert (_reading(station), _reading(visible)) == (STAR, VISIBLE)
+    seen = np.isfinite(prepare_problem(visible).measurements_true[1:]).mean()
+    shipped_seen = np.isfinite(prepare_problem(station).measurements_true[1:]).mean()
+    assert seen == 1.0 and shipped_seen < 0.7
+
+
+def test_tables002_prints_both_station_readings_and_their_ratio(tmp_path):
+    """2 runs of one cell of the four Earth-based scenarios: the station readings table, and the Parquet ratio
+    equal to the visible p90 over the shipped p90."""
+    names = ("nrho_earth_station", "nrho_earth_station_norr", "nrho_earth_station_visible",
+             "nrho_earth_station_visible_norr")
+    out = tmp_path / "sweep"
+    proc = run_cli_in_process("sweep", *(SCENARIOS / f"{name}.yaml" for name in names),
+                              "--grid", "batch.span_days=6.59", "--grid", "measurement.interval_s=3600",
+                              "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    proc = run_cli_in_process("tables002", out, "--span", "6.59", "--interval", "3600")
+    assert proc.returncode == 0, proc.stderr
+    readings = (out / "tables002" / "readings.md").read_text()
+    assert "| span | interval | NORR shipped | NORR always visible | NORR ratio |" in readings
+    drms = pd.read_parquet(out / "tables002" / "drms_p90.parquet").iloc[0]
+    for measurements in ("RR", "NORR"):
+        assert drms[f"earth_{measurements}_visible_ratio"] == pytest.approx(
+            drms[f"earth_visible_{measurements}_drms_p90_m"] / drms[f"earth_{measurements}_drms_p90_m"])

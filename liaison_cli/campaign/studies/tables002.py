@@ -7,7 +7,9 @@ The sweep is any `liaison sweep` over scenarios whose estimator is batch, with t
 content (kept in sweep.json): Earth-based when it has ground stations, RR when a link measures range-rate,
 and its reading of 002's links: 'star' when every crosslink touches the main spacecraft (the receiver of the
 first link, the Gateway: the shipped reading), 'mesh' when the anchors also range to each other (the second
-reading, scenarios nrho_gateway_anchors_mesh*). The DRMS and clock tables keep the star reading in their
+reading, scenarios nrho_gateway_anchors_mesh*); for the Earth-based case, 'star' for the shipped station (a
+10 deg mask, occulted) and 'visible' for an idealised always-visible one (nrho_earth_station_visible*), which
+adds `earth_visible_{RR,NORR}_*` columns and `earth_{RR,NORR}_visible_ratio`. The DRMS and clock tables keep the star reading in their
 original columns; a sweep that also holds mesh scenarios adds the mesh reading's columns and the ratio
 mesh / star per cell (report.nrho002.format_readings prints them side by side).
 Metrics, per run: DRMS = the mean over the constellation of each spacecraft's prediction RMS (002 Eq. 37-39,
@@ -61,19 +63,28 @@ def _read(sweep_dir: Path):
 
 
 STAR, MESH = "star", "mesh"  # the two readings of 002's crosslinks
+VISIBLE = "visible"  # the second reading of its Earth station: idealised, always visible
+NO_HORIZON_DEG = -90.0
 
 
 def _reading(scenario) -> str:
-    """'mesh' when some crosslink joins two spacecraft neither of which is the main one (the first link's
-    receiver), else 'star' (Earth-based scenarios: every link starts at a station)."""
-    if scenario.ground_stations or not scenario.links:
+    """The shipped reading 'star' (its columns keep their names) or a second one. Autonomous: 'mesh' when some
+    crosslink joins two spacecraft neither of which is the main one (the first link's receiver). Earth-based:
+    'visible' when every station has no horizon (elevation_mask_deg -90) and no link is occulted (an idealised
+    station that sees every spacecraft at every epoch)."""
+    if scenario.ground_stations:
+        visible = (all(station.elevation_mask_deg <= NO_HORIZON_DEG for station in scenario.ground_stations)
+                   and not any(link.occultation for link in scenario.links))
+        return VISIBLE if visible else STAR
+    if not scenario.links:
         return STAR
     main = scenario.links[0].receiver
     return MESH if any(main not in (link.receiver, link.transponder) for link in scenario.links) else STAR
 
 
 def _classes(meta) -> dict:
-    """{scenario name: (case 'autonomous' | 'earth', measurements 'RR' | 'NORR', reading 'star' | 'mesh')}
+    """{scenario name: (case 'autonomous' | 'earth', measurements 'RR' | 'NORR', reading 'star' | 'mesh' |
+    'visible')}
     from the scenario texts."""
     import yaml
 
@@ -167,33 +178,33 @@ def _readings(metrics: pd.DataFrame) -> pd.Series:
     return metrics["reading"] if "reading" in metrics else pd.Series(STAR, index=metrics.index)
 
 
-def _ratio(mesh: float, star: float) -> float:
-    return mesh / star if star == star and mesh == mesh and star > 0 else np.nan
+def _ratio(second: float, star: float) -> float:
+    return second / star if star == star and second == second and star > 0 else np.nan
 
 
 def drms_table(metrics: pd.DataFrame) -> pd.DataFrame:
     """Table 3 layout: one row per (span, interval), DRMS-mean p90 per (case, measurements) column, from the
-    star reading. With mesh runs in the sweep, per (case, measurements) that has them also
-    `{case}_mesh_{measurements}_drms_p90_m` / `_runs_ok` / `_runs` and `{case}_{measurements}_mesh_ratio`
-    (mesh p90 / star p90)."""
+    star reading. With a second reading's runs in the sweep (mesh, visible), per (case, measurements) that has
+    them also `{case}_{reading}_{measurements}_drms_p90_m` / `_runs_ok` / `_runs` and
+    `{case}_{measurements}_{reading}_ratio` (its p90 / the star reading's)."""
     metrics = metrics.assign(reading=_readings(metrics))
     rows = []
     for (span, interval), cell in metrics.groupby(["span_days", "interval_s"], sort=True):
         row = {"span_days": span, "span_periods": span / NRHO_PERIOD_DAYS, "interval_min": interval / 60.0}
-        mesh_keys = []
+        second_keys = []
         groups = sorted(cell.groupby(["case", "measurements", "reading"]),
                         key=lambda kv: (*kv[0][:2], kv[0][2] != STAR))
         for (case, measurements, reading), runs in groups:  # the star reading's columns first, as before
             ok = runs[runs.status == "ok"]
-            key = f"{case}_{measurements}" if reading == STAR else f"{case}_mesh_{measurements}"
+            key = f"{case}_{measurements}" if reading == STAR else f"{case}_{reading}_{measurements}"
             row[f"{key}_drms_p90_m"] = _p90(ok.drms_mean_m)
             row[f"{key}_runs_ok"] = len(ok)
             row[f"{key}_runs"] = len(runs)
-            if reading == MESH:
-                mesh_keys.append((case, measurements))
-        for case, measurements in mesh_keys:
-            row[f"{case}_{measurements}_mesh_ratio"] = _ratio(row[f"{case}_mesh_{measurements}_drms_p90_m"],
-                                                              row.get(f"{case}_{measurements}_drms_p90_m", np.nan))
+            if reading != STAR:
+                second_keys.append((case, measurements, reading))
+        for case, measurements, reading in second_keys:
+            row[f"{case}_{measurements}_{reading}_ratio"] = _ratio(
+                row[f"{case}_{reading}_{measurements}_drms_p90_m"], row.get(f"{case}_{measurements}_drms_p90_m", np.nan))
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -72,3 +72,36 @@ def test_a_lunar_gm_error_adds_the_rms_of_the_field_it_changes():
     assert rms > 2 * f * GM_MOON_M3_S2 / (3000e3) ** 2  # the shifted Moon outweighs the GM itself
     expected = 2 * rms**2 * problem.scenario.settle_days() * SECONDS_PER_DAY  # 0.75 d: half of a 1.5 d arc
     assert problem.default_noises["Lunar"].parts["unmodelled forces"] == pytest.approx(expected, rel=0.02)
+
+
+def test_the_dated_filters_omitted_bodies_add_their_tidal_acceleration_against_skyfield():
+    """eph_eml1_eml2_dsn with the filter keeping only the Moon and the Sun (003's filter) and no process-noise key:
+    the part equals 2 a_rms^2 T_settle with a_rms the planets' tidal acceleration on the spacecraft, computed
+    here from skyfield's positions on the same DE421 file (system barycentres, as the model's bodies)."""
+    skyfield = pytest.importorskip("skyfield.api")
+    from liaison_cli.dynamics.constants import LU_KM
+    from liaison_cli.dynamics.ephemeris import GM_KM3_S2, J2000_JD, de421_path
+    from liaison_cli.scenario.default_noise import _samples
+    from liaison_cli.scenario.loading import apply_overrides, load_scenario
+    from tests.conftest import SCENARIOS
+
+    scenario, _ = load_scenario(SCENARIOS / "eph_eml1_eml2_dsn.yaml")
+    scenario = apply_overrides(scenario, {"ephemeris.filter_bodies": ["moon", "sun"],
+                                          "filter.process_noise_accel_m_s2": None})
+    problem = prepare_problem(scenario)
+    ts, eph = skyfield.load.timescale(builtin=True), skyfield.load_file(de421_path())
+    k = _samples(problem.n_steps)
+    t = ts.tdb_jd(J2000_JD + (problem.dynamics.epoch_tdb_s + problem.times_s[k]) / 86400.0)
+    earth = eph[399].at(t).position.km.T
+    for index, name in enumerate(problem.spacecraft):
+        r = problem.truth[k, 6 * index : 6 * index + 3] * LU_KM
+        a = np.zeros_like(r)
+        for body in (1, 2, 4, 5, 6, 7, 8, 9):  # the planets' systems, which the filter leaves out
+            rb = eph[body].at(t).position.km.T - earth
+            d = rb - r
+            a += GM_KM3_S2[body] * (d / np.linalg.norm(d, axis=1, keepdims=True) ** 3
+                                    - rb / np.linalg.norm(rb, axis=1, keepdims=True) ** 3)
+        rms_m_s2 = np.sqrt(np.mean(np.sum(a**2, axis=1))) * 1e3
+        assert 1e-10 < rms_m_s2 < 1e-8  # Venus's tide dominates at cislunar distances
+        expected = 2 * rms_m_s2**2 * scenario.settle_days() * SECONDS_PER_DAY
+        assert problem.default_noises[name].parts["unmodelled forces"] == pytest.approx(expected, rel=0.01)
