@@ -28,16 +28,23 @@ def test_the_mesh_scenario_is_the_shipped_one_with_the_anchor_link_added(shipped
     assert differ == {"name", "description", "links"}
 
 
-def test_tables002_prints_and_writes_both_readings_and_their_ratio(tmp_path):
-    """2 runs of one grid cell for the four autonomous scenarios: the readings table is printed and written
-    (readings.md, tables.md), and the Parquet ratios are the mesh p90 over the shipped p90 of per_run.parquet."""
+def _one_cell_tables(tmp_path, names):
+    """2 runs of the 1 T / 60 min cell of the named scenarios, swept and tabulated: (sweep folder, tables002's
+    completed process)."""
     out = tmp_path / "sweep"
-    proc = run_cli_in_process("sweep", *(SCENARIOS / f"{name}.yaml" for name in AUTONOMOUS),
+    proc = run_cli_in_process("sweep", *(SCENARIOS / f"{name}.yaml" for name in names),
                               "--grid", "batch.span_days=6.59", "--grid", "measurement.interval_s=3600",
                               "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
     assert proc.returncode == 0, proc.stderr
     proc = run_cli_in_process("tables002", out, "--span", "6.59", "--interval", "3600")
     assert proc.returncode == 0, proc.stderr
+    return out, proc
+
+
+def test_tables002_prints_and_writes_both_readings_and_their_ratio(tmp_path):
+    """2 runs of one grid cell for the four autonomous scenarios: the readings table is printed and written
+    (readings.md, tables.md), and the Parquet ratios are the mesh p90 over the shipped p90 of per_run.parquet."""
+    out, proc = _one_cell_tables(tmp_path, AUTONOMOUS)
     tables = out / "tables002"
     readings = (tables / "readings.md").read_text()
     assert readings in proc.stdout and readings in (tables / "tables.md").read_text()
@@ -91,13 +98,7 @@ def test_tables002_prints_both_station_readings_and_their_ratio(tmp_path):
     equal to the visible p90 over the shipped p90."""
     names = ("nrho_earth_station", "nrho_earth_station_norr", "nrho_earth_station_visible",
              "nrho_earth_station_visible_norr")
-    out = tmp_path / "sweep"
-    proc = run_cli_in_process("sweep", *(SCENARIOS / f"{name}.yaml" for name in names),
-                              "--grid", "batch.span_days=6.59", "--grid", "measurement.interval_s=3600",
-                              "--runs", "2", "--jobs", "1", "--output", out, "--quiet")
-    assert proc.returncode == 0, proc.stderr
-    proc = run_cli_in_process("tables002", out, "--span", "6.59", "--interval", "3600")
-    assert proc.returncode == 0, proc.stderr
+    out, proc = _one_cell_tables(tmp_path, names)
     readings = (out / "tables002" / "readings.md").read_text()
     assert "| span | interval | NORR shipped | NORR always visible | NORR ratio |" in readings
     drms = pd.read_parquet(out / "tables002" / "drms_p90.parquet").iloc[0]
