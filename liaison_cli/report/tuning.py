@@ -26,7 +26,12 @@ def _untuned(table: pd.DataFrame) -> set:
 
 
 def _snc(row, untuned: set) -> str:
-    return "-" if row["scenario"] in untuned else f"{row['snc_m_s2']:.0e}"
+    """The rung's sigma_a; '-' for a batch (none); 'default' for a shipped row whose process noise is the
+    default derived for the scenario (scenario.default_noise: the run prints its value)."""
+    if row["scenario"] in untuned:
+        return "-"
+    value = row["snc_m_s2"]
+    return "default" if value is None or value != value else f"{value:.0e}"
 
 
 def _cells(row, untuned: set) -> list[str]:
