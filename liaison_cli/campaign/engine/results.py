@@ -44,9 +44,24 @@ def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | 
         "sigma_m": problem.sigma_m,
         "seeding": "numpy SeedSequence(seed, spawn_key=(run,)); initial error drawn first, then noise; a random "
                    "truth acceleration from SeedSequence(seed, spawn_key=(run, 1))",
+        "chosen_settings": chosen_settings(problem),
     }
     meta.update(extra or {})
     return meta
+
+
+def chosen_settings(problem: Problem) -> dict:
+    """What the tool chose for the scenario where its keys left it open: each estimated spacecraft's integrator
+    substeps per interval (scenario.integration_steps: its source, and the estimated one-step error in m when
+    chosen by accuracy) and the derived default process noise with its parts (scenario.default_noise)."""
+    from liaison_cli.dynamics.constants import M_PER_LU
+
+    steps = {name: {"substeps": choice.substeps, "source": choice.source,
+                    "one_step_error_m": (None if choice.error_lu != choice.error_lu else choice.error_lu * M_PER_LU)}
+             for name, choice in (problem.step_choices or {}).items()}
+    noise = {name: {"psd_m2_s3": value.psd_m2_s3, "parts_m2_s3": dict(value.parts)}
+             for name, value in (problem.default_noises or {}).items()}
+    return {"integration": steps, "default_process_noise": noise}
 
 
 def _summary_rows(problem: Problem, outcome: RunOutcome) -> list[dict]:

@@ -91,3 +91,15 @@ def test_the_truth_of_a_low_orbit_is_far_more_accurate_than_the_tolerance(low_or
     drift_m = np.linalg.norm(states[:, :3] - exact[:, :3], axis=1) * M_PER_LU
     per_interval_m = np.abs(np.diff(drift_m)).max()
     assert per_interval_m < 1e-5
+
+
+def test_the_choices_are_in_the_results_provenance(low_orbit_600):
+    """summary.parquet's metadata (campaign.engine.results.provenance) carries each spacecraft's substeps, their
+    source and estimated one-step error, and the derived default process noise with its parts."""
+    from liaison_cli.campaign.engine.results import provenance
+
+    chosen = provenance(low_orbit_600, 1, "")["chosen_settings"]
+    low = chosen["integration"]["Low"]
+    assert low["substeps"] == low_orbit_600.step_choices["Low"].substeps and low["source"] == "auto"
+    assert 0 < low["one_step_error_m"] <= 1e-4
+    assert chosen["default_process_noise"]["Halo"]["parts_m2_s3"] == {"floor": 3e-18}
