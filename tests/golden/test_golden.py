@@ -4,7 +4,7 @@ quantity derived from its measured spread across BLAS kernels (tests/golden/tole
 tests/golden/spread.py from records of the same code under the host's OpenBLAS kernel and
 OPENBLAS_CORETYPE=Haswell, Sandybridge and Nehalem: ten times the spread, at least 1e-9 relative).
 
-Measured at the last recording: 22 of the 32 scenarios are bit-identical under all four kernels; the family
+Measured at the last recording: 21 of the 36 scenarios are bit-identical under all four kernels; the family
 orbits' star and mesh scenarios (c4-c6, m2-m4) move their summary columns by up to 6.7e-6 and per-epoch
 NEES by up to 9e-6; the dated eph_eml1_eml2_dsn moves per-epoch velocity errors by 7.4e-5 of the column's
 largest value and NEES by 1.5e-4 (summary RMS columns: 6.8e-5), nrho_gateway_anchors its prediction RMS by
