@@ -135,7 +135,9 @@ def stm_accuracy(problem, samples: int = 96, sigma_m=(300.0, 20.0)) -> dict:
     from scipy.integrate import solve_ivp
 
     f = problem.filter
-    mu, dt, substeps = float(f.model_params[0]), f.dt_tu, f.substeps
+    # eml2_lunar names rk4_substeps, so every spacecraft block takes the same count (FilterArrays.substeps: one
+    # per block)
+    mu, dt, substeps = float(f.model_params[0]), f.dt_tu, int(f.substeps[0])
     rng = np.random.default_rng(0)
     worst = {"every": 0.0, "engine": 0.0, "budget": np.inf, "share": 0.0}
     for k in np.linspace(0, problem.truth.shape[0] - 2, samples).astype(int):
@@ -181,9 +183,9 @@ def main(argv=None):
     runners = {
         "engine": lambda i: estimate("ekf", f, i.x0_hat, i.y_obs, i.truth),
         "bare loop": lambda i: bare_ekf(i.x0_hat, f.P0, f.Q, np.ascontiguousarray(i.y_obs[:, 0]), sigma, f.dt_tu,
-                                        f.substeps, mu, False),
+                                        int(f.substeps[0]), mu, False),
         "bare loop, coarse STM": lambda i: bare_ekf(i.x0_hat, f.P0, f.Q, np.ascontiguousarray(i.y_obs[:, 0]),
-                                                    sigma, f.dt_tu, f.substeps, mu, True),
+                                                    sigma, f.dt_tu, int(f.substeps[0]), mu, True),
     }
     for run in runners.values():
         run(inputs[0])  # compile or load first

@@ -27,6 +27,7 @@ import math
 from dataclasses import dataclass
 
 from liaison_cli.analysis.consistency import campaign_verdict
+from liaison_cli.dynamics.step_choice import SUBSTEP_LADDER
 
 # A direction whose mean NEES component exceeds this share of the whole-state NEES is the cause named.
 DOMINANT_SHARE = 0.5
@@ -87,13 +88,15 @@ def campaign_advice(scenario, summary: list[dict], spacecraft, columns, step_cho
 
 
 def _short_steps(step_choices: dict) -> dict:
-    """{spacecraft: its StepChoice} where filter.rk4_substeps fixed fewer substeps than the tolerance asks."""
+    """{spacecraft: its StepChoice} where filter.rk4_substeps fixed a count that misses the tolerance."""
     return {name: choice for name, choice in step_choices.items()
-            if choice.source != "auto" and choice.accurate_substeps > choice.substeps}
+            if choice.source != "auto" and not choice.met}
 
 
 def _step_text(short: dict) -> str:
-    return ", ".join(f"{name} (needs {choice.accurate_substeps})" for name, choice in short.items())
+    return ", ".join(f"{name} (needs {choice.accurate_substeps})" if choice.accurate_substeps > 0 else
+                     f"{name} (misses it even at {SUBSTEP_LADDER[-1]}: a shorter measurement.interval_s)"
+                     for name, choice in short.items())
 
 
 def _side(failed: str) -> str:

@@ -10,9 +10,10 @@ metres off after one interval, a halo orbit at the same step well under a microm
   steps and by twice as many; their difference over (1 - 2^-p) (p the integrator's order) is the Richardson
   estimate of the error of `substeps` steps against the exact flow of the same model: position (LU) and
   velocity (LU/TU) norms per sample.
-- choose_substeps: the fewest substeps, not below MIN_SUBSTEPS, whose largest estimated error over the samples
-  meets the tolerance (position error <= tolerance, velocity error x interval <= tolerance), from SUBSTEP_LADDER;
-  each try predicts the count the error's p-th power law needs, so a choice takes two or three tries.
+- choose_substeps: substeps, not below MIN_SUBSTEPS, whose largest estimated error over the samples meets the
+  tolerance (position error <= tolerance, velocity error x interval <= tolerance), from SUBSTEP_LADDER: each try
+  takes the count the error's p-th power law predicts, raised by SAFETY and rounded up the ladder, so a choice
+  takes two or three tries and lands at most about 20 % (plus the rounding) above the fewest that would do.
 
 The tolerance is a position error per interval (filter.integration_tolerance_m, DEFAULT_TOLERANCE_M); how it
 compares with the filter's covariance (the whitened one-step error in sigma) is measured in docs/model.md.
@@ -35,6 +36,7 @@ MAX_SAMPLES = 4000  # epochs sampled along the trajectory (every one when there 
 # A predicted count is raised by this factor before rounding up the ladder: the estimate's power law is
 # asymptotic, and one more try costs more than a slightly larger count.
 SAFETY = 1.2
+UNREACHABLE = -1  # StepChoice.accurate_substeps of a fixed count that even the ladder's top cannot bring in
 
 
 @njit(cache=True)
@@ -74,7 +76,8 @@ class StepChoice:
     error_lu: float
     met: bool
     source: str = "auto"
-    accurate_substeps: int = 0  # a fixed count short of the tolerance: the fewest that meet it; else 0
+    accurate_substeps: int = 0  # a fixed count short of the tolerance: a count that meets it (UNREACHABLE: none
+    # up to the ladder's top); else 0
 
 
 def sample_epochs(m: int) -> np.ndarray:
@@ -92,8 +95,9 @@ def worst_error_lu(model: int, params, states, dt_tu: float, substeps: int, orde
 
 def choose_substeps(model: int, params, states, dt_tu: float, order: int, tolerance_lu: float,
                     minimum: int = MIN_SUBSTEPS) -> StepChoice:
-    """The fewest substeps, `minimum` or a ladder count above it, whose worst one-step error along states (m, 6),
-    the nominal trajectory sampled at the measurement epochs, is within tolerance_lu (module docstring)."""
+    """`minimum`, or the ladder count above it that the power law predicts (module docstring), whose worst
+    one-step error along states (m, 6), the nominal trajectory sampled at the measurement epochs, is within
+    tolerance_lu; at the ladder's top, whether or not it meets it (StepChoice.met)."""
     params = np.ascontiguousarray(params, dtype=np.float64)
     states = np.ascontiguousarray(states, dtype=np.float64)
     samples = sample_epochs(states.shape[0])

@@ -92,6 +92,9 @@ class FilterArrays:
         return uncoupled_process_noise(self.Q, self.layout.empirical_couplings(), self.empirical_tau_tu, self.dt_tu)
 
     def dynamics(self, t0_tu: float = 0.0) -> Dynamics:
+        if len(np.atleast_1d(self.substeps)) != len(self.layout.blocks):  # the compiled loop reads one per block
+            raise ValueError(f"substeps: {len(np.atleast_1d(self.substeps))} counts for "
+                             f"{len(self.layout.blocks)} state blocks")
         return dynamics_of(self.model_params, self.dt_tu, self.substeps, t0_tu, self.empirical_tau_tu)
 
     def direction_starts(self) -> tuple[np.ndarray, np.ndarray]:

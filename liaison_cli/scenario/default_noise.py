@@ -13,7 +13,7 @@ q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum o
   Gauss-Markov process's spectrum at zero frequency);
 - every deterministic force the filter's model lacks or has wrong, evaluated along the spacecraft's nominal
   trajectory: the truth's constant unmodelled acceleration, the lunar GM's and C_R's errors (bias and drawn
-  sigma together, sqrt(bias^2 + sigma^2)) and, in the dated model, the bodies the filter leaves out. A slowly
+  sigma together, sqrt(bias^2 + sigma^2); C_R's not when the filter estimates it) and, in the dated model, the bodies the filter leaves out. A slowly
   varying force has no white density of its own; it is taken as a Gauss-Markov process of that RMS and the
   settle time's correlation (the time after which the filter's consistency is judged): 2 a_rms^2 T_settle.
 Each part is kept so the run can say where the default came from (describe).
@@ -45,9 +45,10 @@ def _samples(m: int) -> np.ndarray:
 def _unmodelled_rms_m_s2(scenario: Scenario, model, states, times_s) -> float:
     """RMS over the sampled trajectory of |truth field - filter field + truth's unmodelled acceleration|, m/s^2."""
     error = scenario.model_error
-    cr_factor = 1.0 + float(np.hypot(error.cr_bias, error.cr_sigma))
+    cr_factor = 1.0 + float(np.hypot(error.cr_bias, scenario.cr_error_sigma()))
     gm_factor = 1.0 + float(np.hypot(error.moon_gm_bias, error.moon_gm_sigma))
-    if model.descriptor.parameter("cr") is None:
+    estimated = scenario.filter.estimated_parameters or {}
+    if model.descriptor.parameter("cr") is None or "cr" in estimated:  # none, or the filter estimates it
         cr_factor = 1.0
     filter_params = (model.scaled_filter_params(cr_factor, gm_factor) if (cr_factor, gm_factor) != (1.0, 1.0)
                      else model.filter_params)

@@ -7,7 +7,8 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import M_PER_LU
 from liaison_cli.dynamics.model import DynamicsModel
-from liaison_cli.dynamics.step_choice import StepChoice, choose_substeps
+from liaison_cli.dynamics.step_choice import (UNREACHABLE, StepChoice, choose_substeps, sample_epochs,
+                                             worst_error_lu)
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.scenario.scenario_model import Scenario
 
@@ -25,12 +26,16 @@ def step_choices(scenario: Scenario, model: DynamicsModel, dt_tu: float, traject
         return {name: choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu)
                 for name in names}
     out = {}
-    for name in names:  # the fixed count's own error, and the fewest counts above it that would meet the tolerance
-        fixed = choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu,
-                                minimum=int(flt.rk4_substeps))
-        short = fixed.substeps > flt.rk4_substeps
-        out[name] = StepChoice(int(flt.rk4_substeps), float("nan"), not short, SUBSTEPS_KEY,
-                               fixed.substeps if short else 0)
+    for name in names:  # the fixed count's own error and, where it misses, what the tolerance would take
+        states = trajectories[name].states
+        fixed = int(flt.rk4_substeps)
+        error_lu = worst_error_lu(model.code, params, np.ascontiguousarray(states, dtype=np.float64), dt_tu, fixed,
+                                  order, sample_epochs(len(states)))
+        accurate = 0
+        if error_lu > tolerance_lu:
+            search = choose_substeps(model.code, params, states, dt_tu, order, tolerance_lu, minimum=fixed)
+            accurate = search.substeps if search.met else UNREACHABLE
+        out[name] = StepChoice(fixed, error_lu, error_lu <= tolerance_lu, SUBSTEPS_KEY, accurate)
     return out
 
 
@@ -52,4 +57,8 @@ def describe(choices: dict[str, StepChoice], interval_s: float, tolerance_m: flo
         if missed:
             text += f"; {', '.join(missed)} miss it at the most the ladder allows"
         return text
-    return f"integration: substeps per {interval_s:g} s interval: {counts} ({SUBSTEPS_KEY})"
+    missed = [name for name, choice in choices.items() if not choice.met]
+    text = f"integration: substeps per {interval_s:g} s interval: {counts} ({SUBSTEPS_KEY})"
+    if missed:
+        text += f"; {', '.join(missed)} miss the {tolerance_m:g} m one-step tolerance at that count"
+    return text

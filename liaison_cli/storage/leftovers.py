@@ -35,7 +35,8 @@ def _staging_leftovers(path: Path) -> list[tuple[str, Path, int | None]]:
 def recover_output(path) -> None:
     """Settle what killed commands left beside `path`, before a command writes it: a result set aside by an
     interrupted swap (`.NAME.old-*/NAME`) goes back to `path` if `path` is missing (one note on stderr), and
-    is removed if `path` is there; a `.NAME.partial-*` staging folder is removed. Only folders that are ours
+    is removed if `path` is there; a `.NAME.partial-*` staging folder is removed, and so is a `.NAME.lock` no
+    process holds. Only folders that are ours
     (our marker or provenance, or empty) and that no live process uses (its pid is gone and its flock can be
     taken) are touched; nothing else is ever deleted."""
     path = Path(path)
@@ -49,6 +50,29 @@ def recover_output(path) -> None:
                 _settle_set_aside(folder, path)
             elif is_ours(folder) or not any(folder.iterdir()):
                 shutil.rmtree(folder, ignore_errors=True)
+    _remove_stale_writer_lock(path)
+
+
+def _remove_stale_writer_lock(path: Path) -> None:
+    """The `.NAME.lock` a killed writer left beside `path` (storage.locks.writer_lock removes its own when it lets
+    go; a kill skips that): removed when no process holds it, as its holder would have."""
+    import fcntl
+
+    lock_path = path.parent / f".{path.name}.lock"
+    try:
+        handle = open(lock_path, "r")
+    except OSError:
+        return
+    with handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return  # held: a writer is at work
+        try:
+            if os.stat(lock_path).st_ino == os.fstat(handle.fileno()).st_ino:
+                os.unlink(lock_path)
+        except OSError:
+            pass
 
 
 def _settle_set_aside(aside: Path, path: Path) -> None:

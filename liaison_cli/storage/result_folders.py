@@ -114,12 +114,9 @@ def staged_output(path, overwrite: bool):
             if interrupts.requested():  # Ctrl-C that compiled code swallowed: the old result stays
                 raise KeyboardInterrupt
             os.chmod(stage, 0o777 & ~current_umask())
-            # A sweep writing into `path` holds its writer lock: checked again just before the swap (not held
-            # across it, so a kill mid-swap leaves no lock file beside the result).
-            with _no_other_writer(path):
-                pass
-            kept = carry_over(path, stage) if replace else []
-            swap_in(stage, path, replace)
+            with _no_other_writer(path):  # held across the swap: no sweep starts writing `path` meanwhile (a
+                kept = carry_over(path, stage) if replace else []  # kill here leaves the lock file, which the
+                swap_in(stage, path, replace)  # next writer's recover_output removes)
             if kept:  # other commands' outputs (plots, exports) made from the result this one replaced
                 logging.getLogger("liaison").warning(
                     f"{path}: kept from the result it replaced: {', '.join(kept)} (made from that result: rerun "

@@ -103,3 +103,18 @@ def test_the_choices_are_in_the_results_provenance(low_orbit_600):
     assert low["substeps"] == low_orbit_600.step_choices["Low"].substeps and low["source"] == "auto"
     assert 0 < low["one_step_error_m"] <= 1e-4
     assert chosen["default_process_noise"]["Halo"]["parts_m2_s3"] == {"floor": 3e-18}
+
+
+def test_a_fixed_count_reports_its_own_error_and_what_the_tolerance_would_take():
+    """rk4_substeps 4 on the 100 km orbit at 600 s: its own one-step error (metres) is kept, it misses, and the
+    count that meets the tolerance is named; a tolerance no count reaches (1 nm, below the arithmetic's) is
+    UNREACHABLE, not a count that would still miss."""
+    from liaison_cli.dynamics.step_choice import UNREACHABLE
+
+    low = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 4})).step_choices["Low"]
+    assert not low.met and low.error_lu * M_PER_LU > 1e-4 and low.accurate_substeps > 4
+    assert "Low miss the 0.0001 m one-step tolerance" in describe({"Low": low}, 600.0, 1e-4)
+    halo = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 4})).step_choices["Halo"]
+    assert halo.met and halo.accurate_substeps == 0
+    never = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 256, "integration_tolerance_m": 1e-9}))
+    assert never.step_choices["Low"].accurate_substeps == UNREACHABLE and not never.step_choices["Low"].met
