@@ -118,11 +118,26 @@ def _timeseries_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> C
         "t_s": np.repeat(problem.times_s, n_sc),
         "spacecraft": np.tile(np.array(problem.spacecraft, dtype=object), m),
     }
+    epochs = absolute_epochs_tdb(problem)
+    if epochs is not None:  # dated dynamics: each row's date too
+        columns["epoch_tdb"] = np.repeat(epochs, n_sc)
     for key in ("position_error_m", "velocity_error_m_s", "position_3sigma_m", "velocity_3sigma_m_s", *SMOOTHED_NORMS):
         if key in outcome.norms:  # the smoothed ones only with filter.smoother: rts
             columns[key] = outcome.norms[key].reshape(-1).astype(float_dtype)
     columns["nees"] = np.repeat(outcome.nees, n_sc).astype(float_dtype)
     return columns
+
+
+J2000_TDB = np.datetime64("2000-01-01T12:00:00", "ns")  # the TDB seconds of the dated model count from here
+
+
+def absolute_epochs_tdb(problem: Problem):
+    """(m,) datetime64[ns] on the TDB scale of each epoch of a dated scenario (dynamics.registry: dated), from
+    its epoch's TDB seconds past J2000 (to the nanosecond); None for an undated model (the CRTBP has no date)."""
+    if not problem.scenario.dynamics_descriptor().dated:
+        return None
+    seconds = float(problem.dynamics.epoch_tdb_s) + np.asarray(problem.times_s, dtype=float)
+    return J2000_TDB + np.round(seconds * 1e9).astype("timedelta64[ns]")
 
 
 def _residuals_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:

@@ -255,3 +255,27 @@ def test_a_tabulated_truth_force_is_the_constant_force_when_constant(msl_window)
     flipped = np.where((times < times[len(times) // 2])[:, None], push, -push)
     assert np.linalg.norm(dop853_ephemeris_states(*args, acceleration_table_km_s2=flipped)[-1, :3]
                           - constant[-1, :3]) > 0.05  # measured 0.18 km
+
+
+def test_a_dated_runs_timeseries_carries_its_tdb_epochs(tmp_path, sky):
+    """Issue 47: dated results carried only t_s. timeseries.parquet's epoch_tdb is each epoch on the TDB scale:
+    its first value is ephemeris.epoch_utc on TDB by skyfield (to 10 us), and each later one t_s after it."""
+    import pandas as pd
+
+    from liaison_cli.scenario.loading import load_scenario
+    from tests.conftest import SCENARIOS, run_cli_in_process
+
+    out = tmp_path / "run"
+    proc = run_cli_in_process("run", SCENARIOS / "eph_eml1_eml2_dsn.yaml", "--runs", "1", "--jobs", "1", "--quiet",
+                              "--output", out)
+    assert proc.returncode == 0, proc.stderr
+    series = pd.read_parquet(out / "timeseries.parquet", columns=["t_s", "epoch_tdb"])
+    ts, _ = sky
+    start = load_scenario(SCENARIOS / "eph_eml1_eml2_dsn.yaml")[0].ephemeris.epoch()
+    t = ts.utc(start.year, start.month, start.day, start.hour, start.minute,
+               start.second + start.microsecond * 1e-6)
+    expected = pd.Timestamp(t.tdb_strftime("%Y-%m-%dT%H:%M:%S.%f"))
+    first = series.epoch_tdb.iloc[0]
+    assert abs((first - expected).total_seconds()) < 1e-5
+    elapsed = (series.epoch_tdb - first).dt.total_seconds().to_numpy()
+    np.testing.assert_allclose(elapsed, series.t_s.to_numpy() - series.t_s.iloc[0], atol=1e-6)
