@@ -135,15 +135,15 @@ def _print_run(config, problem, summary: list[dict], out_dir: Path) -> None:
 def _setting_lines(config, problem) -> list[str]:
     """The settings the tool chose for the scenario, with where each came from: the integration step and the
     default process noise."""
-    from liaison_cli.scenario.default_noise import describe as describe_noise
-    from liaison_cli.scenario.integration_steps import describe as describe_steps
+    from liaison_cli.scenario.default_noise import default_noise_line
+    from liaison_cli.scenario.integration_steps import step_choice_line
 
     if config.batch is not None or not problem.step_choices:
         return []
-    lines = [describe_steps(problem.step_choices, config.measurement.interval_s,
+    lines = [step_choice_line(problem.step_choices, config.measurement.interval_s,
                             config.filter.integration_tolerance_m)]
     if problem.default_noises:
-        lines.append(describe_noise(problem.default_noises))
+        lines.append(default_noise_line(problem.default_noises))
     return lines
 
 

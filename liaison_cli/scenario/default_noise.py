@@ -16,7 +16,7 @@ q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum o
   sigma together, sqrt(bias^2 + sigma^2); C_R's not when the filter estimates it) and, in the dated model, the bodies the filter leaves out. A slowly
   varying force has no white density of its own; it is taken as a Gauss-Markov process of that RMS and the
   settle time's correlation (the time after which the filter's consistency is judged): 2 a_rms^2 T_settle.
-Each part is kept so the run can say where the default came from (describe).
+Each part is kept so the run can say where the default came from (default_noise_line).
 """
 
 from dataclasses import dataclass
@@ -76,7 +76,7 @@ def default_psd(scenario: Scenario, model, states, times_s) -> DefaultNoise:
     return DefaultNoise(float(sum(parts.values())), parts)
 
 
-def describe(defaults: dict) -> str:
+def default_noise_line(defaults: dict) -> str:
     """One line for the run text: the spacecraft that take the default and where it came from."""
     phrases = []
     for name, noise in defaults.items():

@@ -45,7 +45,7 @@ def substeps_per_block(layout: StateLayout, choices: dict[str, StepChoice]) -> n
                      for block in layout.blocks], dtype=np.int64)
 
 
-def describe(choices: dict[str, StepChoice], interval_s: float, tolerance_m: float) -> str:
+def step_choice_line(choices: dict[str, StepChoice], interval_s: float, tolerance_m: float) -> str:
     """One line for the run text: each spacecraft's substeps and where they came from."""
     counts = ", ".join(f"{name} {choice.substeps}" for name, choice in choices.items())
     sources = {choice.source for choice in choices.values()}

@@ -8,8 +8,9 @@ result folders.
   text writers without loading it);
 - result_folders: result folders built in a hidden sibling `.NAME.partial-PID-*` (holding a flock on it
   and carrying our marker from the start) and swapped in whole (swap), resumable sweep folders;
-- ownership: which folders are ours (the marker) and may be replaced; locks: flocks and live pids;
-  leftovers: how the next command writing NAME settles what a kill at any moment left beside it.
+- ownership: which folders are ours (the marker) and may be replaced; locks: flocks, live pids and each result
+  folder's one-writer lock (`.NAME.lock`: a sweep's, and a replacement's while it swaps); leftovers: how the
+  next command writing NAME settles what a kill at any moment left beside it (a stale lock file too).
 Import from `liaison_cli.storage`; the modules are its parts.
 """
 

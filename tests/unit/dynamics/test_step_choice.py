@@ -8,7 +8,7 @@ from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.integrators.adaptive import dop853_states
 from liaison_cli.dynamics.registry import MODEL_CRTBP
 from liaison_cli.dynamics.step_choice import MIN_SUBSTEPS, choose_substeps, one_step_errors
-from liaison_cli.scenario.integration_steps import describe
+from liaison_cli.scenario.integration_steps import step_choice_line
 from liaison_cli.scenario.loading import validate_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
@@ -68,7 +68,7 @@ def test_the_choice_meets_its_tolerance_and_a_halo_keeps_the_minimum(low_orbit_6
     samples = np.arange(0, problem.n_steps - 1, 7)
     assert _reference_errors_m(problem, "Low", low.substeps, samples).max() <= 1e-4
     np.testing.assert_array_equal(problem.filter.substeps[:2], [MIN_SUBSTEPS, low.substeps])
-    line = describe(choices, 600.0, 1e-4)
+    line = step_choice_line(choices, 600.0, 1e-4)
     assert f"Halo {MIN_SUBSTEPS}, Low {low.substeps}" in line and "filter.rk4_substeps overrides" in line
 
 
@@ -78,7 +78,7 @@ def test_a_tighter_tolerance_takes_more_substeps_and_the_key_overrides_the_choic
     assert tight.substeps > loose.substeps >= MIN_SUBSTEPS
     fixed = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 6}))
     assert {c.substeps for c in fixed.step_choices.values()} == {6}
-    assert "(filter.rk4_substeps)" in describe(fixed.step_choices, 600.0, 1e-4)
+    assert "(filter.rk4_substeps)" in step_choice_line(fixed.step_choices, 600.0, 1e-4)
 
 
 def test_the_truth_of_a_low_orbit_is_far_more_accurate_than_the_tolerance(low_orbit_600):
@@ -113,7 +113,7 @@ def test_a_fixed_count_reports_its_own_error_and_what_the_tolerance_would_take()
 
     low = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 4})).step_choices["Low"]
     assert not low.met and low.error_lu * M_PER_LU > 1e-4 and low.accurate_substeps > 4
-    assert "Low miss the 0.0001 m one-step tolerance" in describe({"Low": low}, 600.0, 1e-4)
+    assert "Low miss the 0.0001 m one-step tolerance" in step_choice_line({"Low": low}, 600.0, 1e-4)
     halo = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 4})).step_choices["Halo"]
     assert halo.met and halo.accurate_substeps == 0
     never = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 256, "integration_tolerance_m": 1e-9}))

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.constants import M_PER_LU, SECONDS_PER_DAY, TU_S
-from liaison_cli.scenario.default_noise import FLOOR_PSD_M2_S3, describe
+from liaison_cli.scenario.default_noise import FLOOR_PSD_M2_S3, default_noise_line
 from liaison_cli.scenario.loading import validate_scenario
 from liaison_cli.scenario.setup import prepare_problem
 
@@ -31,7 +31,7 @@ def test_without_model_error_the_default_is_the_floor_and_a_key_overrides_it():
     problem = prepare_problem(_scenario(spacecraft_noise=4e-15))
     assert set(problem.default_noises) == {"EML2"}  # Lunar names its own
     assert problem.default_noises["EML2"].psd_m2_s3 == FLOOR_PSD_M2_S3
-    assert "EML2 3e-18" in describe(problem.default_noises)
+    assert "EML2 3e-18" in default_noise_line(problem.default_noises)
 
 
 def test_a_random_truth_force_adds_its_low_frequency_density_unless_the_filter_carries_it():
