@@ -11,6 +11,8 @@ noise, the matched range model, initial errors drawn from P0):
   (`filter.rk4_substeps: 4`), for what it cost (left out of the closing count);
 - with `--floors`, instead, the named formations at each interval with the process noise set to each value of
   FLOORS_M2_S3 (results/reference/untuned_floor_window.md): the window the default's floor sits in;
+- with `--large-sigma N`, instead, the formation that showed the floor's edge (EDGE_CASE) at 60 and 600 s and N
+  formations drawn with 100-300 m ranging at 300 or 600 s (results/reference/untuned_large_sigma.md);
 - `--drawn` more, drawn from the catalogue with a fixed seed (a family member at a random period, a lunar orbit
   with random elements and a perilune of at least 100 km altitude, a random interval, ranging sigma and
   observables): formations the defaults were not chosen on.
@@ -90,8 +92,13 @@ def scenario_mapping(name, spacecraft, links, noise, interval_s, runs, duration_
             **({"filter": flt} if flt else {})}
 
 
-def drawn_formations(count: int, seed: int = 50) -> list[tuple[str, dict, float]]:
-    """(label, the scenario's spacecraft / links / noise, interval) drawn from the catalogue (module docstring)."""
+RANGING_SIGMAS_M = (1.0, 5.0, 10.0, 30.0, 100.0)
+LARGE_RANGING_SIGMAS_M = (100.0, 150.0, 300.0)
+
+
+def drawn_formations(count: int, seed: int = 50, sigmas_m=RANGING_SIGMAS_M) -> list[tuple[str, dict, float]]:
+    """(label, the scenario's spacecraft / links / noise, interval) drawn from the catalogue (module docstring),
+    the ranging sigma from sigmas_m."""
     rng = np.random.default_rng(seed)
     out = []
     for index in range(count):
@@ -104,7 +111,7 @@ def drawn_formations(count: int, seed: int = 50) -> list[tuple[str, dict, float]
                        float(np.round(rng.uniform(0, 360), 1)), float(np.round(rng.uniform(0, 360), 1)),
                        float(np.round(rng.uniform(0, 360), 1)))
         observables = ["range", "range_rate"] if rng.random() < 0.5 else ["range"]
-        noise = {"sigma_m": float(rng.choice([1.0, 5.0, 10.0, 30.0, 100.0]))}
+        noise = {"sigma_m": float(rng.choice(sigmas_m))}
         if "range_rate" in observables:
             noise["range_rate_sigma_m_s"] = float(rng.choice([1e-4, 5e-4, 1e-3]))
         interval = float(rng.choice([60.0, 120.0, 300.0, 600.0]))
@@ -224,14 +231,40 @@ def to_markdown(table: pd.DataFrame, command: str) -> str:
     cases = table.groupby(["case", "interval_s"])
     consistent = sum(bool(g.consistent.all()) for _, g in cases)
     named = table[table.case.isin(list(NAMED))]
-    error = named.pivot_table(index=["case", "spacecraft"], columns="interval_s", values="position_rms_after_day1_m")
-    not_worse = int((error[60] <= error[600]).sum()) if {60, 600} <= set(error.columns) else 0
-    lines.append(f"\nError after day 1 at 60 s not above that at 600 s: {not_worse} of {len(error)} spacecraft of the "
-                 "named formations.")
+    if len(named):
+        error = named.pivot_table(index=["case", "spacecraft"], columns="interval_s",
+                                  values="position_rms_after_day1_m")
+        not_worse = int((error[60] <= error[600]).sum()) if {60, 600} <= set(error.columns) else 0
+        lines.append(f"\nError after day 1 at 60 s not above that at 600 s: {not_worse} of {len(error)} spacecraft of "
+                     "the named formations.")
     lines.append(f"\n{consistent} of {len(cases)} cases consistent for every spacecraft; largest one-step error "
                  f"{table.one_step_max_sigma.max():.2g} σ (whole arc), {table.one_step_max_settled_sigma.max():.2g} σ "
                  "after the settle time.")
     return "\n".join(lines) + "\n"
+
+
+LARGE_SIGMA_OUTPUT = REPO / "results" / "reference" / "untuned_large_sigma.md"
+# The formation that showed the floor's edge (issue 50's closing note): the crosslink-pair template's EML2 halo with
+# its orbiter moved to a = 3,000 km, e = 0.4 (63 km perilune altitude), 150 m ranging every 600 s over 4 days.
+EDGE_CASE = ([{"name": "EML2", "orbit": "eml2_halo"}, _lunar("Lunar", 3000, 0.4, 60)],
+             {"links": [{"receiver": "EML2", "transponder": "Lunar", "observables": ["range"]}]}, {"sigma_m": 150.0})
+
+
+def large_sigma_rows(drawn: int, runs: int, recorded: int) -> list[dict]:
+    """The edge case at 60 and 600 s, then `drawn` formations drawn as in drawn_formations with ranging sigma from
+    LARGE_RANGING_SIGMAS_M and a 300 or 600 s interval (another seed): where the default's floor stops holding."""
+    rows = []
+    spacecraft, links, noise = EDGE_CASE
+    for interval in (60, 600):
+        rows += evaluate("edge: EML2 halo + lunar a 3000 km e 0.4, range, 150 m", scenario_mapping(
+            f"edge_{interval}", spacecraft, links, noise, interval, runs, duration_days=4.0), recorded)
+    for index, (label, (spacecraft, links, noise), interval) in enumerate(
+            drawn_formations(drawn, seed=51, sigmas_m=LARGE_RANGING_SIGMAS_M)):
+        interval = 300.0 if interval < 300.0 else interval
+        rows += evaluate(f"{label}, {noise['sigma_m']:g} m", scenario_mapping(
+            f"large{index}", spacecraft, links, noise, interval, runs), recorded)
+        print(label, "done", flush=True)
+    return rows
 
 
 FLOOR_OUTPUT = REPO / "results" / "reference" / "untuned_floor_window.md"
@@ -291,7 +324,17 @@ def main(argv=None) -> None:
     parser.add_argument("--output", type=Path, default=OUTPUT)
     parser.add_argument("--floors", action="store_true", help="instead, the process-noise window: "
                         "results/reference/untuned_floor_window.md")
+    parser.add_argument("--large-sigma", type=int, default=0, metavar="N",
+                        help="instead, the edge case and N formations drawn with 100-300 m ranging: "
+                        "results/reference/untuned_large_sigma.md")
     args = parser.parse_args(argv)
+    if args.large_sigma:
+        command = f"python -m benchmarks.untuned_formations --large-sigma {args.large_sigma}" + (
+            f" --runs {args.runs}" if args.runs != 20 else "")
+        LARGE_SIGMA_OUTPUT.write_text(to_markdown(pd.DataFrame(large_sigma_rows(args.large_sigma, args.runs,
+                                                                                args.recorded)), command))
+        print(LARGE_SIGMA_OUTPUT.read_text())
+        return
     if args.floors:
         FLOOR_OUTPUT.write_text(floor_markdown(floor_window(args.runs), "python -m benchmarks.untuned_formations "
                                                "--floors" + (f" --runs {args.runs}" if args.runs != 20 else "")))
