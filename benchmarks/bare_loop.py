@@ -37,7 +37,7 @@ from liaison_cli.scenario.setup import prepare_problem
 
 
 @njit(cache=True)
-def bare_ekf(x0, P0, Q, ranges, sigma, dt, substeps, mu, coarse):
+def bare_ekf(x0, P0, Q, ranges, sigma, dt, substeps, params, coarse):
     """Estimates (m, 12) of two spacecraft from crosslink ranges (m,) (NaN: none): the bare loop, its STM by
     every substep (coarse False) or on the engine's coarser grid (True). Element loops, no allocation per
     epoch; P <- Phi P Phi' + Q by 6 x 6 blocks (Phi is block-diagonal); Joseph update."""
@@ -56,9 +56,9 @@ def bare_ekf(x0, P0, Q, ranges, sigma, dt, substeps, mu, coarse):
             for i in range(6):
                 state[i] = x[6 * s + i]
             if coarse:
-                rk4_state_stm_into(state, dt, substeps, mu, y, work)
+                rk4_state_stm_into(state, dt, substeps, params, y, work)
             else:
-                rk4_variational_into(state, dt, substeps, mu, y, work)
+                rk4_variational_into(state, dt, substeps, params, y, work)
             for i in range(6):
                 x[6 * s + i] = y[i]
                 for j in range(6):
@@ -148,13 +148,13 @@ def stm_accuracy(problem, samples: int = 96, sigma_m=(300.0, 20.0)) -> dict:
             ref = solve_ivp(lambda t, v: state_stm_derivative(v, mu), (0.0, dt), y0, method="DOP853", rtol=1e-13,
                             atol=1e-16).y[6:, -1]
             scale = np.abs(ref).max()
-            every = rk4_variational(state.copy(), dt, substeps, mu)[1].ravel()
+            every = rk4_variational(state.copy(), dt, substeps, np.array([mu]))[1].ravel()
             worst["every"] = max(worst["every"], np.abs(every - ref).max() / scale)
-            engine_phi = rk4_state_stm(state.copy(), dt, substeps, mu)[1].ravel()
+            engine_phi = rk4_state_stm(state.copy(), dt, substeps, np.array([mu]))[1].ravel()
             worst["engine"] = max(worst["engine"], np.abs(engine_phi - ref).max() / scale)
             moved = state.copy()
             moved[:3] += rng.normal(0.0, sigma / M_PER_LU, 3)
-            shifted = rk4_state_stm(moved, dt, substeps, mu)[1].ravel()
+            shifted = rk4_state_stm(moved, dt, substeps, np.array([mu]))[1].ravel()
             budget = np.abs(shifted - engine_phi).max() / scale
             worst["budget"] = min(worst["budget"], budget)
             worst["share"] = max(worst["share"], (np.abs(engine_phi - ref).max() / scale) / budget)
@@ -183,9 +183,9 @@ def main(argv=None):
     runners = {
         "engine": lambda i: estimate("ekf", f, i.x0_hat, i.y_obs, i.truth),
         "bare loop": lambda i: bare_ekf(i.x0_hat, f.P0, f.Q, np.ascontiguousarray(i.y_obs[:, 0]), sigma, f.dt_tu,
-                                        int(f.substeps[0]), mu, False),
+                                        int(f.substeps[0]), np.array([mu]), False),
         "bare loop, coarse STM": lambda i: bare_ekf(i.x0_hat, f.P0, f.Q, np.ascontiguousarray(i.y_obs[:, 0]),
-                                                    sigma, f.dt_tu, int(f.substeps[0]), mu, True),
+                                                    sigma, f.dt_tu, int(f.substeps[0]), np.array([mu]), True),
     }
     for run in runners.values():
         run(inputs[0])  # compile or load first

@@ -147,7 +147,7 @@ def taylor_stm_errors(state0, duration_tu, steps_s, mu=MU, order: int = 2):
         states = dop853_state_stm(state0, times, mu)[0]
         errors = []
         for k in range(len(times) - 1):
-            numeric = rk4_variational(states[k], dt, 16, mu)[1]
+            numeric = rk4_variational(states[k], dt, 16, np.array([mu]))[1]
             approx = taylor_stm(states[k + 1], dt, mu, order)
             errors.append(np.linalg.norm(approx - numeric) / np.linalg.norm(numeric))
         errors = np.array(errors)

@@ -16,9 +16,10 @@ from numba import njit
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
-from liaison_cli.dynamics.crtbp import derivative
+from liaison_cli.dynamics.crtbp_field import crtbp_params, field_degree, field_derivative, moon_harmonics_into
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.integrators.rk8 import rk8_advance, step_counts
+from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.registry import CRTBP, DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
@@ -41,7 +42,7 @@ TRUTH_TOLERANCE_M = 1e-5
 
 @njit(cache=True)  # a call, not inlined: compiled and cached once, shared by every estimator and kind set
 def _crtbp_state_stm_into(params, state, t_tu, dt_tu, substeps, y, work):
-    rk4_state_stm_into(state, dt_tu, substeps, params[0], y, work)
+    rk4_state_stm_into(state, dt_tu, substeps, params, y, work)
 
 
 @njit(cache=True)  # a call, not inlined (see _crtbp_state_stm_into)
@@ -92,7 +93,7 @@ def propagate_rk8_in_place(model, params, y, t_tu, dt_tu, n_steps, k, tmp):
     """In place: y (6,) state or (42,) [state, Phi(t, t0) row-major] from t_tu to t_tu + dt_tu, n_steps RK8
     steps; k (12, len(y)) and tmp (len(y),) are the caller's scratch (no allocation per interval)."""
     if model == MODEL_CRTBP:
-        rk8_advance(y, dt_tu, n_steps, params[0], k, tmp)
+        rk8_advance(y, dt_tu, n_steps, params, k, tmp)
     else:  # the batch runs with the CRTBP only (its Estimator descriptor); never a silent NaN
         raise ValueError("propagate_rk8_in_place: the batch's RK8 integrates the CRTBP only")
 
@@ -105,6 +106,9 @@ class DynamicsModel:
     # The truth's constant unmodelled acceleration on the rotating axes (LU/TU^2): model_error's; the filter
     # never sees it.
     truth_acceleration_lu_tu2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # The filter's own parameters where they differ from the truth's (a lunar field of a lower degree); None:
+    # the truth's.
+    filter_only_params: np.ndarray | None = None
 
     @property
     def descriptor(self):
@@ -121,9 +125,9 @@ class DynamicsModel:
             forcing = forcing + extra_acceleration_lu_tu2
         state0, forcing = np.asarray(state0, dtype=float), np.ascontiguousarray(forcing, dtype=float)
         step_s = TRUTH_MAX_STEP_S
-        states = rk4_states_forced(state0, times_tu, step_s / TU_S, self.params[0], forcing)
+        states = rk4_states_forced(state0, times_tu, step_s / TU_S, self.params, forcing)
         while step_s > TRUTH_MIN_STEP_S:  # the 10 s result is kept wherever it meets the tolerance
-            finer = rk4_states_forced(state0, times_tu, 0.5 * step_s / TU_S, self.params[0], forcing)
+            finer = rk4_states_forced(state0, times_tu, 0.5 * step_s / TU_S, self.params, forcing)
             if truth_error_growth_m(states, finer) <= TRUTH_TOLERANCE_M:
                 return states
             states, step_s = finer, 0.5 * step_s
@@ -132,7 +136,22 @@ class DynamicsModel:
     def field_accelerations(self, params, states, times_tu) -> np.ndarray:
         """The model's field with parameters `params` at states (m, 6): accelerations (m, 3), LU/TU^2 (the CRTBP's
         rotating-frame terms included; the truth's unmodelled acceleration not)."""
-        return np.array([derivative(np.asarray(state, dtype=float), float(params[0]))[3:6] for state in states])
+        params = np.asarray(params, dtype=float)
+        return np.array([field_derivative(np.asarray(state, dtype=float), params)[3:6] for state in states])
+
+    def moon_field_difference(self, states) -> np.ndarray:
+        """(m, 3) LU/TU^2: the truth's lunar harmonics minus the filter's at states (m, 6) (zero when they are the
+        same field); the rotating frame's axes."""
+        states = np.asarray(states, dtype=float)
+        out = np.zeros((len(states), 3))
+        acc, grad = np.empty(3), np.empty(6)
+        for params, sign in ((self.params, 1.0), (self.filter_params, -1.0)):
+            if field_degree(params) == 0 or self.filter_only_params is None:
+                continue
+            for k, state in enumerate(states):
+                moon_harmonics_into(params, state[0], state[1], state[2], False, acc, grad)
+                out[k] += sign * acc
+        return out
 
     @property
     def unmodelled_acceleration_lu_tu2(self) -> np.ndarray:
@@ -146,16 +165,17 @@ class DynamicsModel:
 
     @property
     def filter_params(self) -> np.ndarray:
-        """The parameters of the filter's own model: the CRTBP's are the truth's."""
-        return self.params
+        """The parameters of the filter's own model: the truth's, or a lunar field of its own degree."""
+        return self.params if self.filter_only_params is None else self.filter_only_params
 
     def scaled_filter_params(self, cr_factor: float = 1.0, moon_gm_factor: float = 1.0) -> np.ndarray:
         """The filter's parameters with the Moon's GM times moon_gm_factor: mu (GM_moon / (GM_earth + GM_moon))
         becomes mu f / (1 + mu (f - 1)). The CRTBP has no C_R (cr_factor must be 1)."""
         if cr_factor != 1.0:
             raise ValueError("the CRTBP has no solar radiation pressure: no C_R to scale")
-        mu = float(self.params[0])
-        return np.array([mu * moon_gm_factor / (1.0 + mu * (moon_gm_factor - 1.0)), *self.params[1:]])
+        params = self.filter_params
+        mu = float(params[0])
+        return np.array([mu * moon_gm_factor / (1.0 + mu * (moon_gm_factor - 1.0)), *params[1:]])
 
     @property
     def rotating_frame(self) -> bool:  # the states' frame turns at 1 rad/TU about z (measurements.tdoa)
@@ -163,7 +183,7 @@ class DynamicsModel:
 
     def trajectory(self, states, times_tu=None):
         """The sampled truth of one spacecraft (the CRTBP is autonomous: times_tu is not needed)."""
-        return CrtbpTrajectory(states, self.params[0])
+        return CrtbpTrajectory(states, self.params)
 
     def rk8_step_counts(self, positions_lu, dt_tu: float) -> np.ndarray:
         """Steps per interval (m - 1,) for the RK8 propagator along sampled positions (m, k, 3)."""
@@ -179,7 +199,13 @@ def truth_error_growth_m(coarse, fine) -> float:
     return float(np.max(np.abs(np.diff(error_m)))) if len(error_m) > 1 else 0.0
 
 
-def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0)) -> DynamicsModel:
-    """The CRTBP of mass ratio mu; its truth also feels truth_acceleration_m_s2 (3,) on the rotating axes."""
-    return DynamicsModel(CRTBP.name, CRTBP.code, np.array([mu]),
-                         np.asarray(truth_acceleration_m_s2, dtype=float) / M_S2_PER_LU_TU2)
+def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0), moon_degree: int = 0,
+                filter_moon_degree: int | None = None) -> DynamicsModel:
+    """The CRTBP of mass ratio mu; its truth also feels truth_acceleration_m_s2 (3,) on the rotating axes, and the
+    Moon's field to moon_degree (0: a point mass), the filter's to filter_moon_degree (None: the truth's)."""
+    filter_moon_degree = moon_degree if filter_moon_degree is None else filter_moon_degree
+    truth = crtbp_params(mu, lunar_field(moon_degree) if moon_degree else None)
+    own = (None if filter_moon_degree == moon_degree
+           else crtbp_params(mu, lunar_field(filter_moon_degree) if filter_moon_degree else None))
+    unmodelled = np.asarray(truth_acceleration_m_s2, dtype=float) / M_S2_PER_LU_TU2
+    return DynamicsModel(CRTBP.name, CRTBP.code, truth, unmodelled, own)

@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from liaison_cli.dynamics.crtbp import derivative
+from liaison_cli.dynamics.crtbp_field import field_derivative
 
 
 def states_with_accelerations(trajectory) -> np.ndarray:
@@ -28,14 +28,15 @@ class CrtbpTrajectory:
 
     rotating_frame = True
 
-    def __init__(self, states, mu):
+    def __init__(self, states, params):
         self.states = np.asarray(states, dtype=float)
-        self.mu = mu
+        self.params = np.atleast_1d(np.asarray(params, dtype=float))  # the CRTBP's (dynamics.crtbp_field)
 
     @cached_property
     def accelerations(self) -> np.ndarray:
-        """(m, 3) rotating-frame accelerations (Eq. 6-8, Coriolis and centrifugal terms included)."""
-        return np.array([derivative(s, self.mu)[3:6] for s in self.states]).reshape(-1, 3)
+        """(m, 3) rotating-frame accelerations (Eq. 6-8, Coriolis and centrifugal terms included, and the lunar
+        field when the parameters carry it)."""
+        return np.array([field_derivative(s, self.params)[3:6] for s in self.states]).reshape(-1, 3)
 
     def inertial_position_before(self, dt_back_tu):
         states, acc = self.states, self.accelerations  # computed once per trajectory: light-time iterations reuse it

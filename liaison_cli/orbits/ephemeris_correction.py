@@ -131,7 +131,7 @@ def along_orbit(state_lu, elapsed_tu, period_tu: float | None = None) -> np.ndar
     order = np.argsort(phases, kind="stable")
     grid = np.concatenate([[0.0], phases[order]])  # rk4_states starts at its first time
     states = np.empty((len(phases), 6))
-    states[order] = rk4_states(np.asarray(state_lu, dtype=float), grid, 10.0 / TU_S, MU)[1:]
+    states[order] = rk4_states(np.asarray(state_lu, dtype=float), grid, 10.0 / TU_S, np.array([MU]))[1:]
     return states
 
 

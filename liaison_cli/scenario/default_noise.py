@@ -15,7 +15,13 @@ q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum o
   trajectory: the truth's constant unmodelled acceleration, the lunar GM's and C_R's errors (bias and drawn
   sigma together, sqrt(bias^2 + sigma^2); C_R's not when the filter estimates it) and, in the dated model, the bodies the filter leaves out. A slowly
   varying force has no white density of its own; it is taken as a Gauss-Markov process of that RMS and the
-  settle time's correlation (the time after which the filter's consistency is judged): 2 a_rms^2 T_settle.
+  settle time's correlation (the time after which the filter's consistency is judged): 2 a_rms^2 T_settle;
+- the Moon's field beyond the filter's degree (moon_gravity.filter_degree below its degree): it varies along the
+  orbit as fast as the field's features pass below it, so it is taken as a Gauss-Markov force of its RMS and its
+  own correlation time, 2 a_rms^2 tau, tau the integral of its autocorrelation up to the first zero, in the
+  spacecraft's radial / in-track / cross-track axes about the Moon (where a force the orbit carries along, as the
+  degree-2 terms, stays correlated), sampled at the measurement epochs, at least one interval and at most T_settle
+  (field_truncation_psd).
 Each part is kept so the run can say where the default came from (default_noise_line).
 """
 
@@ -28,6 +34,8 @@ from liaison_cli.scenario.scenario_model import Scenario
 
 FLOOR_PSD_M2_S3 = 3e-18
 MAX_SAMPLES = 500  # trajectory samples for the unmodelled forces' RMS
+MAX_FIELD_SAMPLES = 4000  # consecutive epochs for the field's autocorrelation (from t0)
+NEGLIGIBLE_PSD_M2_S3 = 1e-6 * FLOOR_PSD_M2_S3  # a part below this is arithmetic residue, not printed
 
 
 @dataclass(frozen=True)
@@ -59,7 +67,50 @@ def _unmodelled_rms_m_s2(scenario: Scenario, model, states, times_s) -> float:
     times_tu = (np.asarray(times_s, dtype=float)[k] - float(times_s[0])) / TU_S
     difference = (model.field_accelerations(model.params, states[k], times_tu)
                   - model.field_accelerations(filter_params, states[k], times_tu) + unmodelled)
+    if model.descriptor.lunar_field:  # the field's truncation has its own part (field_truncation_psd)
+        difference -= model.moon_field_difference(states[k])
     return float(np.sqrt(np.mean(np.sum(difference**2, axis=1)))) * M_S2_PER_AU
+
+
+def _moon_ric(states, mu) -> np.ndarray:
+    """(m, 3, 3): each epoch's radial, in-track and cross-track unit vectors (rows) about the Moon."""
+    r = states[:, 0:3] - np.array([1.0 - mu, 0.0, 0.0])
+    radial = r / np.linalg.norm(r, axis=1, keepdims=True)
+    normal = np.cross(r, states[:, 3:6])
+    cross = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+    return np.stack([radial, np.cross(cross, radial), cross], axis=1)
+
+
+def correlation_time_s(signal, dt_s: float, longest_s: float) -> float:
+    """The integral of a vector signal's (m, 3) normalised autocorrelation up to its first zero (trapezoid, lags of
+    dt_s), within [dt_s, longest_s]."""
+    total = float(np.sum(signal * signal))
+    if total == 0.0:
+        return dt_s
+    m = len(signal)
+    integral = 0.5
+    for lag in range(1, min(m - 1, int(longest_s / dt_s)) + 1):
+        rho = float(np.sum(signal[lag:] * signal[:-lag])) / (m - lag) / (total / m)
+        if rho <= 0.0:
+            break
+        integral += rho
+    return float(np.clip(integral * dt_s, dt_s, longest_s))
+
+
+def field_truncation_psd(scenario: Scenario, model, states, times_s) -> float:
+    """2 a_rms^2 tau of the Moon's field beyond the filter's degree along the spacecraft's orbit (module
+    docstring), m^2/s^3; 0 where the filter's field is the truth's."""
+    if not model.descriptor.lunar_field:
+        return 0.0
+    k = np.arange(min(len(times_s), MAX_FIELD_SAMPLES))
+    difference = model.moon_field_difference(states[k])
+    if not np.any(difference):
+        return 0.0
+    ric = np.einsum("kij,kj->ki", _moon_ric(np.asarray(states, dtype=float)[k], float(model.params[0])), difference)
+    dt_s = float(times_s[1] - times_s[0])
+    tau_s = correlation_time_s(ric, dt_s, scenario.settle_days() * SECONDS_PER_DAY)
+    rms = float(np.sqrt(np.mean(np.sum(difference**2, axis=1)))) * M_S2_PER_AU
+    return 2.0 * rms**2 * tau_s
 
 
 def default_psd(scenario: Scenario, model, states, times_s) -> DefaultNoise:
@@ -71,8 +122,11 @@ def default_psd(scenario: Scenario, model, states, times_s) -> DefaultNoise:
         parts["model_error random force"] = (2.0 * error.truth_acceleration_sigma_m_s2**2
                                              * error.truth_acceleration_time_constant_s)
     rms = _unmodelled_rms_m_s2(scenario, model, states, times_s)
-    if rms > 0.0:
+    if 2.0 * rms**2 * scenario.settle_days() * SECONDS_PER_DAY > NEGLIGIBLE_PSD_M2_S3:
         parts["unmodelled forces"] = 2.0 * rms**2 * scenario.settle_days() * SECONDS_PER_DAY
+    field = field_truncation_psd(scenario, model, states, times_s)
+    if field > NEGLIGIBLE_PSD_M2_S3:
+        parts[f"lunar field beyond degree {scenario.moon_gravity.filter_degree_or_truth}"] = field
     return DefaultNoise(float(sum(parts.values())), parts)
 
 

@@ -7,6 +7,7 @@ check_estimated_parameters, check_empirical_acceleration and check_ric_process_n
 with one line naming the key, its value and what is allowed."""
 
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.estimation.estimators import ESTIMATORS
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
@@ -19,6 +20,10 @@ def check_dynamics(scenario) -> None:
     if scenario.dynamics not in scenario.estimator_descriptor().dynamics:
         runners = " / ".join(name for name, e in ESTIMATORS.items() if scenario.dynamics in e.dynamics)
         raise ValueError(f"dynamics: {scenario.dynamics} runs the {runners} today (estimator: {runners})")
+    if scenario.moon_gravity is not None and not scenario.dynamics_descriptor().lunar_field:
+        capable = " / ".join(d.name for d in DYNAMICS.values() if d.lunar_field)
+        raise ValueError(f"moon_gravity: dynamics: {scenario.dynamics} keeps a point-mass Moon; the lunar field "
+                         f"runs with dynamics: {capable}")
     if scenario.dynamics_descriptor().dated:
         _check_dated(scenario)
     else:

@@ -44,4 +44,4 @@ def phased_state_lu(spec) -> np.ndarray:
     state = initial_state_lu(spec)
     if spec.phase == 0.0:
         return state
-    return rk4_states(state, np.array([0.0, spec.phase * period_tu(spec)]), 1e-3, MU)[-1]
+    return rk4_states(state, np.array([0.0, spec.phase * period_tu(spec)]), 1e-3, np.array([MU]))[-1]

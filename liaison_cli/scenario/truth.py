@@ -176,7 +176,13 @@ def _dated_model(scenario: Scenario):
 
 
 # Each dynamics model's builder from a scenario (its descriptor: dynamics.registry).
-MODEL_BUILDERS = {"crtbp": lambda scenario: crtbp_model(MU, scenario.model_error.truth_acceleration_m_s2),
+def _crtbp_model(scenario: Scenario):
+    gravity = scenario.moon_gravity
+    return crtbp_model(MU, scenario.model_error.truth_acceleration_m_s2, gravity.degree if gravity else 0,
+                       gravity.filter_degree_or_truth if gravity else None)
+
+
+MODEL_BUILDERS = {"crtbp": _crtbp_model,
                   "ephemeris": _dated_model}
 
 

@@ -11,25 +11,25 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.constants import TU_S
-from liaison_cli.dynamics.crtbp import derivative, derivative_into, state_stm_rhs
+from liaison_cli.dynamics.crtbp_field import field_derivative, field_derivative_into, field_state_stm_rhs
 
 
 @njit(cache=True)
-def rk4_state_stm(state, dt_tu, substeps, mu):
+def rk4_state_stm(state, dt_tu, substeps, params):
     """Propagate one state (6,) and its STM over dt_tu: (state_end (6,), phi (6, 6)) with
     phi = Phi(t + dt, t), as the filter does (rk4_state_stm_into: the state by `substeps` RK4 steps, the STM
     by fewer, as extra equations alongside a coarser state, so the linearisation follows the trajectory)."""
     y = np.empty(42)
-    rk4_state_stm_into(state, dt_tu, substeps, mu, y, np.empty((5, 42)))
+    rk4_state_stm_into(state, dt_tu, substeps, params, y, np.empty((5, 42)))
     return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
 
 @njit(cache=True)
-def rk4_variational(state, dt_tu, steps, mu):
+def rk4_variational(state, dt_tu, steps, params):
     """(state_end (6,), phi (6, 6)) by `steps` RK4 steps of the 42 state + STM equations together: every step
     on the STM too (a reference for the coarse STM, and the scheme of the filter before it)."""
     y = np.empty(42)
-    rk4_variational_into(state, dt_tu, steps, mu, y, np.empty((5, 42)))
+    rk4_variational_into(state, dt_tu, steps, params, y, np.empty((5, 42)))
     return y[0:6].copy(), y[6:].copy().reshape(6, 6)
 
 
@@ -46,7 +46,7 @@ def stm_steps(dt_tu, substeps):
 
 
 @njit(cache=True, inline="always")
-def rk4_state_stm_into(state, dt_tu, substeps, mu, y, work):
+def rk4_state_stm_into(state, dt_tu, substeps, params, y, work):
     """rk4_state_stm without allocation: y (42,) <- [state_end (6), Phi(t + dt, t) row-major (36)];
     work (5, 42) scratch (the filter calls this for every spacecraft at every epoch: no allocation). `state`
     must not share memory with y or work: it is read again after they are written.
@@ -63,12 +63,12 @@ def rk4_state_stm_into(state, dt_tu, substeps, mu, y, work):
     times (NRHO: 190 times) more than the coarse step does, interval by interval (benchmarks/bare_loop.py
     --accuracy). The 200 s bound keeps longer intervals there: without it the orbiter's Phi was 5e-6 off at
     600 s and 4e-5 at 1,000 s."""
-    rk4_variational_into(state, dt_tu, stm_steps(dt_tu, substeps), mu, y, work)
-    _state_steps(state, dt_tu, substeps, mu, y, work)
+    rk4_variational_into(state, dt_tu, stm_steps(dt_tu, substeps), params, y, work)
+    _state_steps(state, dt_tu, substeps, params, y, work)
 
 
 @njit(cache=True, inline="always")
-def rk4_variational_into(state, dt_tu, steps, mu, y, work):
+def rk4_variational_into(state, dt_tu, steps, params, y, work):
     """y (42,) <- `steps` RK4 steps of the 42 state + STM (variational) equations from [state, identity]
     (work (5, 42) scratch): the STM's half of rk4_state_stm_into, and with every substep the scheme it
     replaced (benchmarks/bare_loop.py's yardstick)."""
@@ -81,22 +81,22 @@ def rk4_variational_into(state, dt_tu, steps, mu, y, work):
     for i in range(6):
         y[6 + 7 * i] = 1.0
     for _ in range(steps):
-        state_stm_rhs(y, mu, k1)
+        field_state_stm_rhs(y, params, k1)
         for i in range(42):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        state_stm_rhs(tmp, mu, k2)
+        field_state_stm_rhs(tmp, params, k2)
         for i in range(42):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        state_stm_rhs(tmp, mu, k3)
+        field_state_stm_rhs(tmp, params, k3)
         for i in range(42):
             tmp[i] = y[i] + h * k3[i]
-        state_stm_rhs(tmp, mu, k4)
+        field_state_stm_rhs(tmp, params, k4)
         for i in range(42):
             y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @njit(cache=True, inline="always")
-def _state_steps(state, dt_tu, steps, mu, y, work):
+def _state_steps(state, dt_tu, steps, params, y, work):
     """y[0:6] <- `steps` RK4 steps of the state alone from `state`; work's rows are scratch."""
     h = dt_tu / steps
     s, mid = work[0, 0:6], work[0, 6:12]
@@ -104,16 +104,16 @@ def _state_steps(state, dt_tu, steps, mu, y, work):
     for i in range(6):
         s[i] = state[i]
     for _ in range(steps):
-        derivative_into(s, mu, k1)
+        field_derivative_into(s, params, k1)
         for i in range(6):
             mid[i] = s[i] + 0.5 * h * k1[i]
-        derivative_into(mid, mu, k2)
+        field_derivative_into(mid, params, k2)
         for i in range(6):
             mid[i] = s[i] + 0.5 * h * k2[i]
-        derivative_into(mid, mu, k3)
+        field_derivative_into(mid, params, k3)
         for i in range(6):
             mid[i] = s[i] + h * k3[i]
-        derivative_into(mid, mu, k4)
+        field_derivative_into(mid, params, k4)
         for i in range(6):
             s[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     for i in range(6):
@@ -121,15 +121,15 @@ def _state_steps(state, dt_tu, steps, mu, y, work):
 
 
 @njit(cache=True)
-def rk4_states(state0, times_tu, max_step_tu, mu):
+def rk4_states(state0, times_tu, max_step_tu, params):
     """Sample one trajectory (6,) -> (m, 6) at times_tu (times_tu[0] = epoch of state0) by fixed RK4 steps
     of at most max_step_tu between consecutive samples (the compiled truth propagator: no Python in the
     loop, no scipy import)."""
-    return rk4_states_forced(state0, times_tu, max_step_tu, mu, np.zeros((times_tu.shape[0], 3)))
+    return rk4_states_forced(state0, times_tu, max_step_tu, params, np.zeros((times_tu.shape[0], 3)))
 
 
 @njit(cache=True)
-def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
+def rk4_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2):
     """rk4_states with an extra acceleration on the rotating axes, LU/TU^2, given at the samples (m, 3) and
     linear between them: the truth's unmodelled force (scenario model_error: a constant, or a Gauss-Markov
     process drawn per run). A constant table adds its row exactly (a + 0 f is a); zeros add nothing."""
@@ -145,16 +145,16 @@ def rk4_states_forced(state0, times_tu, max_step_tu, mu, acceleration_lu_tu2):
         h = span / substeps
         for s in range(substeps):
             start, middle, end = s / substeps, (s + 0.5) / substeps, (s + 1.0) / substeps
-            k1 = _forced(derivative(y, mu), acceleration_lu_tu2, j, start)
+            k1 = _forced(field_derivative(y, params), acceleration_lu_tu2, j, start)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            k2 = _forced(derivative(tmp, mu), acceleration_lu_tu2, j, middle)
+            k2 = _forced(field_derivative(tmp, params), acceleration_lu_tu2, j, middle)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            k3 = _forced(derivative(tmp, mu), acceleration_lu_tu2, j, middle)
+            k3 = _forced(field_derivative(tmp, params), acceleration_lu_tu2, j, middle)
             for i in range(6):
                 tmp[i] = y[i] + h * k3[i]
-            k4 = _forced(derivative(tmp, mu), acceleration_lu_tu2, j, end)
+            k4 = _forced(field_derivative(tmp, params), acceleration_lu_tu2, j, end)
             for i in range(6):
                 y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
         for i in range(6):  # element loops compile faster than slice assignment (no shape-error path)

@@ -12,7 +12,7 @@ tests/unit/estimation/test_batch.py.
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs
+from liaison_cli.dynamics.crtbp_field import field_derivative_into, field_state_stm_rhs
 from liaison_cli.dynamics.ephemeris_dynamics import STM_SIZE, ephemeris_derivative
 from liaison_cli.dynamics.integrators import dop853_tableau as _dop853
 
@@ -46,40 +46,40 @@ def rk8_combine(y, h, b, k):
 
 
 @njit(cache=True)
-def _rk8_step(y, h, mu, a, b, k, tmp):
+def _rk8_step(y, h, params, a, b, k, tmp):
     """One RK8 step in place of a 6-state, or of the 42-vector [state, Phi]; k (12, len(y)), tmp scratch."""
     for s in range(12):
         rk8_stage_input(y, h, a, k, s, tmp)
         if y.shape[0] == 6:
-            derivative_into(tmp, mu, k[s])
+            field_derivative_into(tmp, params, k[s])
         else:
-            state_stm_rhs(tmp, mu, k[s])
+            field_state_stm_rhs(tmp, params, k[s])
     rk8_combine(y, h, b, k)
 
 
 @njit(cache=True)
-def rk8_advance(y, dt_tu, n_steps, mu, k, tmp):
+def rk8_advance(y, dt_tu, n_steps, params, k, tmp):
     """Advance y in place over dt_tu in n_steps RK8 steps: y (6,) a state, or y (42,) [state, Phi row-major]
     carried on from earlier intervals, so Phi stays Phi(t, t0). k (12, len(y)), tmp (len(y),) scratch."""
     h = dt_tu / n_steps
     for _ in range(n_steps):
-        _rk8_step(y, h, mu, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp)
 
 
 @njit(cache=True)
-def rk8_state(state, dt_tu, n_steps, mu):
+def rk8_state(state, dt_tu, n_steps, params):
     """(6,) state -> (6,) state after dt_tu in n_steps equal RK8 steps."""
     y = state.copy()
     k = np.empty((12, 6))
     tmp = np.empty(6)
     h = dt_tu / n_steps
     for _ in range(n_steps):
-        _rk8_step(y, h, mu, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp)
     return y
 
 
 @njit(cache=True)
-def rk8_state_stm(state, dt_tu, n_steps, mu):
+def rk8_state_stm(state, dt_tu, n_steps, params):
     """(6,) state -> (state (6,), Phi (6, 6)) after dt_tu in n_steps equal RK8 steps."""
     y = np.zeros(42)
     for i in range(6):
@@ -89,7 +89,7 @@ def rk8_state_stm(state, dt_tu, n_steps, mu):
     tmp = np.empty(42)
     h = dt_tu / n_steps
     for _ in range(n_steps):
-        _rk8_step(y, h, mu, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp)
     phi = np.empty((6, 6))
     for i in range(6):
         for j in range(6):

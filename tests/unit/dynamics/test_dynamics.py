@@ -5,6 +5,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.constants import MU, TU_S
+
+MU_PARAMS = np.array([MU])  # the point-mass CRTBP's parameter vector (dynamics.crtbp_field)
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, jacobian
 from liaison_cli.dynamics.integrators.adaptive import dop853_states
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm
@@ -34,7 +36,7 @@ def test_filter_rk4_conserves_jacobi_and_tracks_truth_over_ten_days(name):
     x = STATES[name].copy()
     c0 = jacobi_constant(x, MU)
     for _ in range(n_steps):
-        x = rk4_state_stm(x, DT_TU, 4, MU)[0]  # the default filter.rk4_substeps
+        x = rk4_state_stm(x, DT_TU, 4, MU_PARAMS)[0]  # the default filter.rk4_substeps
     truth = dop853_states(STATES[name], np.array([0.0, n_steps * DT_TU]), MU)[-1]
     assert abs(jacobi_constant(x, MU) - c0) < 1e-10
     assert np.linalg.norm(x[:3] - truth[:3]) * 384400e3 < 1.0  # metres
@@ -76,12 +78,12 @@ def test_stm_matches_central_differences(name, span_steps):
     phi = np.eye(6)
     x = x0.copy()
     for _ in range(span_steps):
-        x, step_phi = rk4_state_stm(x, DT_TU, 8, MU)
+        x, step_phi = rk4_state_stm(x, DT_TU, 8, MU_PARAMS)
         phi = step_phi @ phi
 
     def flow(state):
         for _ in range(span_steps):
-            state = rk4_state_stm(state, DT_TU, 8, MU)[0]
+            state = rk4_state_stm(state, DT_TU, 8, MU_PARAMS)[0]
         return state
 
     numeric = np.empty((6, 6))
@@ -109,8 +111,8 @@ def test_the_stm_on_a_coarser_grid_keeps_the_state_and_stays_near_dop853(name, i
     x = STATES[name].copy()
     worst = 0.0
     for _ in range(48):
-        state, phi = rk4_state_stm(x, dt, 4, MU)
-        assert np.array_equal(state, rk4_variational(x, dt, 4, MU)[0])
+        state, phi = rk4_state_stm(x, dt, 4, MU_PARAMS)
+        assert np.array_equal(state, rk4_variational(x, dt, 4, MU_PARAMS)[0])
         y0 = np.concatenate([x, np.eye(6).ravel()])
         ref = solve_ivp(lambda t, v: state_stm_derivative(v, MU), (0.0, dt), y0, method="DOP853", rtol=1e-13,
                         atol=1e-16).y[6:, -1].reshape(6, 6)
@@ -137,7 +139,7 @@ def test_the_coarser_stm_through_the_nrho_perilune(interval_s):
     worst = 0.0
     for j in range(-8, 8):
         x = orbit.sol(perilune + j * dt)
-        phi = rk4_state_stm(x, dt, 4, MU)[1]
+        phi = rk4_state_stm(x, dt, 4, MU_PARAMS)[1]
         ref = solve_ivp(lambda t, v: state_stm_derivative(v, MU), (0.0, dt), np.concatenate([x, np.eye(6).ravel()]),
                         method="DOP853", rtol=1e-13, atol=1e-16).y[6:, -1].reshape(6, 6)
         worst = max(worst, np.abs(phi - ref).max() / np.abs(ref).max())

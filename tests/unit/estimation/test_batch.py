@@ -117,13 +117,13 @@ def test_rk8_schedule_matches_dop853_and_its_stm_matches_central_differences(nrh
     reference = dop853_states(x0, times, MU, rtol=1e-13, atol=1e-15)
     state, worst = x0.copy(), 0.0
     for k, n in enumerate(counts):
-        state = rk8_state(state, dt_tu, int(n), MU)
+        state = rk8_state(state, dt_tu, int(n), np.array([MU]))
         worst = max(worst, float(np.linalg.norm(state[:3] - reference[k + 1, :3])) * M_PER_LU)
     assert worst < 1e-3
     span = slice(0, 40)
     state, phi = x0.copy(), np.eye(6)
     for n in counts[span]:
-        state, step = rk8_state_stm(state, dt_tu, int(n), MU)
+        state, step = rk8_state_stm(state, dt_tu, int(n), np.array([MU]))
         phi = step @ phi
     _, phi_ref = dop853_state_stm(x0, [0.0, 40 * dt_tu], MU, rtol=1e-13, atol=1e-15)
     assert np.max(np.abs(phi - phi_ref[-1])) < 1e-6 * np.max(np.abs(phi_ref[-1]))

@@ -105,3 +105,38 @@ def test_the_dated_filters_omitted_bodies_add_their_tidal_acceleration_against_s
         assert 1e-10 < rms_m_s2 < 1e-8  # Venus's tide dominates at cislunar distances
         expected = 2 * rms_m_s2**2 * scenario.settle_days() * SECONDS_PER_DAY
         assert problem.default_noises[name].parts["unmodelled forces"] == pytest.approx(expected, rel=0.01)
+
+
+def test_the_correlation_time_of_known_signals():
+    from liaison_cli.scenario.default_noise import correlation_time_s
+
+    rng = np.random.default_rng(5)
+    assert correlation_time_s(np.ones((500, 3)), 60.0, 86400.0) == 499.5 * 60.0  # a constant: every lag it has
+    assert correlation_time_s(np.ones((5000, 3)), 60.0, 86400.0) == 86400.0  # ... up to the settle time
+    assert correlation_time_s(rng.normal(size=(5000, 3)), 60.0, 86400.0) == 60.0  # white: one interval
+    tau_s, dt_s = 1800.0, 60.0
+    phi = np.exp(-dt_s / tau_s)
+    x = np.zeros((20000, 3))
+    for k in range(1, len(x)):  # a first-order Gauss-Markov sequence: its integral time is tau (to its first zero)
+        x[k] = phi * x[k - 1] + np.sqrt(1 - phi**2) * rng.normal(size=3)
+    assert correlation_time_s(x, dt_s, 86400.0) == pytest.approx(tau_s, rel=0.25)
+
+
+def test_a_truncated_lunar_field_adds_its_own_part_and_a_matched_one_none():
+    def lunar_scenario(filter_degree):
+        data = {"name": "field", "duration_days": 1.0,
+                "spacecraft": [{"name": "DRO", "orbit": "dro", "period_days": 14.0},
+                               {"name": "LLO", "orbit": "lunar_keplerian",
+                                "elements": {"a_km": 1837.4, "e": 0.0, "i_deg": 90, "raan_deg": 0, "argp_deg": 0,
+                                             "ta_deg": 0}}],
+                "links": [{"receiver": "DRO", "transponder": "LLO"}], "measurement": {"interval_s": 120},
+                "noise": {"sigma_m": 5}, "moon_gravity": {"degree": 10, "filter_degree": filter_degree},
+                "monte_carlo": {"runs": 1, "seed": 1}}
+        return prepare_problem(validate_scenario(data, "field")).default_noises
+
+    truncated = lunar_scenario(2)["LLO"]
+    part = truncated.parts["lunar field beyond degree 2"]
+    assert set(truncated.parts) == {"floor", "lunar field beyond degree 2"}  # no GM-type residue beside it
+    # the 100 km orbit's omitted field is ~1e-4 m/s^2: between one interval's and the settle time's density
+    assert 2 * 1e-5**2 * 120.0 < part < 2 * 1e-3**2 * 0.5 * SECONDS_PER_DAY
+    assert lunar_scenario(10)["LLO"].psd_m2_s3 == FLOOR_PSD_M2_S3

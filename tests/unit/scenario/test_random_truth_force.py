@@ -48,7 +48,7 @@ def test_a_forced_truth_follows_dop853_under_the_same_force():
     state0 = initial_state_lu(spec)
     times_tu = np.arange(97) * 187.5 / TU_S  # 5 h
     force = gauss_markov_samples(np.random.default_rng(3), 1, 97, 187.5, 1e-6 / M_S2_PER_AU, 3600.0)[0]
-    forced = rk4_states_forced(state0, times_tu, 10.0 / TU_S, MU, force)
+    forced = rk4_states_forced(state0, times_tu, 10.0 / TU_S, np.array([MU]), force)
 
     def rhs(t, y):
         rate = derivative(y, MU)
@@ -56,7 +56,7 @@ def test_a_forced_truth_follows_dop853_under_the_same_force():
         return rate
 
     reference = dop853_samples(rhs, 0.0, state0, times_tu, 1e-13, 1e-15)
-    moved_m = np.max(np.linalg.norm(forced[:, :3] - rk4_states(state0, times_tu, 10.0 / TU_S, MU)[:, :3], axis=1))
+    moved_m = np.max(np.linalg.norm(forced[:, :3] - rk4_states(state0, times_tu, 10.0 / TU_S, np.array([MU]))[:, :3], axis=1))
     off_m = np.max(np.linalg.norm(forced[:, :3] - reference[:, :3], axis=1))
     lu_m = 384400e3
     assert moved_m * lu_m > 10.0  # the force moved the orbiter by metres (measured 46 m)

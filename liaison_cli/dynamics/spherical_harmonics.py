@@ -1,0 +1,154 @@
+"""A body's gravity field in fully normalised spherical harmonics: the acceleration and its gradient (for the STM)
+of the terms of degree 2 and above, in the body's own axes. Compiled; plain arrays in, no allocation beyond
+two (N + 3)^2 scratch tables per call.
+
+Method: Cunningham's solid harmonics V_nm, W_nm (Montenbruck & Gill, Satellite Orbits, 2000, Sec. 3.2.4:
+Eq. 3.29-3.31 for the recursions, Eq. 3.33 for the acceleration), carried in normalised form
+V̄_nm = N_nm V_nm with N_nm^2 = (2 - δ_m0)(2n + 1)(n - m)! / (n + m)!, so that the potential is
+U = GM/R Σ (C̄_nm V̄_nm + S̄_nm W̄_nm) and every factor in the recursions and in the derivative rules is a square
+root of a ratio of O(n) integers: nothing overflows or underflows at degree 200 above the reference sphere
+((R / r)^(n + 1) is 1.4e-5 at degree 200 and 100 km altitude on the Moon). The recursion is in Cartesian
+coordinates, so the poles are ordinary points (no 1 / cos(latitude)).
+
+A derivative of a solid harmonic is a combination of solid harmonics one degree up (the rule behind M&G's
+Eq. 3.33; `_solid_gradient` writes it in normalised form), so the acceleration takes the table to degree N + 1
+and the gradient, the rule applied twice, to N + 2. Tests (tests/unit/dynamics/test_spherical_harmonics.py): the
+acceleration against finite differences of the potential, the gradient against finite differences of the
+acceleration, a zero trace (the potential is harmonic), the degree-2 field against its closed form, and the
+potential against an independent sum of scipy's associated Legendre functions.
+
+Coefficients are packed by `packed_index(n, m) = n (n + 1) / 2 + m`.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def packed_index(n, m):
+    return n * (n + 1) // 2 + m
+
+
+@njit(cache=True)
+def solid_harmonics(x, y, z, radius, degree):
+    """Normalised V̄_nm, W̄_nm (degree + 1, degree + 1) at (x, y, z) in the body's axes, lengths in the unit of
+    `radius` (the field's reference radius); zero where m > n."""
+    size = degree + 1
+    v = np.zeros((size, size))
+    w = np.zeros((size, size))
+    r2 = x * x + y * y + z * z
+    rho = radius / r2  # R / r^2
+    xr, yr, zr, rr = x * rho, y * rho, z * rho, radius * rho  # x R / r^2, ..., R^2 / r^2
+    v[0, 0] = radius / math.sqrt(r2)
+    for m in range(size):
+        if m > 0:  # the sectoral term from the one below it (M&G Eq. 3.30, normalised)
+            f = math.sqrt(3.0) if m == 1 else math.sqrt((2.0 * m + 1.0) / (2.0 * m))
+            v[m, m] = f * (xr * v[m - 1, m - 1] - yr * w[m - 1, m - 1])
+            w[m, m] = f * (xr * w[m - 1, m - 1] + yr * v[m - 1, m - 1])
+        if m + 1 < size:  # one degree up (M&G Eq. 3.31 with n = m + 1: no n - 2 term)
+            f = math.sqrt(2.0 * m + 3.0)
+            v[m + 1, m] = f * zr * v[m, m]
+            w[m + 1, m] = f * zr * w[m, m]
+        for n in range(m + 2, size):  # the column recursion (M&G Eq. 3.31, normalised)
+            a = math.sqrt((2.0 * n - 1.0) * (2.0 * n + 1.0) / ((n - m) * (n + m)))
+            b = math.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0) / ((2.0 * n - 3.0) * (n + m) * (n - m)))
+            v[n, m] = a * zr * v[n - 1, m] - b * rr * v[n - 2, m]
+            w[n, m] = a * zr * w[n - 1, m] - b * rr * w[n - 2, m]
+    return v, w
+
+
+@njit(cache=True, inline="always")
+def _solid_gradient(v, w, n, m, out):
+    """out (6,) <- R times the gradients of V̄_nm and W̄_nm: [dV/dx, dV/dy, dV/dz, dW/dx, dW/dy, dW/dz], from the
+    degree n + 1 row of the tables (the derivative of a solid harmonic, normalised; M&G Eq. 3.33's rule)."""
+    q = (2.0 * n + 1.0) / (2.0 * n + 3.0)
+    c = math.sqrt(q * (n + m + 1.0) * (n - m + 1.0))
+    out[2] = -c * v[n + 1, m]
+    out[5] = -c * w[n + 1, m]
+    if m == 0:
+        a = math.sqrt(0.5 * q * (n + 1.0) * (n + 2.0))
+        out[0] = -a * v[n + 1, 1]
+        out[1] = -a * w[n + 1, 1]
+        out[3] = 0.0
+        out[4] = 0.0
+        return
+    a = math.sqrt(q * (n + m + 1.0) * (n + m + 2.0))  # (2 - δ_m0) / 2 = 1 for m > 0
+    b = math.sqrt((2.0 if m == 1 else 1.0) * q * (n - m + 1.0) * (n - m + 2.0))
+    vp, wp, vm, wm = v[n + 1, m + 1], w[n + 1, m + 1], v[n + 1, m - 1], w[n + 1, m - 1]
+    out[0] = 0.5 * (-a * vp + b * vm)
+    out[1] = 0.5 * (-a * wp - b * wm)
+    out[3] = 0.5 * (-a * wp + b * wm)
+    out[4] = 0.5 * (a * vp + b * vm)
+
+
+@njit(cache=True)
+def potential(c, s, gm, radius, degree, position):
+    """U of the terms of degree 2..degree at position (3,) in the body's axes (the central term excluded), in the
+    units of gm and radius: GM/R Σ (C̄_nm V̄_nm + S̄_nm W̄_nm), c and s packed."""
+    v, w = solid_harmonics(position[0], position[1], position[2], radius, degree)
+    total = 0.0
+    for n in range(2, degree + 1):
+        for m in range(n + 1):
+            k = packed_index(n, m)
+            total += c[k] * v[n, m] + s[k] * w[n, m]
+    return gm / radius * total
+
+
+@njit(cache=True)
+def acceleration_gradient_into(c, s, gm, radius, degree, x, y, z, with_gradient, acc, grad):
+    """acc (3,) <- the acceleration of the terms of degree 2..degree at (x, y, z) in the body's axes; with
+    with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz); c and s packed (module docstring).
+    Units: those of gm and radius (lengths of x, y, z in radius's unit)."""
+    top = degree + 2 if with_gradient else degree + 1
+    v, w = solid_harmonics(x, y, z, radius, top)
+    first = np.empty(6)
+    second = np.empty(6)
+    ax = ay = az = 0.0
+    gxx = gyy = gzz = gxy = gxz = gyz = 0.0
+    for n in range(2, degree + 1):
+        for m in range(n + 1):
+            k = packed_index(n, m)
+            cnm, snm = c[k], s[k]
+            if cnm == 0.0 and snm == 0.0:
+                continue
+            _solid_gradient(v, w, n, m, first)
+            ax += cnm * first[0] + snm * first[3]
+            ay += cnm * first[1] + snm * first[4]
+            az += cnm * first[2] + snm * first[5]
+            if not with_gradient:
+                continue
+            # d/dz of the gradient: -c times the gradient of the (n + 1, m) harmonics
+            cz = math.sqrt((2.0 * n + 1.0) / (2.0 * n + 3.0) * (n + m + 1.0) * (n - m + 1.0))
+            _solid_gradient(v, w, n + 1, m, second)
+            gzz += -cz * (cnm * second[2] + snm * second[5])
+            gxz += -cz * (cnm * second[0] + snm * second[3])
+            gyz += -cz * (cnm * second[1] + snm * second[4])
+            # d/dx and d/dy of the gradient: combinations of the (n + 1, m +- 1) harmonics' gradients
+            q = (2.0 * n + 1.0) / (2.0 * n + 3.0)
+            if m == 0:
+                a0 = math.sqrt(0.5 * q * (n + 1.0) * (n + 2.0))
+                _solid_gradient(v, w, n + 1, 1, second)
+                # dV̄_n0/dx = -a0 V̄_{n+1,1}, dV̄_n0/dy = -a0 W̄_{n+1,1}
+                gxx += -a0 * cnm * second[0]
+                gxy += -a0 * cnm * second[1]
+                gyy += -a0 * cnm * second[4]
+                continue
+            a = math.sqrt(q * (n + m + 1.0) * (n + m + 2.0))
+            b = math.sqrt((2.0 if m == 1 else 1.0) * q * (n - m + 1.0) * (n - m + 2.0))
+            _solid_gradient(v, w, n + 1, m + 1, second)  # gradients of V̄, W̄ at (n + 1, m + 1)
+            gvp_x, gvp_y, gwp_x, gwp_y = second[0], second[1], second[3], second[4]
+            _solid_gradient(v, w, n + 1, m - 1, second)  # ... and at (n + 1, m - 1)
+            gvm_x, gvm_y, gwm_x, gwm_y = second[0], second[1], second[3], second[4]
+            # dV̄/dx = (-a V̄p + b V̄m) / 2, dW̄/dx = (-a W̄p + b W̄m) / 2,
+            # dV̄/dy = (-a W̄p - b W̄m) / 2, dW̄/dy = (a V̄p + b V̄m) / 2
+            gxx += 0.5 * (cnm * (-a * gvp_x + b * gvm_x) + snm * (-a * gwp_x + b * gwm_x))
+            gxy += 0.5 * (cnm * (-a * gvp_y + b * gvm_y) + snm * (-a * gwp_y + b * gwm_y))
+            gyy += 0.5 * (cnm * (-a * gwp_y - b * gwm_y) + snm * (a * gvp_y + b * gvm_y))
+    scale = gm / (radius * radius)
+    acc[0], acc[1], acc[2] = scale * ax, scale * ay, scale * az
+    if with_gradient:
+        scale2 = scale / radius
+        grad[0], grad[1], grad[2] = scale2 * gxx, scale2 * gyy, scale2 * gzz
+        grad[3], grad[4], grad[5] = scale2 * gxy, scale2 * gxz, scale2 * gyz
