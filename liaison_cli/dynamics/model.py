@@ -18,7 +18,7 @@ from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
 from liaison_cli.dynamics.crtbp_field import crtbp_params, field_degree, field_derivative, moon_harmonics_into
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
-from liaison_cli.dynamics.integrators.rk8 import rk8_advance, step_counts
+from liaison_cli.dynamics.integrators.rk8 import rk8_advance, rk8_states_forced, step_counts
 from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.registry import CRTBP, DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
@@ -38,6 +38,7 @@ PROPAGATION_SIZE = SENSITIVITY_SIZE
 TRUTH_MAX_STEP_S = 10.0
 TRUTH_MIN_STEP_S = 0.3125  # five halvings
 TRUTH_TOLERANCE_M = 1e-5
+TRUTH_RK8_MAX_STEP_S = 60.0  # the first RK8 step of a truth with the lunar harmonics (halved as RK4's 10 s is)
 
 
 @njit(cache=True)  # a call, not inlined: compiled and cached once, shared by every estimator and kind set
@@ -124,11 +125,15 @@ class DynamicsModel:
         if extra_acceleration_lu_tu2 is not None:
             forcing = forcing + extra_acceleration_lu_tu2
         state0, forcing = np.asarray(state0, dtype=float), np.ascontiguousarray(forcing, dtype=float)
-        step_s = TRUTH_MAX_STEP_S
-        states = rk4_states_forced(state0, times_tu, step_s / TU_S, self.params, forcing)
-        while step_s > TRUTH_MIN_STEP_S:  # the 10 s result is kept wherever it meets the tolerance
-            finer = rk4_states_forced(state0, times_tu, 0.5 * step_s / TU_S, self.params, forcing)
-            if truth_error_growth_m(states, finer) <= TRUTH_TOLERANCE_M:
+        # A point-mass field keeps the recorded RK4; the lunar harmonics cost tens of point-mass evaluations each,
+        # so their truth steps by RK8 (TRUTH_RK8_MAX_STEP_S), under the same tolerance.
+        rk8 = field_degree(self.params) > 0
+        integrate, order = (rk8_states_forced, 8) if rk8 else (rk4_states_forced, 4)
+        step_s = TRUTH_RK8_MAX_STEP_S if rk8 else TRUTH_MAX_STEP_S
+        states = integrate(state0, times_tu, step_s / TU_S, self.params, forcing)
+        while step_s > TRUTH_MIN_STEP_S:  # the first step's result is kept wherever it meets the tolerance
+            finer = integrate(state0, times_tu, 0.5 * step_s / TU_S, self.params, forcing)
+            if truth_error_growth_m(states, finer, order) <= TRUTH_TOLERANCE_M:
                 return states
             states, step_s = finer, 0.5 * step_s
         return states
@@ -190,12 +195,12 @@ class DynamicsModel:
         return step_counts(positions_lu, dt_tu, self.params[0])
 
 
-def truth_error_growth_m(coarse, fine) -> float:
-    """The largest change over one interval of the size of the Richardson estimate of the coarse RK4 truth's
-    position error, |(coarse - fine) 16 / 15|, between two samplings (m, 6) of one trajectory at steps h and h / 2
-    (m). The size, not the error vector: an error that turns without growing is not counted (a vector difference
+def truth_error_growth_m(coarse, fine, order: int = 4) -> float:
+    """The largest change over one interval of the size of the Richardson estimate of the coarse truth's position
+    error, |(coarse - fine) 2^p / (2^p - 1)| for an integrator of order p (RK4: 16 / 15), between two samplings
+    (m, 6) of one trajectory at steps h and h / 2 (m). The size, not the error vector: an error that turns without growing is not counted (a vector difference
     would bound it from above; kept so, because the golden record and its kernel spreads were measured with it)."""
-    error_m = np.linalg.norm(coarse[:, :3] - fine[:, :3], axis=1) * (16.0 / 15.0) * M_PER_LU
+    error_m = np.linalg.norm(coarse[:, :3] - fine[:, :3], axis=1) * (2.0**order / (2.0**order - 1.0)) * M_PER_LU
     return float(np.max(np.abs(np.diff(error_m)))) if len(error_m) > 1 else 0.0
 
 

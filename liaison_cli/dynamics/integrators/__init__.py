@@ -6,7 +6,8 @@
   `rk4_states_forced` with an unmodelled acceleration, constant or drawn per run).
 - `rk8`: fixed-step 8th order Runge-Kutta on DOP853's 12-stage tableau (`dop853_tableau`, vendored as literal
   floats): the stage kernels (`rk8_stage_input`, `rk8_combine`), the CRTBP's (`rk8_advance` in place,
-  `rk8_state`, `rk8_state_stm`), the dated ephemeris field's (`rk8_advance_ephemeris`), and the batch's step
+  `rk8_state`, `rk8_state_stm`), the CRTBP truth with the lunar harmonics (`rk8_states_forced`), the dated
+  ephemeris field's (`rk8_advance_ephemeris`), and the batch's step
   schedule (`step_counts`).
 - `adaptive`: scipy's adaptive DOP853 behind one wrapper taking the right-hand side (`dop853_samples`, with
   restarts at terminal events), and the CRTBP's reference propagations through it (`dop853_states`,

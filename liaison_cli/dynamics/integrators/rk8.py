@@ -1,6 +1,7 @@
 """Fixed-step 8th-order Runge-Kutta (the 12-stage Dormand-Prince 8(5,3) formula that scipy's DOP853 uses,
 without its error control): the stage kernels every RK8 here shares (`rk8_stage_input`, `rk8_combine`), the
-CRTBP's state and STM (`rk8_advance` in place, `rk8_state`, `rk8_state_stm`), the dated ephemeris field's
+CRTBP's state and STM (`rk8_advance` in place, `rk8_state`, `rk8_state_stm`), the CRTBP truth with the lunar
+harmonics (`rk8_states_forced`), the dated ephemeris field's
 (`rk8_advance_ephemeris`), and the step count per interval (`step_counts`) chosen by a Sundman-type rule: the
 step never exceeds STEP_FRACTION of the local Kepler time sqrt(r^3 / GM) about the nearer primary. Near the
 Moon at the perilune of an NRHO (r ~ 3,200 km) that is ~40 s; at apolune (70,000 km) ~1 h. The rule needs no
@@ -95,6 +96,37 @@ def rk8_state_stm(state, dt_tu, n_steps, params):
         for j in range(6):
             phi[i, j] = y[6 + 6 * i + j]
     return y[0:6].copy(), phi
+
+
+@njit(cache=True)
+def rk8_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2):
+    """The CRTBP truth by RK8 (integrators.rk4.rk4_states_forced's contract): one trajectory (6,) -> (m, 6) sampled
+    at times_tu by steps of at most max_step_tu, with an extra acceleration (m, 3) given at the samples and linear
+    between them, read at each stage's time. For a field that is costly to evaluate (the lunar harmonics): an
+    eighth-order step can be tens of times longer than RK4's for the same error."""
+    m = times_tu.shape[0]
+    out = np.empty((m, 6))
+    y = state0.copy()
+    for i in range(6):
+        out[0, i] = y[i]
+    k = np.empty((12, 6))
+    tmp = np.empty(6)
+    for j in range(1, m):
+        span = times_tu[j] - times_tu[j - 1]
+        substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
+        h = span / substeps
+        for s in range(substeps):
+            for stage in range(12):
+                rk8_stage_input(y, h, RK8_A, k, stage, tmp)
+                field_derivative_into(tmp, params, k[stage])
+                fraction = (s + RK8_C[stage]) / substeps
+                for i in range(3):
+                    a0 = acceleration_lu_tu2[j - 1, i]
+                    k[stage, 3 + i] += a0 + (acceleration_lu_tu2[j, i] - a0) * fraction
+            rk8_combine(y, h, RK8_B, k)
+        for i in range(6):
+            out[j, i] = y[i]
+    return out
 
 
 @njit(cache=True)
