@@ -14,7 +14,10 @@
   1e-12 on the same field;
 - the filter's field against the truth's: a DRO and a 100 km polar orbit (range + range-rate every 60 s, 5 m and
   1 mm/s, 2 days, 8 runs, every default) under a degree-20 truth, with the filter at degree 0 (a point-mass Moon),
-  8 and 20: position error RMS after day 1, err/σ, the verdict and the default process noise.
+  8 and 20: position error RMS after day 1, err/σ, the verdict and the default process noise;
+- with `--per-run`, instead (printed, not written): one EKF run's whole work unit (execute_run, median of 5 on one
+  core after compilation) of a 10-day NRHO relay + 100 km polar orbiter at 60 s with the filter at degree 20 and
+  the truth at 100, per epoch, against the shipped eml2_lunar's in the same session.
 """
 
 import argparse
@@ -177,10 +180,47 @@ def filter_study(runs: int = 8) -> list[str]:
     return lines
 
 
+def per_run_seconds(scenario, repeats: int = 5) -> tuple[float, int]:
+    """(median seconds of execute_run after a first compiling run, epochs per run)."""
+    from liaison_cli.campaign.engine.worker import RunTask, execute_run
+    from liaison_cli.scenario.setup import prepare_problem
+
+    problem = prepare_problem(scenario)
+    execute_run(problem, RunTask(0))
+    times = []
+    for run in range(1, repeats + 1):
+        start = time.perf_counter()
+        execute_run(problem, RunTask(run))
+        times.append(time.perf_counter() - start)
+    return float(np.median(times)), len(problem.times_s)
+
+
+def per_run_comparison() -> str:
+    from liaison_cli.scenario.loading import load_scenario, validate_scenario
+
+    relay = {"name": "relay_per_run", "duration_days": 10.0,
+             "spacecraft": [{"name": "Relay", "orbit": "nrho_gateway"},
+                            {"name": "User", "orbit": "lunar_keplerian",
+                             "elements": {"altitude_km": 100.0, "e": 0.0, "i_deg": 90.0, "raan_deg": 30.0}}],
+             "links": [{"receiver": "Relay", "transponder": "User", "observables": ["range", "range_rate"]}],
+             "measurement": {"interval_s": 60}, "noise": {"sigma_m": 2.21, "range_rate_sigma_m_s": 0.011},
+             "moon_gravity": {"degree": 100, "filter_degree": 20}, "monte_carlo": {"runs": 6, "seed": 1}}
+    field_s, field_epochs = per_run_seconds(validate_scenario(relay, "relay_per_run"))
+    base_s, base_epochs = per_run_seconds(load_scenario(REPO / "scenarios" / "eml2_lunar.yaml")[0])
+    ratio = (field_s / field_epochs) / (base_s / base_epochs)
+    return (f"one run, median of 5 on one core: NRHO relay + 100 km orbiter, filter degree 20 / truth 100, 10 d at "
+            f"60 s: {field_s:.2f} s ({field_s / field_epochs * 1e6:.0f} µs per epoch); eml2_lunar: {base_s:.3f} s "
+            f"({base_s / base_epochs * 1e6:.0f} µs per epoch); per epoch {ratio:.1f}x")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", type=Path, default=OUTPUT)
+    parser.add_argument("--per-run", action="store_true", help="instead, the per-run time against eml2_lunar")
     args = parser.parse_args(argv)
+    if args.per_run:
+        print(per_run_comparison())
+        return
     text = "\n".join([f"Written by `python -m benchmarks.lunar_field`; do not edit by hand. GRGM1200A's harmonics "
                       "beyond the point mass, over 2,000 points on a sphere at each altitude.", "", *measure(), "", *truth_against_dop853(), "",
                       f"A filter's field against a degree-{TRUTH_DEGREE} truth (DRO + 100 km polar orbit, range + "

@@ -11,6 +11,7 @@ from liaison_cli.cli import (  # noqa: F401  (imported to register their command
     warmup,
     sweep,
     error_budget,
+    design,
     studies,
     plot,
     budget,

@@ -81,7 +81,7 @@ def validate(
 def new(
     path: Path = typer.Argument(..., metavar="NAME.yaml", help="the scenario file to write (must not exist)"),
     kind: str = typer.Option(..., "--from", metavar="KIND", help="template: crosslink-pair, network, "
-                             "nrho-batch, dated-dsn or tdoa-pair"),
+                             "nrho-batch, dated-dsn, tdoa-pair or lunar-relay"),
 ):
     """Write a commented starting scenario from a template; it validates and runs as written.
 

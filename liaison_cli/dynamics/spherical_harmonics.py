@@ -17,6 +17,12 @@ acceleration against finite differences of the potential, the gradient against f
 acceleration, a zero trace (the potential is harmonic), the degree-2 field against its closed form, and the
 potential against an independent sum of scipy's associated Legendre functions.
 
+Far from the body the sum stops early (`effective_degree`): at the degree beyond which (R / r)^(n - 2), the
+size of a degree-n term against degree 2's for coefficients of equal size, is below TRUNCATION_RATIO. The
+coefficients fall with the degree (Kaula's rule), so what is left out is smaller still: against pyshtools at
+degree 100 from 50 to 20,000 km the sum agrees to 3e-14 (tests). At the 9:2 NRHO's apolune (70,000 km from the
+Moon) a degree-20 field stops at 11.
+
 Coefficients are packed by `packed_index(n, m) = n (n + 1) / 2 + m`.
 """
 
@@ -24,6 +30,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+TRUNCATION_RATIO = 1e-14
 
 
 @njit(cache=True, inline="always")
@@ -83,6 +91,16 @@ def _solid_gradient(v, w, n, m, out):
     out[4] = 0.5 * (a * vp + b * vm)
 
 
+@njit(cache=True, inline="always")
+def effective_degree(degree, radius, r2):
+    """The degree the sum needs at squared distance r2 (module docstring): degree itself inside 1.5 R."""
+    ratio2 = radius * radius / r2
+    if ratio2 >= 1.0 / 2.25:
+        return degree
+    needed = 2 + int(math.ceil(math.log(TRUNCATION_RATIO) / (0.5 * math.log(ratio2))))
+    return min(degree, needed)
+
+
 @njit(cache=True)
 def potential(c, s, gm, radius, degree, position):
     """U of the terms of degree 2..degree at position (3,) in the body's axes (the central term excluded), in the
@@ -101,6 +119,7 @@ def acceleration_gradient_into(c, s, gm, radius, degree, x, y, z, with_gradient,
     """acc (3,) <- the acceleration of the terms of degree 2..degree at (x, y, z) in the body's axes; with
     with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz); c and s packed (module docstring).
     Units: those of gm and radius (lengths of x, y, z in radius's unit)."""
+    degree = effective_degree(degree, radius, x * x + y * y + z * z)
     top = degree + 2 if with_gradient else degree + 1
     v, w = solid_harmonics(x, y, z, radius, top)
     first = np.empty(6)

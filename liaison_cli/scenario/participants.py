@@ -36,9 +36,17 @@ UNPHASED_ORBITS = (KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS, "oem")
 
 
 class KeplerianElements(StrictModel):
-    """Moon-centred elements in inertial axes aligned with the rotating frame at t0."""
+    """Moon-centred elements in inertial axes aligned with the rotating frame at t0. The orbit's size is a_km or,
+    for a low lunar orbit, altitude_km: the perilune's altitude above the mean lunar radius (a circular orbit's
+    altitude when e is 0), from which a_km follows."""
 
-    a_km: float = Field(gt=MOON_RADIUS_KM, description="semi-major axis, above the lunar radius (km)")
+    model_config = ConfigDict(json_schema_extra=schema_rules(one_of(given("a_km"), given("altitude_km"))))
+
+    a_km: float | None = Field(None, gt=MOON_RADIUS_KM, description="semi-major axis, above the lunar radius; or "
+                               "give altitude_km (km)")
+    altitude_km: float | None = Field(None, gt=0, description="instead of a_km: the perilune's altitude above the "
+                                      f"mean lunar radius ({MOON_RADIUS_KM} km); with e = 0 a circular orbit's "
+                                      "altitude (km)")
     e: float = Field(ge=0.0, lt=1.0, description="eccentricity; the perilune a_km (1 - e) must clear the lunar "
                      "radius (dimensionless)")
     i_deg: float = Field(ge=0.0, le=180.0, description="inclination (deg)")
@@ -48,6 +56,10 @@ class KeplerianElements(StrictModel):
 
     @model_validator(mode="after")
     def _perilune_above_surface(self):
+        if (self.a_km is None) == (self.altitude_km is None):
+            raise ValueError("give the orbit's size as a_km or as altitude_km (one of the two)")
+        if self.a_km is None:  # frozen model: a_km follows from the altitude once, here
+            object.__setattr__(self, "a_km", (MOON_RADIUS_KM + self.altitude_km) / (1.0 - self.e))
         if self.a_km * (1.0 - self.e) <= MOON_RADIUS_KM:
             raise ValueError(
                 f"perilune a_km*(1-e) = {self.a_km * (1 - self.e):.1f} km is inside the Moon "

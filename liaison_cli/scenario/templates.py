@@ -15,6 +15,7 @@ TEMPLATES = {
     "nrho-batch": "NRHO Gateway + 2 anchors, dual one-way range + range-rate and clocks, batch least squares",
     "dated-dsn": "dated DE421 + SRP EML1 / EML2 halos, crosslink + Goldstone range / range-rate (EKF)",
     "tdoa-pair": "EML2 halo transmitter located by TDoA + FDoA at a GEO receiver pair, dated (EKF)",
+    "lunar-relay": "NRHO relay + 100 km polar orbiter, range + range-rate, GRGM1200A lunar field (EKF)",
 }
 _NAME_LINE = re.compile(r"^name: .*$", re.MULTILINE)
 

@@ -16,7 +16,7 @@ from liaison_cli.dynamics.ground_station import GroundStationTrajectory
 from liaison_cli.dynamics.model import DynamicsModel, crtbp_model
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
-from liaison_cli.scenario.reference_states import initial_state_lu
+from liaison_cli.scenario.reference_states import phased_state_lu
 from liaison_cli.scenario.scenario_model import Scenario
 
 
@@ -131,7 +131,7 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
 
             out[sc.name] = model.trajectory(crtbp_oem_truth_lu(sc, times_s))
         else:
-            out[sc.name] = model.trajectory(_flown(scenario, model, sc, initial_state_lu(sc), times_tu))
+            out[sc.name] = model.trajectory(_flown(scenario, model, sc, phased_state_lu(sc), times_tu))
     for st in scenario.ground_stations:
         out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
     return out

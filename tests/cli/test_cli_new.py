@@ -26,6 +26,7 @@ AFTER_DAY1_M = {
     "dated-dsn": {"EML1": (300.0, 5e3), "EML2": (300.0, 6e3)},               # [1269, 1909]
     "nrho-batch": {"Gateway": (0.2, 5.0), "Anchor1": (0.2, 5.0), "Anchor2": (0.2, 5.0)},  # [1.1, 1.2, 1.1]
     "tdoa-pair": {"TX": (200.0, 5e3)},                                         # [992]
+    "lunar-relay": {"Relay": (100.0, 3e3), "User": (2.0, 100.0)},            # [403, 12.5]
 }
 
 
@@ -100,7 +101,7 @@ def test_the_help_names_every_template():
     from liaison_cli.cli.scenario_files import new
 
     help_text = inspect.signature(new).parameters["kind"].default.help
-    assert all(kind in help_text for kind in TEMPLATES) and help_text.count(",") + 2 == len(TEMPLATES)  # a, b, c, d or e
+    assert all(kind in help_text for kind in TEMPLATES) and help_text.count(",") + 2 == len(TEMPLATES)  # a, b, c, d, e or f
 
 
 GROUND_PAIR = ("ground_stations:\n  - {name: MaunaKea, site: mauna_kea, elevation_mask_deg: 10}\n"

@@ -30,6 +30,7 @@ SHORTER = {
     "dated-dsn": [],
     "tdoa-pair": [],
     "nrho-batch": [],
+    "lunar-relay": [("duration_days: 1.5", "duration_days: 0.3")],
 }
 FAST = {"crosslink-pair", "dated-dsn"}  # one CRTBP and one dated template in the default suite
 DATED = {"dated-dsn", "tdoa-pair"}

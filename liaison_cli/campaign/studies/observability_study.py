@@ -13,7 +13,7 @@ from liaison_cli.analysis.observability import analyse, stm_from_t0, taylor_stm_
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, M_S_PER_VU, MU, SECONDS_PER_DAY, TU_S
 from liaison_cli.errors import ScenarioError
 from liaison_cli.provenance import arithmetic_provenance
-from liaison_cli.scenario.reference_states import initial_state_lu
+from liaison_cli.scenario.reference_states import phased_state_lu
 from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.scenario.truth import dynamics_model, link_visibility, measurement_times_s, participant_trajectories
 
@@ -50,7 +50,7 @@ def scenario_inputs(scenario):
     transponder) indices: i < n_sc an estimated spacecraft, n_sc + j the j-th known participant (known
     spacecraft, then ground stations; see known_inputs)."""
     names = scenario.spacecraft_names()
-    states0 = np.array([initial_state_lu(sc) for sc in scenario.spacecraft if sc.role == "estimated"])
+    states0 = np.array([phased_state_lu(sc) for sc in scenario.spacecraft if sc.role == "estimated"])
     times_s = measurement_times_s(scenario)
     index = {name: i for i, name in enumerate([*names, *_known_names(scenario)])}
     links = [(index[link.receiver], index[link.transponder]) for link in scenario.links]

@@ -1,0 +1,201 @@
+"""`liaison design`: which orbit should a spacecraft fly so that the formation navigates itself best?
+
+A design is a base scenario with one spacecraft left open, its candidates and an objective:
+- candidates: members of an orbit family at `count` evenly spaced periods in [low, high] days, each at `phases`
+  evenly spaced phases along its orbit (0, 1/phases, ...); everything else the spacecraft says (its name, process
+  noise, a priori, clock) is kept;
+- objective: one spacecraft's position error RMS after the settle time, the statistic a Monte Carlo run reports
+  as rms_position_settled_m, or the worst over every estimated spacecraft.
+
+Each candidate is scored by covariance analysis, not Monte Carlo: studies.error_budget's LinCov along the truth
+with every error source on (initial error, noise, process noise, biases, model mismatches), so the score is the
+error the filter would make, not the σ it would claim. Candidates fan out through the one fan-out
+(engine.backends.map_batches: local processes, or a dask cluster), a batch of candidates per task, and a worker
+never raises: a candidate that cannot be set up or scored (an orbit the corrector cannot close at that period, a
+divergent covariance) keeps its reason in the table. The ranked best `verify` are then run by Monte Carlo with
+the consistency verdict, and Spearman's rank correlation between the LinCov score and the Monte Carlo RMS over
+them says whether the covariance analysis ranked them as the filter does.
+"""
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+from liaison_cli.errors import LiaisonError
+
+WORST = "worst"  # the objective over every estimated spacecraft
+# Keys that say where a spacecraft flies: replaced by the candidate's family, period and phase.
+ORBIT_KEYS = ("orbit", "elements", "period_days", "amplitude_km", "phase", "state_km", "departure", "longitude_deg",
+              "orbit_file")
+
+
+@dataclass(frozen=True)
+class Candidate:
+    index: int
+    family: str
+    period_days: float
+    phase: float
+
+
+@dataclass(frozen=True)
+class Design:
+    """The base scenario's mapping (as read), the open spacecraft, the objective (a spacecraft name or WORST)
+    and the candidates."""
+
+    base: dict
+    open_spacecraft: str
+    objective: str
+    candidates: tuple
+
+
+def parse_periods(text: str) -> tuple[float, float, int]:
+    """'LOW:HIGH:COUNT' (days, days, whole number) -> (low, high, count); one line on anything else."""
+    parts = text.split(":")
+    try:
+        low, high, count = float(parts[0]), float(parts[1]), int(parts[2])
+    except (IndexError, ValueError):
+        raise LiaisonError(f"--periods {text!r}: allowed LOW:HIGH:COUNT, e.g. 8:14:7 (days, days, a whole "
+                           "number)") from None
+    if len(parts) != 3 or not (0 < low <= high) or count < 1 or (count > 1 and low == high):
+        raise LiaisonError(f"--periods {text!r}: allowed LOW:HIGH:COUNT with 0 < LOW <= HIGH (LOW < HIGH when "
+                           "COUNT > 1) and COUNT at least 1")
+    return low, high, count
+
+
+def candidate_grid(family: str, low: float, high: float, count: int, phases: int) -> tuple:
+    """Every (period, phase) pair, periods evenly spaced in [low, high] and rounded to 1e-6 d."""
+    periods = np.linspace(low, high, count) if count > 1 else np.array([low])
+    pairs = [(round(float(p), 6), k / phases) for p in periods for k in range(phases)]
+    return tuple(Candidate(i, family, p, phase) for i, (p, phase) in enumerate(pairs))
+
+
+def make_design(base: dict, open_spacecraft: str, objective: str, family: str, periods: str, phases: int) -> Design:
+    """The design, checked: the open spacecraft and the objective are the base's, the family is known."""
+    from liaison_cli.orbits.families import family_names
+
+    names = [sc.get("name") for sc in base.get("spacecraft", []) if isinstance(sc, dict)]
+    if open_spacecraft not in names:
+        raise LiaisonError(f"--open {open_spacecraft!r}: not a spacecraft of the scenario; allowed: {', '.join(names)}")
+    if objective != WORST and objective not in names:
+        raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)} or {WORST}")
+    if family not in family_names():
+        raise LiaisonError(f"--family {family!r}: allowed: {', '.join(family_names())}")
+    if phases < 1:
+        raise LiaisonError(f"--phases {phases}: allowed: 1 or more")
+    low, high, count = parse_periods(periods)
+    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases))
+
+
+def candidate_mapping(design: Design, candidate: Candidate) -> dict:
+    """The base scenario with the open spacecraft on the candidate's orbit, named after the candidate."""
+    mapping = copy.deepcopy(design.base)
+    mapping["name"] = f"{design.base.get('name', 'design')}-c{candidate.index}"
+    for spacecraft in mapping["spacecraft"]:
+        if spacecraft.get("name") == design.open_spacecraft:
+            for key in ORBIT_KEYS:
+                spacecraft.pop(key, None)
+            spacecraft.update(orbit=candidate.family, period_days=candidate.period_days)
+            if candidate.phase:
+                spacecraft["phase"] = candidate.phase
+    return mapping
+
+
+def _objective(design: Design, rms_by_spacecraft: dict) -> float:
+    if design.objective == WORST:
+        return max(rms_by_spacecraft.values())
+    return rms_by_spacecraft[design.objective]
+
+
+def score_candidate(design: Design, candidate: Candidate) -> dict:
+    """The candidate's row: its orbit, each estimated spacecraft's LinCov position error RMS and filter σ RMS
+    after the settle time (m), the score (the objective's RMS), or `error` with the reason. Never raises."""
+    from liaison_cli.campaign.studies.error_budget import error_budget
+    from liaison_cli.scenario.loading import validate_scenario
+    from liaison_cli.scenario.setup import prepare_problem
+
+    row = {"candidate": candidate.index, "family": candidate.family, "period_days": candidate.period_days,
+           "phase": candidate.phase, "score_m": math.nan, "error": ""}
+    try:
+        scenario = validate_scenario(candidate_mapping(design, candidate), "design candidate")
+        budget = error_budget(prepare_problem(scenario))
+        settled = budget.times_s >= scenario.settle_days() * SECONDS_PER_DAY
+        rms = {}
+        for s, name in enumerate(budget.spacecraft):
+            rms[name] = float(np.sqrt(np.mean(budget.total[settled, s, 0])))
+            row[f"{name}_rms_position_m"] = rms[name]
+            row[f"{name}_sigma_position_m"] = float(np.sqrt(np.mean(budget.filter_variance[settled, s, 0])))
+        score = _objective(design, rms)
+        if not math.isfinite(score):
+            raise ValueError("the covariance analysis diverged (a non-finite error)")
+        row["score_m"] = score
+    except Exception as exc:  # a worker never raises: the reason goes into the table
+        row["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+    return row
+
+
+def score_batch(design: Design, tasks) -> list[dict]:
+    """Worker side of the fan-out: the rows of candidates `tasks` (indices), in order."""
+    return [score_candidate(design, design.candidates[i]) for i in tasks]
+
+
+def score_all(design: Design, jobs: int, where) -> pd.DataFrame:
+    """Every candidate's row, through the one fan-out, ranked (best first; unscored last)."""
+    from liaison_cli.campaign.engine.backends import map_batches
+
+    n = len(design.candidates)
+    chunk = max(1, min(8, n // (4 * max(jobs, 1))))
+    batches = ((0, tuple(range(start, min(start + chunk, n)))) for start in range(0, n, chunk))
+    rows = [row for batch in map_batches(score_batch, {0: design}, batches, where, jobs, ordered=True)
+            for row in batch]
+    table = pd.DataFrame(rows).sort_values(["score_m", "candidate"], na_position="last", kind="stable")
+    table.insert(0, "rank", np.arange(1, len(table) + 1))
+    table.loc[table.score_m.isna(), "rank"] = 0
+    return table.reset_index(drop=True)
+
+
+def verify(design: Design, table: pd.DataFrame, top: int, runs: int, jobs: int, where) -> pd.DataFrame:
+    """The best `top` scored candidates by Monte Carlo (`runs` runs each): the objective's Monte Carlo position
+    error RMS after the settle time (RMS over the runs), its ratio to the LinCov score, and the verdict of every
+    estimated spacecraft. Adds their columns to a copy of the table."""
+    from liaison_cli.analysis.consistency import campaign_verdict
+    from liaison_cli.campaign.engine.results import summary_table
+    from liaison_cli.campaign.engine.runner import run_campaign
+    from liaison_cli.scenario.loading import validate_scenario
+
+    out = table.copy()
+    for column, value in (("mc_score_m", math.nan), ("mc_runs_ok", ""), ("mc_consistent", ""),
+                          ("mc_over_lincov", math.nan)):
+        out[column] = value
+    for position in out.index[out.score_m.notna()][:top]:
+        candidate = design.candidates[int(out.at[position, "candidate"])]
+        mapping = candidate_mapping(design, candidate)
+        mapping["monte_carlo"] = {**mapping.get("monte_carlo", {}), "runs": runs}
+        summary = summary_table(run_campaign(validate_scenario(mapping, "design candidate"), jobs=jobs,
+                                             progress=False, where=where))
+        rms, verdicts, ok_counts = {}, [], []
+        for name, group in summary.groupby("spacecraft", sort=False):
+            ok = group[group.status == "ok"]
+            ok_counts.append(f"{len(ok)}/{len(group)}")
+            rms[name] = float(np.sqrt(np.mean(ok.rms_position_settled_m**2))) if len(ok) else math.inf
+            verdicts.append(f"{name} {'yes' if len(ok) and campaign_verdict(ok)['consistent_settled'] else 'no'}")
+        score = _objective(design, rms)
+        out.at[position, "mc_score_m"] = score
+        out.at[position, "mc_over_lincov"] = score / out.at[position, "score_m"]
+        out.at[position, "mc_runs_ok"] = ", ".join(ok_counts)
+        out.at[position, "mc_consistent"] = ", ".join(verdicts)
+    return out
+
+
+def rank_agreement(table: pd.DataFrame) -> float:
+    """Spearman's rank correlation between the LinCov score and the Monte Carlo score over the verified
+    candidates (NaN with fewer than three)."""
+    from scipy.stats import spearmanr
+
+    verified = table[table.mc_score_m.notna() & np.isfinite(table.mc_score_m)]
+    if len(verified) < 3:
+        return math.nan
+    return float(spearmanr(verified.score_m, verified.mc_score_m).statistic)

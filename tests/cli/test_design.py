@@ -1,0 +1,75 @@
+"""`liaison design` (issue 48): candidates scored by LinCov through the fan-out, ranked, the best verified by
+Monte Carlo; the same table on one core and two; bad options refused in one line."""
+
+import pandas as pd
+import pytest
+import yaml
+
+from liaison_cli.campaign.studies.design import Design, Candidate, candidate_mapping, parse_periods
+from liaison_cli.errors import LiaisonError
+from tests.conftest import run_cli_in_process
+
+BASE = {"name": "relay_design", "duration_days": 2.0,
+        "spacecraft": [{"name": "Relay", "orbit": "dro", "period_days": 12.0, "apriori_sigma_position_m": 800.0},
+                       {"name": "User", "orbit": "lunar_keplerian",
+                        "elements": {"a_km": 3000, "e": 0.1, "i_deg": 60, "raan_deg": 0, "argp_deg": 0, "ta_deg": 0}}],
+        "links": [{"receiver": "Relay", "transponder": "User", "observables": ["range"]}],
+        "measurement": {"interval_s": 600}, "noise": {"sigma_m": 10.0}, "monte_carlo": {"runs": 4, "seed": 3}}
+
+
+@pytest.fixture
+def base(tmp_path):
+    path = tmp_path / "base.yaml"
+    path.write_text(yaml.safe_dump(BASE, sort_keys=False))
+    return path
+
+
+def _design(base, out, jobs, *extra):
+    return run_cli_in_process("design", base, "--open", "Relay", "--family", "dro", "--periods", "5:11:3",
+                              "--phases", "2", "--objective", "User", "--jobs", jobs, "--output", out, *extra)
+
+
+def test_design_ranks_every_candidate_verifies_the_best_and_is_the_same_on_two_cores(base, tmp_path):
+    one = _design(base, tmp_path / "one", 1, "--verify", "3", "--runs", "4")
+    assert one.returncode == 0, one.stderr
+    table = pd.read_parquet(tmp_path / "one" / "candidates.parquet")
+    assert len(table) == 6 and (table.error == "").all()
+    assert list(table["rank"]) == list(range(1, 7)) and table.score_m.is_monotonic_increasing
+    assert set(table.phase) == {0.0, 0.5} and set(table.period_days) == {5.0, 8.0, 11.0}
+    verified = table[table.mc_score_m.notna()]
+    assert list(verified["rank"]) == [1, 2, 3]  # the best three, by Monte Carlo
+    assert ((verified.mc_over_lincov > 0.3) & (verified.mc_over_lincov < 3.0)).all()  # 4 runs: a loose check
+    assert (tmp_path / "one" / "design.png").stat().st_size > 0
+    assert "Spearman rank correlation" in (tmp_path / "one" / "ranking.md").read_text()
+    two = _design(base, tmp_path / "two", 2, "--verify", "0")
+    assert two.returncode == 0, two.stderr
+    again = pd.read_parquet(tmp_path / "two" / "candidates.parquet")
+    pd.testing.assert_series_equal(table.score_m, again.score_m)  # jobs and batches do not move a number
+    pd.testing.assert_series_equal(table.candidate, again.candidate)
+
+
+@pytest.mark.parametrize("option, value, fragment", [
+    ("--open", "Nobody", "--open 'Nobody': not a spacecraft"),
+    ("--family", "moon_hole", "--family 'moon_hole': allowed: dro"),
+    ("--periods", "8-14", "--periods '8-14': allowed LOW:HIGH:COUNT"),
+    ("--objective", "Nobody", "--objective 'Nobody': allowed: Relay, User or worst"),
+])
+def test_bad_design_options_are_one_line(base, tmp_path, option, value, fragment):
+    args = {"--open": "Relay", "--family": "dro", "--periods": "5:11:3", "--objective": "User", option: value}
+    proc = run_cli_in_process("design", base, *[x for pair in args.items() for x in pair], "--output",
+                              tmp_path / "out")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert fragment in proc.stderr and len([l for l in proc.stderr.splitlines() if l.strip()]) == 1, proc.stderr
+
+
+def test_a_candidate_keeps_what_the_spacecraft_says_besides_its_orbit():
+    design = Design(BASE, "Relay", "User", ())
+    mapping = candidate_mapping(design, Candidate(4, "l2_lyapunov", 20.0, 0.25))
+    relay = mapping["spacecraft"][0]
+    assert relay == {"name": "Relay", "apriori_sigma_position_m": 800.0, "orbit": "l2_lyapunov", "period_days": 20.0,
+                     "phase": 0.25}
+    assert BASE["spacecraft"][0]["orbit"] == "dro"  # the base is not touched
+    assert parse_periods("6.2:8:10") == (6.2, 8.0, 10)
+    for text in ("8:6:3", "6:8:0", "6:6:3", "6:8"):
+        with pytest.raises(LiaisonError):
+            parse_periods(text)

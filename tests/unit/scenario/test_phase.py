@@ -1,0 +1,27 @@
+"""A spacecraft's `phase` moves it along its periodic orbit in the CRTBP as in the dated model (it used to be read
+by the dated model only, so a CRTBP phase was silently ignored)."""
+
+import numpy as np
+
+from liaison_cli.orbits.family_store import member_state
+from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.constants import MU
+from liaison_cli.scenario.loading import validate_scenario
+from liaison_cli.scenario.setup import prepare_problem
+
+
+def _truth(phase):
+    relay = {"name": "Relay", "orbit": "dro", "period_days": 8.0, **({"phase": phase} if phase else {})}
+    data = {"name": "phase", "duration_days": 0.5, "spacecraft": [
+        relay, {"name": "User", "orbit": "lunar_keplerian",
+                "elements": {"a_km": 4000, "e": 0.0, "i_deg": 30, "raan_deg": 0, "argp_deg": 0, "ta_deg": 0}}],
+        "links": [{"receiver": "Relay", "transponder": "User"}], "measurement": {"interval_s": 600},
+        "noise": {"sigma_m": 10}, "monte_carlo": {"runs": 1, "seed": 1}}
+    return prepare_problem(validate_scenario(data, "phase")).truth[:, :6]
+
+
+def test_a_crtbp_phase_starts_the_spacecraft_that_far_along_its_orbit():
+    member = member_state("dro", 8.0)
+    quarter = dop853_states(np.array(member.state), np.array([0.0, 0.25 * member.period_tu]), MU)[-1]
+    assert np.allclose(_truth(0.25)[0, :3], quarter[:3], atol=1e-8)  # LU: within ~4 m
+    assert np.linalg.norm(_truth(0.25)[0, :3] - _truth(0.0)[0, :3]) > 0.01  # thousands of km apart
