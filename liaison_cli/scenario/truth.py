@@ -7,6 +7,7 @@ or filter settings, or over link sets, propagate the truth once. A random unmode
 (model_error.truth_acceleration_sigma_m_s2) makes each run fly and measure its own truth
 (`forced_truth_and_measurements`, called by the worker with the run's draw)."""
 
+import hashlib
 import json
 
 import numpy as np
@@ -28,15 +29,31 @@ def truth_key(scenario: Scenario) -> str:
                        "light_time": scenario.measurement.light_time}, sort_keys=True)
 
 
+def _spacecraft_fields(sc) -> dict:
+    return {"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(), "period_days": sc.period_days,
+            "amplitude_km": sc.amplitude_km, "role": sc.role, "phase": sc.phase, "longitude_deg": sc.longitude_deg,
+            "departure": sc.departure and sc.departure.model_dump(),
+            "manoeuvre": sc.manoeuvre and sc.manoeuvre.model_dump()}
+
+
+# Under this key of a truth cache: one spacecraft's CRTBP truth, for a series of scenarios in which it flies the
+# same orbit while others change (campaign.studies.design's candidates).
+SPACECRAFT_CACHE = "spacecraft_truths"
+
+
+def _spacecraft_truth_key(scenario: Scenario, model, sc, times_s) -> str:
+    """What fixes one spacecraft's CRTBP truth: its orbit fields, the epochs and the model (its parameters and
+    the truth's unmodelled acceleration)."""
+    digest = hashlib.sha256(np.ascontiguousarray(model.params).tobytes()
+                            + np.ascontiguousarray(model.truth_acceleration_lu_tu2).tobytes()
+                            + np.ascontiguousarray(times_s, dtype=float).tobytes()).hexdigest()
+    return json.dumps({"spacecraft": _spacecraft_fields(sc), "model": model.name, "numbers": digest}, sort_keys=True)
+
+
 def trajectory_key(scenario: Scenario) -> str:
     """The scenario fields that fix the participants' trajectories at the epochs (not the links)."""
     fields = {
-        "spacecraft": [{"orbit": sc.orbit, "elements": sc.elements and sc.elements.model_dump(),
-                        "period_days": sc.period_days, "amplitude_km": sc.amplitude_km, "role": sc.role,
-                        "phase": sc.phase, "longitude_deg": sc.longitude_deg,
-                        "departure": sc.departure and sc.departure.model_dump(),
-                        "manoeuvre": sc.manoeuvre and sc.manoeuvre.model_dump()}
-                       for sc in scenario.spacecraft],
+        "spacecraft": [_spacecraft_fields(sc) for sc in scenario.spacecraft],
         "ground_stations": [st.model_dump(mode="json") for st in scenario.ground_stations],
         "duration_days": scenario.epochs_end_days(),
         "interval_s": scenario.measurement.interval_s,
@@ -119,8 +136,9 @@ def _flown_from_nodes(model, node_times_s, nodes_lu, times_s) -> np.ndarray:
     return out
 
 
-def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
-    """{participant name: trajectory} for every spacecraft (truth propagation) and ground station."""
+def _trajectories(scenario: Scenario, model: DynamicsModel, times_s, flown: dict | None = None):
+    """{participant name: trajectory} for every spacecraft (truth propagation) and ground station; `flown`: a
+    cache of single spacecraft's CRTBP truths (SPACECRAFT_CACHE), read and filled."""
     if scenario.dynamics_descriptor().dated:
         return _dated_trajectories(scenario, model, times_s)
     times_tu = times_s / TU_S
@@ -130,8 +148,14 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s):
             from liaison_cli.scenario.orbit_files import crtbp_oem_truth_lu
 
             out[sc.name] = model.trajectory(crtbp_oem_truth_lu(sc, times_s))
-        else:
-            out[sc.name] = model.trajectory(_flown(scenario, model, sc, phased_state_lu(sc), times_tu))
+            continue
+        key = _spacecraft_truth_key(scenario, model, sc, times_s) if flown is not None else None
+        if key is None or key not in flown:
+            states = _flown(scenario, model, sc, phased_state_lu(sc), times_tu)
+            if key is not None:
+                states.setflags(write=False)  # shared between scenarios: nobody writes into it
+                flown[key] = states
+        out[sc.name] = model.trajectory(flown[key] if key is not None else states)
     for st in scenario.ground_stations:
         out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
     return out
@@ -247,7 +271,7 @@ def truth_and_measurements(scenario: Scenario, model: DynamicsModel, cache: dict
             flown_key = ("trajectories", trajectory_key(scenario))
             if flown_key not in cache:
                 times = measurement_times_s(scenario)
-                cache[flown_key] = (times, _trajectories(scenario, model, times))
+                cache[flown_key] = (times, _trajectories(scenario, model, times, cache.get(SPACECRAFT_CACHE)))
             cache[key] = _measured(scenario, model, *cache[flown_key])
         return cache[key]
     times_s = measurement_times_s(scenario)

@@ -12,7 +12,8 @@ with every error source on (initial error, noise, process noise, biases, model m
 error the filter would make, not the σ it would claim. Candidates fan out through the one fan-out
 (engine.backends.map_batches: local processes, or a dask cluster), a batch of candidates per task, and a worker
 never raises: a candidate that cannot be set up or scored (an orbit the corrector cannot close at that period, a
-divergent covariance) keeps its reason in the table. The ranked best `verify` are then run by Monte Carlo with
+divergent covariance) keeps its reason in the table. The spacecraft that do not change are propagated once per
+worker (scenario.truth.SPACECRAFT_CACHE), not once per candidate. The ranked best `verify` are then run by Monte Carlo with
 the consistency verdict, and Spearman's rank correlation between the LinCov score and the Monte Carlo RMS over
 them says whether the covariance analysis ranked them as the filter does.
 """
@@ -28,6 +29,10 @@ from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
 
 WORST = "worst"  # the objective over every estimated spacecraft
+# A worker's truths of the spacecraft that do not change between candidates (scenario.truth.SPACECRAFT_CACHE):
+# computed once per worker, not once per candidate; bounded.
+_FLOWN: dict = {}
+FLOWN_MAX_ENTRIES = 64
 # Keys that say where a spacecraft flies: replaced by the candidate's family, period and phase.
 ORBIT_KEYS = ("orbit", "elements", "period_days", "amplitude_km", "phase", "state_km", "departure", "longitude_deg",
               "orbit_file")
@@ -116,12 +121,15 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
     from liaison_cli.campaign.studies.error_budget import error_budget
     from liaison_cli.scenario.loading import validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
+    from liaison_cli.scenario.truth import SPACECRAFT_CACHE
 
     row = {"candidate": candidate.index, "family": candidate.family, "period_days": candidate.period_days,
            "phase": candidate.phase, "score_m": math.nan, "error": ""}
     try:
         scenario = validate_scenario(candidate_mapping(design, candidate), "design candidate")
-        budget = error_budget(prepare_problem(scenario))
+        if len(_FLOWN) > FLOWN_MAX_ENTRIES:
+            _FLOWN.clear()
+        budget = error_budget(prepare_problem(scenario, {SPACECRAFT_CACHE: _FLOWN}))
         settled = budget.times_s >= scenario.settle_days() * SECONDS_PER_DAY
         rms = {}
         for s, name in enumerate(budget.spacecraft):

@@ -25,3 +25,27 @@ def test_a_crtbp_phase_starts_the_spacecraft_that_far_along_its_orbit():
     quarter = dop853_states(np.array(member.state), np.array([0.0, 0.25 * member.period_tu]), MU)[-1]
     assert np.allclose(_truth(0.25)[0, :3], quarter[:3], atol=1e-8)  # LU: within ~4 m
     assert np.linalg.norm(_truth(0.25)[0, :3] - _truth(0.0)[0, :3]) > 0.01  # thousands of km apart
+
+
+def test_a_spacecraft_that_does_not_change_is_flown_once_and_the_same():
+    """scenario.truth.SPACECRAFT_CACHE (design candidates): the user's truth is reused, bit for bit, when only the
+    relay changes; the relay's own truth is not."""
+    from liaison_cli.scenario.truth import SPACECRAFT_CACHE
+
+    def scenario(period):
+        data = {"name": "cache", "duration_days": 0.5, "spacecraft": [
+            {"name": "Relay", "orbit": "dro", "period_days": period},
+            {"name": "User", "orbit": "lunar_keplerian",
+             "elements": {"a_km": 4000, "e": 0.0, "i_deg": 30, "raan_deg": 0, "argp_deg": 0, "ta_deg": 0}}],
+            "links": [{"receiver": "Relay", "transponder": "User"}], "measurement": {"interval_s": 600},
+            "noise": {"sigma_m": 10}, "monte_carlo": {"runs": 1, "seed": 1}}
+        return validate_scenario(data, "cache")
+
+    flown = {}
+    first = prepare_problem(scenario(8.0), {SPACECRAFT_CACHE: flown}).truth
+    assert len(flown) == 2
+    second = prepare_problem(scenario(9.0), {SPACECRAFT_CACHE: flown}).truth
+    assert len(flown) == 3  # the new relay only
+    alone = prepare_problem(scenario(9.0)).truth
+    assert np.array_equal(second, alone) and np.array_equal(first[:, 6:], second[:, 6:])
+    assert not np.array_equal(first[:, :6], second[:, :6])
