@@ -54,15 +54,18 @@ class KeplerianElements(StrictModel):
     argp_deg: float = Field(0.0, description="argument of perilune (deg)")
     ta_deg: float = Field(0.0, description="true anomaly at t0 (deg)")
 
+    @property
+    def semi_major_axis_km(self) -> float:
+        """a_km, or the one altitude_km gives: (lunar radius + altitude) / (1 - e)."""
+        return self.a_km if self.a_km is not None else (MOON_RADIUS_KM + self.altitude_km) / (1.0 - self.e)
+
     @model_validator(mode="after")
     def _perilune_above_surface(self):
         if (self.a_km is None) == (self.altitude_km is None):
             raise ValueError("give the orbit's size as a_km or as altitude_km (one of the two)")
-        if self.a_km is None:  # frozen model: a_km follows from the altitude once, here
-            object.__setattr__(self, "a_km", (MOON_RADIUS_KM + self.altitude_km) / (1.0 - self.e))
-        if self.a_km * (1.0 - self.e) <= MOON_RADIUS_KM:
+        if self.semi_major_axis_km * (1.0 - self.e) <= MOON_RADIUS_KM:
             raise ValueError(
-                f"perilune a_km*(1-e) = {self.a_km * (1 - self.e):.1f} km is inside the Moon "
+                f"perilune a_km*(1-e) = {self.semi_major_axis_km * (1 - self.e):.1f} km is inside the Moon "
                 f"(radius {MOON_RADIUS_KM} km)"
             )
         return self

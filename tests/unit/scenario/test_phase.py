@@ -49,3 +49,22 @@ def test_a_spacecraft_that_does_not_change_is_flown_once_and_the_same():
     alone = prepare_problem(scenario(9.0)).truth
     assert np.array_equal(second, alone) and np.array_equal(first[:, 6:], second[:, 6:])
     assert not np.array_equal(first[:, :6], second[:, :6])
+
+
+def test_a_low_orbit_by_altitude_survives_a_round_trip_and_flies_where_a_km_would():
+    """elements.altitude_km: the orbit a_km = (R + altitude) / (1 - e) gives; the scenario's own dump validates
+    again (warm-up and overrides re-validate dumps: a filled-in a_km beside altitude_km was refused)."""
+    from liaison_cli.dynamics.constants import MOON_RADIUS_KM
+
+    def mapping(elements):
+        return {"name": "low", "duration_days": 0.2, "spacecraft": [
+            {"name": "Relay", "orbit": "dro", "period_days": 8.0},
+            {"name": "User", "orbit": "lunar_keplerian", "elements": elements}],
+            "links": [{"receiver": "Relay", "transponder": "User"}], "measurement": {"interval_s": 600},
+            "noise": {"sigma_m": 10}, "monte_carlo": {"runs": 1, "seed": 1}}
+
+    by_altitude = validate_scenario(mapping({"altitude_km": 100.0, "e": 0.1, "i_deg": 90}), "low")
+    again = validate_scenario(by_altitude.model_dump(mode="json"), "low")
+    by_a = validate_scenario(mapping({"a_km": (MOON_RADIUS_KM + 100.0) / 0.9, "e": 0.1, "i_deg": 90}), "low")
+    assert again == by_altitude
+    assert np.allclose(prepare_problem(by_altitude).truth, prepare_problem(by_a).truth, rtol=0, atol=1e-12)
