@@ -140,9 +140,7 @@ def rk4_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2
         out[0, i] = y[i]
     tmp = np.empty(6)
     for j in range(1, m):
-        span = times_tu[j] - times_tu[j - 1]
-        substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
-        h = span / substeps
+        substeps, h = steps_between(times_tu, j, max_step_tu)
         for s in range(substeps):
             start, middle, end = s / substeps, (s + 0.5) / substeps, (s + 1.0) / substeps
             k1 = _forced(field_derivative(y, params), acceleration_lu_tu2, j, start)
@@ -160,6 +158,14 @@ def rk4_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2
         for i in range(6):  # element loops compile faster than slice assignment (no shape-error path)
             out[j, i] = y[i]
     return out
+
+
+@njit(cache=True, inline="always")
+def steps_between(times_tu, j, max_step_tu):
+    """(substeps, h): the fewest equal steps of at most max_step_tu from sample j - 1 to sample j (the truth's)."""
+    span = times_tu[j] - times_tu[j - 1]
+    substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
+    return substeps, span / substeps
 
 
 @njit(cache=True, inline="always")

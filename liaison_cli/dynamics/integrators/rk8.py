@@ -16,6 +16,7 @@ from numba import njit
 from liaison_cli.dynamics.crtbp_field import field_derivative_into, field_state_stm_rhs
 from liaison_cli.dynamics.ephemeris_dynamics import STM_SIZE, ephemeris_derivative
 from liaison_cli.dynamics.integrators import dop853_tableau as _dop853
+from liaison_cli.dynamics.integrators.rk4 import steps_between
 
 # The tableau is vendored as literal floats (tools/vendor_dop853_tableau.py copied it from scipy's private
 # dop853_coefficients module): reading that file at import tied every command to a scipy internal, and
@@ -112,9 +113,7 @@ def rk8_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2
     k = np.empty((12, 6))
     tmp = np.empty(6)
     for j in range(1, m):
-        span = times_tu[j] - times_tu[j - 1]
-        substeps = max(1, int(np.ceil(abs(span) / max_step_tu - 1e-9)))
-        h = span / substeps
+        substeps, h = steps_between(times_tu, j, max_step_tu)
         for s in range(substeps):
             for stage in range(12):
                 rk8_stage_input(y, h, RK8_A, k, stage, tmp)
