@@ -229,9 +229,10 @@ def _schema(path) -> set[str]:
 
 
 def test_run_tables_have_the_documented_columns(tmp_path):
-    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--jobs", "1", "--quiet", "--output", tmp_path / "run")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "2", "--jobs", "1", "--quiet", "--output",
+                              tmp_path / "run", "--epoch-states", "1")
     assert proc.returncode == 0, proc.stderr
-    for stem in RUN_TABLES:
+    for stem in (*RUN_TABLES, "states"):
         assert _schema(tmp_path / "run" / f"{stem}.parquet") == expected_columns(stem, ALWAYS), stem
     assert _schema(tmp_path / "run" / "clocks.parquet") == set()  # no estimated clocks: no columns
 

@@ -53,12 +53,15 @@ def run(
                                 "replaced by the next run of the same command; what other commands wrote into it is kept)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder given by --output"),
     float64: bool = typer.Option(False, "--float64", help="store per-epoch series as float64 (default float32)"),
+    epoch_states: int = typer.Option(None, "--epoch-states", min=0, help="also write states.parquet: per-epoch "
+                                     "estimate, error and sigma (model axes and RIC) of runs 0..N-1 (overrides "
+                                     "output.epoch_states_runs; docs/outputs.md)"),
     quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
     """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results.
 
-    Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2"""
+    Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2 --epoch-states 5"""
     from liaison_cli.campaign.engine.results import stream_campaign
     from liaison_cli.campaign.studies.output import fill_folder
     from liaison_cli.scenario.loading import load_scenario
@@ -67,6 +70,10 @@ def run(
     where = fan_out(backend, scheduler, scheduler_timeout)
     started = time.perf_counter()
     config, text = load_scenario(scenario)
+    if epoch_states is not None:
+        from liaison_cli.scenario.loading import apply_overrides
+
+        config = apply_overrides(config, {"output.epoch_states_runs": epoch_states}, "--epoch-states")
     log.info("read and checked %s in %.2f s", scenario, time.perf_counter() - started)
     out_dir = output or Path("results") / config.name
     if output is None and not overwrite and _earlier_run_of(out_dir, config.name):  # an edit-and-rerun cycle

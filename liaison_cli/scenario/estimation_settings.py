@@ -240,6 +240,15 @@ class InitialErrorSpec(StrictModel):
     sigma_velocity_m_s: float = Field(0.001, ge=0, description="fixed_sigma: 1-sigma per velocity axis (m/s)")
 
 
+class OutputSpec(StrictModel):
+    """Optional tables beyond the default ones (docs/outputs.md)."""
+
+    epoch_states_runs: int = Field(0, ge=0, le=MAX_RUNS, description="states.parquet: per-epoch estimate, error "
+                                   "and sigma (model axes and radial / in-track / cross-track) and the position and "
+                                   "velocity correlations per spacecraft, for runs 0 .. N-1 at up to 1,000 epochs "
+                                   "each; 0: no such table; `liaison run --epoch-states` overrides (count)")
+
+
 class MonteCarloSpec(StrictModel):
     """How many runs, and the seed every run's random numbers derive from (with the run index)."""
 

@@ -13,7 +13,7 @@ from liaison_cli.dynamics.registry import DYNAMICS, Dynamics
 from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimators_that, get_estimator
 from liaison_cli.scenario.estimation_settings import (
-    BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec)
+    BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec, OutputSpec)
 from liaison_cli.scenario.estimation_rules import (OWN_SECTIONS, check_batch, check_clock_sync, check_estimator,
                                                    check_initial_batch, check_smoother)
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
@@ -90,6 +90,7 @@ class Scenario(StrictModel):
     model_error: ModelErrorSpec = Field(ModelErrorSpec(), description="the filter's dynamics off from the truth's "
                                         "on purpose: C_R and lunar GM, fixed or drawn per run")
     monte_carlo: MonteCarloSpec = Field(description="runs and seed")
+    output: OutputSpec = Field(OutputSpec(), description="optional tables: per-epoch states and covariance")
     measurements: MeasurementFileSpec | None = Field(None, description="{tdm: FILE}: the filter's measurements from "
                                                      "a TDM, one run (docs/exchange.md)")
 

@@ -5,7 +5,8 @@ result folders.
   fsynced: a reader sees the old file or the new one, never a torn one;
 - parquet, parquet_stream: Parquet tables with liaison's provenance metadata, whole or streamed by row
   group (pyarrow is imported only by the functions that need it, so the numeric core can use the byte /
-  text writers without loading it);
+  text writers without loading it); units: each column's unit, from its name, into the Arrow field
+  metadata of every table written;
 - result_folders: result folders built in a hidden sibling `.NAME.partial-PID-*` (holding a flock on it
   and carrying our marker from the start) and swapped in whole (swap), resumable sweep folders;
 - ownership: which folders are ours (the marker) and may be replaced; locks: flocks, live pids and each result
@@ -27,9 +28,11 @@ from liaison_cli.storage.parquet import (
 )
 from liaison_cli.storage.parquet_stream import ParquetStream
 from liaison_cli.storage.result_folders import prepare_output_dir, resumable_output, staged_output
+from liaison_cli.storage.units import unit_of, units_of_file
 
 __all__ = [
     "METADATA_KEY", "RESULT_MARKER", "ParquetStream", "arrow_array", "arrow_table", "fsync_folder", "naming",
     "prepare_output_dir", "read_metadata", "recover_output", "resumable_output", "staged_output",
-    "write_bytes_atomic", "write_columns_atomic", "write_parquet_atomic", "write_text_atomic",
+    "unit_of", "units_of_file", "write_bytes_atomic", "write_columns_atomic", "write_parquet_atomic",
+    "write_text_atomic",
 ]

@@ -1,10 +1,12 @@
 """Parquet tables written atomically (storage.atomic) with liaison's provenance as JSON metadata under the
-'liaison' key, and read back; tables built from numpy buffers (`arrow_table`) so that `liaison run` never
-imports pandas. pyarrow is imported only by the functions that need it."""
+'liaison' key and each column's unit in its Arrow field metadata (storage.units), and read back; tables built
+from numpy buffers (`arrow_table`) so that `liaison run` never imports pandas. pyarrow is imported only by the
+functions that need it."""
 
 import json
 
 from liaison_cli.storage.atomic import write_atomic
+from liaison_cli.storage.units import schema_with_units
 
 METADATA_KEY = b"liaison"
 
@@ -26,7 +28,7 @@ def _write_table_atomic(table, path, metadata: dict) -> None:
 
     merged = dict(table.schema.metadata or {})
     merged[METADATA_KEY] = json.dumps(metadata, sort_keys=True).encode()
-    table = table.replace_schema_metadata(merged)
+    table = with_units(table).replace_schema_metadata(merged)
     write_atomic(path, lambda tmp: pq.write_table(table, tmp))
 
 
@@ -42,7 +44,14 @@ def arrow_table(columns: dict):
     input is a pandas object; `liaison run` writes all its tables without paying for that."""
     import pyarrow as pa
 
-    return pa.Table.from_arrays([arrow_array(values) for values in columns.values()], names=list(columns))
+    return with_units(pa.Table.from_arrays([arrow_array(values) for values in columns.values()], names=list(columns)))
+
+
+def with_units(table):
+    """The table with each column's unit in its Arrow field metadata (storage.units.unit_of: b"unit")."""
+    import pyarrow as pa
+
+    return pa.Table.from_arrays(table.columns, schema=schema_with_units(table.schema))
 
 
 def arrow_array(values):

@@ -131,12 +131,14 @@ def _timeseries_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> C
 J2000_TDB = np.datetime64("2000-01-01T12:00:00", "ns")  # the TDB seconds of the dated model count from here
 
 
-def absolute_epochs_tdb(problem: Problem):
-    """(m,) datetime64[ns] on the TDB scale of each epoch of a dated scenario (dynamics.registry: dated), from
-    its epoch's TDB seconds past J2000 (to the nanosecond); None for an undated model (the CRTBP has no date)."""
+def absolute_epochs_tdb(problem: Problem, times_s=None):
+    """(m,) datetime64[ns] on the TDB scale of each epoch of a dated scenario (dynamics.registry: dated), or of
+    `times_s` (s from t0) when given, from its epoch's TDB seconds past J2000 (to the nanosecond); None for an
+    undated model (the CRTBP has no date)."""
     if not problem.scenario.dynamics_descriptor().dated:
         return None
-    seconds = float(problem.dynamics.epoch_tdb_s) + np.asarray(problem.times_s, dtype=float)
+    seconds = float(problem.dynamics.epoch_tdb_s) + np.asarray(problem.times_s if times_s is None else times_s,
+                                                               dtype=float)
     return J2000_TDB + np.round(seconds * 1e9).astype("timedelta64[ns]")
 
 
@@ -236,6 +238,25 @@ def _clock_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Column
     }
 
 
+def _epoch_state_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
+    """states.parquet (scenario output.epoch_states_runs): the worker's per-epoch state rows of one run
+    (analysis.epoch_states; float_dtype applies to errors and sigmas, the estimate stays float64), with the run,
+    and each row's TDB date in a dated scenario."""
+    if outcome.epoch_states is None:
+        return None
+    states = outcome.epoch_states
+    rows = len(states["t_s"])
+    columns = {"run": np.full(rows, outcome.run, dtype=np.int32), "t_s": states["t_s"]}
+    epochs = absolute_epochs_tdb(problem, states["t_s"])
+    if epochs is not None:
+        columns["epoch_tdb"] = epochs
+    for name, values in states.items():
+        if name != "t_s":
+            columns[name] = values if values.dtype == object or name.endswith(("_km", "_km_s")) \
+                else values.astype(float_dtype)
+    return columns
+
+
 # Per-run tables, streamed: file stem -> frame builder.
 # Columns whose values repeat from row to row (dictionary-encoded in the streamed files).
 REPEATING_COLUMNS = ("run", "t_s", "spacecraft", "link", "observable", "unit", "clock", "status", "treatment")
@@ -319,14 +340,18 @@ def write_outcomes(problem: Problem, outcomes, n_runs: int, out_dir, scenario_te
     dict per run and spacecraft; summary.parquet holds them as summary_columns)."""
     out_dir = Path(out_dir)
     meta = provenance(problem, n_runs, scenario_text, {"float_dtype": float_dtype})
-    streams = {name: ParquetStream(out_dir / f"{name}.parquet", meta, flush_rows, REPEATING_COLUMNS) for name in PER_RUN_TABLES}
+    tables = dict(PER_RUN_TABLES)
+    if problem.scenario.output.epoch_states_runs:  # opt-in: no states.parquet otherwise
+        tables["states"] = _epoch_state_columns
+        meta = {**meta, "states_frame": states_frame(problem)}
+    streams = {name: ParquetStream(out_dir / f"{name}.parquet", meta, flush_rows, REPEATING_COLUMNS) for name in tables}
     accumulator = NeesAccumulator(problem)
     rows: list[dict] = []
     try:
         for outcome in outcomes:
             rows.extend(_summary_rows(problem, outcome))
             accumulator.add(outcome)
-            for name, build in PER_RUN_TABLES.items():
+            for name, build in tables.items():
                 columns = build(problem, outcome, float_dtype)
                 if columns is not None:
                     streams[name].append(columns)
@@ -340,6 +365,14 @@ def write_outcomes(problem: Problem, outcomes, n_runs: int, out_dir, scenario_te
     write_columns_atomic(accumulator.columns(), out_dir / "consistency.parquet", meta)
     write_text_atomic(scenario_text, out_dir / "scenario.yaml")
     return rows
+
+
+def states_frame(problem: Problem) -> str:
+    """The frame of states.parquet's estimate and model-axis columns, in words (its provenance's states_frame)."""
+    if problem.scenario.dynamics_descriptor().rotating_frame:
+        return ("Earth-Moon rotating frame of the CRTBP: origin the barycentre, x from the Earth to the Moon, z along "
+                "the orbit normal; 1 LU = 384,400 km")
+    return "geocentric ICRF (GCRF), TDB epochs"
 
 
 def write_campaign(result: CampaignResult, out_dir, scenario_text: str, float_dtype="float32") -> list[dict]:

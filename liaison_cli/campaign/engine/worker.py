@@ -5,6 +5,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from liaison_cli.analysis.consistency import direction_columns, run_verdict
+from liaison_cli.analysis.epoch_states import epoch_state_columns, sampled_epochs
 from liaison_cli.analysis.ric import primaries_lu, primary_velocities_lu, ric_columns
 from liaison_cli.analysis.metrics import (
     error_and_sigma,
@@ -20,6 +21,7 @@ from liaison_cli.dynamics.random_forcing import gauss_markov_samples
 from liaison_cli.estimation.blocks import BLOCK_EMPIRICAL, BLOCK_PARAMETER, FORMATION
 from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
+from liaison_cli.estimation.kernel_args import MAX_DIRECTION_SAMPLES
 from liaison_cli.interrupts import caused_by_interrupt
 from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import SPEED_OF_LIGHT_M_S, Problem
@@ -55,6 +57,7 @@ class RunOutcome:
     clock_error_s: np.ndarray | None = None  # (m, n_clocks, 2) phase (s) and frequency (s/s) errors
     clock_sigma_s: np.ndarray | None = None  # (m, n_clocks, 2) their 1-sigma
     rejected: np.ndarray | None = None  # (m, C) bool, see above
+    epoch_states: dict | None = None  # states.parquet's columns of this run (output.epoch_states_runs), else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,6 +212,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
         _add_clock_sync(problem, inputs, history.data_end_step, summary)
+        states = _epoch_states(problem, inputs, history, n_dyn) if run < problem.scenario.output.epoch_states_runs else None
         last = history.fail_step - 1 if not history.ok else -1
         bias = inputs.bias_lu
         if problem.n_bias:
@@ -239,6 +243,7 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             clock_error_s=clock_error,
             clock_sigma_s=clock_sigma,
             rejected=rejected,
+            epoch_states=states,
         )
     except Exception as exc:  # noqa: BLE001 - a worker reports, never raises; but Ctrl-C is not a failed run
         if caused_by_interrupt(exc):
@@ -310,8 +315,9 @@ def _add_empirical(problem: Problem, history, summary) -> None:
 _PRIMARIES: dict = {}
 
 
-def _add_ric(problem: Problem, inputs: RunInputs, history, summary, n_dyn: int) -> None:
-    """Each spacecraft's errors and sigmas along its radial / in-track / cross-track axes (analysis.ric)."""
+def _primaries(problem: Problem):
+    """(positions, velocities) (m, 2, 3) of the Earth and the Moon at the problem's epochs (analysis.ric), kept
+    for the last few problems this worker saw."""
     key = id(problem)
     if key not in _PRIMARIES or _PRIMARIES[key][0] is not problem:
         if len(_PRIMARIES) >= 4:
@@ -319,7 +325,27 @@ def _add_ric(problem: Problem, inputs: RunInputs, history, summary, n_dyn: int) 
         positions = primaries_lu(problem.mu, problem.dynamics.body_positions_lu(problem.times_s), problem.times_s)
         step_s = float(problem.times_s[1] - problem.times_s[0]) if problem.n_steps > 1 else 1.0
         _PRIMARIES[key] = (problem, positions, primary_velocities_lu(positions, step_s))
-    _, positions, velocities = _PRIMARIES[key]
+    return _PRIMARIES[key][1:]
+
+
+def _epoch_states(problem: Problem, inputs: RunInputs, history, n_dyn: int) -> dict:
+    """This run's rows of states.parquet (analysis.epoch_states), at the epochs of the EKF's covariance record
+    (or, for an estimator without one, at the same stride), with t_s; the writer adds run and epoch columns."""
+    m = len(problem.times_s)
+    directions = history.directions
+    stride = directions.stride if directions is not None else max(1, -(-m // MAX_DIRECTION_SAMPLES))
+    rows = sampled_epochs(m, stride)
+    positions, velocities = _primaries(problem)
+    columns = {"t_s": np.repeat(np.asarray(problem.times_s, dtype=float)[rows], problem.n_spacecraft)}
+    columns.update(epoch_state_columns(rows, history.err[:, :n_dyn], history.sigma[:, :n_dyn], inputs.truth[:, :n_dyn],
+                                       None if directions is None else directions.covariance, positions, velocities,
+                                       problem.spacecraft, M_PER_LU, M_S_PER_VU))
+    return columns
+
+
+def _add_ric(problem: Problem, inputs: RunInputs, history, summary, n_dyn: int) -> None:
+    """Each spacecraft's errors and sigmas along its radial / in-track / cross-track axes (analysis.ric)."""
+    positions, velocities = _primaries(problem)
     covariance = None if history.directions is None else history.directions.covariance
     rows = ric_columns(problem.times_s, history.err[:, :n_dyn], inputs.truth[:, :n_dyn], covariance, positions,
                        problem.scenario.settle_days() * SECONDS_PER_DAY, M_PER_LU, M_S_PER_VU, velocities)
