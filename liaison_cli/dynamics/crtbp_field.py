@@ -4,14 +4,17 @@ field difference call these, so a part added here reaches all of them.
 
 Parts, each with its acceleration and its gradient (the STM's):
 - the primaries' point masses and the rotating frame (dynamics.crtbp, Eq. 6-8 and 11): always;
-- the Moon's gravity field beyond its point mass (GRGM1200A, dynamics.lunar_gravity; evaluated by
-  dynamics.spherical_harmonics): when the parameter vector carries it.
+- TERM_HARMONICS: the Moon's gravity field beyond its point mass (GRGM1200A, dynamics.lunar_gravity; evaluated
+  by dynamics.spherical_harmonics);
+- TERM_J2: the Moon's J2 alone, in closed form (dynamics.zonal_j2; GRGM1200A's -sqrt(5) C̄20): a flight filter's
+  usual field.
 
 Parameter vector (plain data, so one compiled body serves every field; issue 49's "specialise on data"):
-params[0] = mu; for the lunar field, params[1] = its degree, params[2] = its reference radius (LU), then C̄ and S̄
-packed (spherical_harmonics.packed_index), each packed_index(degree, degree) + 1 long. The field's GM is the
-CRTBP's Moon, mu (LU^3/TU^2); GRGM1200A's own GM differs from it by 2e-7 relative, which scales the harmonics'
-small accelerations by as much.
+params[0] = mu; with added terms, params[1] = their count T, then T pairs (kind, start of its payload), then the
+payloads. TERM_HARMONICS: degree, reference radius (LU), then C̄ and S̄ packed (spherical_harmonics.packed_index),
+each packed_index(degree, degree) + 1 long; TERM_J2: J2, reference radius (LU). A point-mass CRTBP is [mu]
+alone (the golden record's arithmetic, bit for bit). Every term's GM is the CRTBP's Moon, mu (LU^3/TU^2);
+GRGM1200A's own GM differs from it by 2e-7 relative, which scales the terms' small accelerations by as much.
 
 Frame: the Moon is tidally locked with its principal axes on the rotating frame: x_PA = -x (towards the Earth),
 y_PA = -y (against the orbital motion), z_PA = z. What that leaves out (the physical and optical librations, up to
@@ -25,45 +28,103 @@ from numba import njit
 from liaison_cli.dynamics.constants import LU_KM
 from liaison_cli.dynamics.crtbp import derivative, derivative_into, state_stm_rhs
 from liaison_cli.dynamics.spherical_harmonics import acceleration_gradient_into, packed_index
+from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
-FIELD_HEADER = 3  # mu, degree, radius (LU)
+TERM_HARMONICS = 1  # payload: degree, radius (LU), C̄ packed, S̄ packed
+TERM_J2 = 2  # payload: J2, radius (LU)
 
 
-def crtbp_params(mu: float, field=None) -> np.ndarray:
-    """The CRTBP's parameter vector: [mu] for point masses, or with a dynamics.lunar_gravity.LunarField behind
-    it (module docstring)."""
-    if field is None:
+def harmonics_term(field) -> tuple[int, np.ndarray]:
+    """(TERM_HARMONICS, payload) of a dynamics.lunar_gravity.LunarField."""
+    return TERM_HARMONICS, np.concatenate([[float(field.degree), field.radius_km / LU_KM], field.c, field.s])
+
+
+def j2_term(field) -> tuple[int, np.ndarray]:
+    """(TERM_J2, payload): the J2 of a LunarField of degree 2 or more (J2 = -sqrt(5) C̄20, unnormalised)."""
+    return TERM_J2, np.array([-np.sqrt(5.0) * field.c[packed_index(2, 0)], field.radius_km / LU_KM])
+
+
+def crtbp_params(mu: float, *terms) -> np.ndarray:
+    """The CRTBP's parameter vector (module docstring): [mu] for point masses, else the terms' table and payloads;
+    terms: (kind, payload) pairs (harmonics_term, j2_term). A None term is left out."""
+    terms = [term for term in terms if term is not None]
+    if not terms:
         return np.array([mu])
-    return np.concatenate([[mu, float(field.degree), field.radius_km / LU_KM], field.c, field.s])
+    table, payloads, start = [], [], 2 + 2 * len(terms)
+    for kind, payload in terms:
+        table += [float(kind), float(start)]
+        payloads.append(np.asarray(payload, dtype=float))
+        start += len(payload)
+    return np.concatenate([[mu, float(len(terms))], table, *payloads])
+
+
+def has_added_terms(params) -> bool:
+    """The vector carries terms beyond the primaries' point masses."""
+    return len(params) > 1
+
+
+def term_payload(params, kind: int):
+    """The payload of the first term of `kind` in a parameter vector (None when it has none)."""
+    for t in range(int(params[1]) if len(params) > 1 else 0):
+        if int(params[2 + 2 * t]) == kind:
+            return params[int(params[3 + 2 * t]):]
+    return None
 
 
 def field_degree(params) -> int:
-    """The lunar field's degree in a CRTBP parameter vector (0: point masses only)."""
-    return int(params[1]) if len(params) > 1 else 0
+    """The lunar harmonics' degree in a CRTBP parameter vector (0: none; a J2 term alone counts 0)."""
+    payload = term_payload(params, TERM_HARMONICS)
+    return 0 if payload is None else int(payload[0])
 
 
 @njit(cache=True)
-def moon_harmonics_into(params, x, y, z, with_gradient, acc, grad):
-    """acc (3,) <- the lunar field's acceleration beyond the point mass at the rotating-frame position (x, y, z);
-    with with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz). LU, TU."""
+def moon_harmonics_into(params, start, x, y, z, with_gradient, acc, grad):
+    """acc (3,) <- the lunar harmonics' acceleration beyond the point mass (payload at params[start:]) at the
+    rotating-frame position (x, y, z); with with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz,
+    gyz). LU, TU."""
     mu = params[0]
-    degree = int(params[1])
+    degree = int(params[start])
     size = packed_index(degree, degree) + 1
-    c = params[FIELD_HEADER:FIELD_HEADER + size]
-    s = params[FIELD_HEADER + size:FIELD_HEADER + 2 * size]
+    c = params[start + 2:start + 2 + size]
+    s = params[start + 2 + size:start + 2 + 2 * size]
     # rotating frame -> principal axes about the Moon: x and y turn over, z stays
-    acceleration_gradient_into(c, s, mu, params[2], degree, 1.0 - mu - x, -y, z, with_gradient, acc, grad)
+    acceleration_gradient_into(c, s, mu, params[start + 1], degree, 1.0 - mu - x, -y, z, with_gradient, acc, grad)
     acc[0], acc[1] = -acc[0], -acc[1]
     if with_gradient:  # D G D with D = diag(-1, -1, 1): the xz and yz terms change sign
         grad[4], grad[5] = -grad[4], -grad[5]
 
 
 @njit(cache=True)
+def moon_j2_into(params, start, x, y, z, with_gradient, acc, grad):
+    """As moon_harmonics_into for the Moon's J2 alone (payload: J2, radius LU). J2 is symmetric about z, so the
+    principal axes' turn of x and y (both signs) leaves its acceleration and gradient unchanged."""
+    j2_acceleration_gradient_into(params[0], params[start], params[start + 1], x - (1.0 - params[0]), y, z,
+                                  with_gradient, acc, grad)
+
+
+@njit(cache=True)
 def added_terms_into(params, x, y, z, with_gradient, acc, grad):
-    """acc (3,) <- the sum of the field's terms beyond the primaries' point masses at (x, y, z); with
-    with_gradient, grad (6,) <- their gradient. The one place a CRTBP force is added (docs/architecture.md,
-    "Adding a force"): today the lunar field."""
-    moon_harmonics_into(params, x, y, z, with_gradient, acc, grad)
+    """acc (3,) <- the sum of the terms beyond the primaries' point masses at (x, y, z); with with_gradient,
+    grad (6,) <- their gradient. The one place a CRTBP force is added (docs/architecture.md, "Adding a force"):
+    each term of the vector's table, by its kind."""
+    for i in range(3):
+        acc[i] = 0.0
+    for i in range(6):
+        grad[i] = 0.0
+    term_acc, term_grad = np.empty(3), np.empty(6)
+    for t in range(int(params[1])):
+        kind, start = int(params[2 + 2 * t]), int(params[3 + 2 * t])
+        if kind == TERM_HARMONICS:
+            moon_harmonics_into(params, start, x, y, z, with_gradient, term_acc, term_grad)
+        elif kind == TERM_J2:
+            moon_j2_into(params, start, x, y, z, with_gradient, term_acc, term_grad)
+        else:
+            continue
+        for i in range(3):
+            acc[i] += term_acc[i]
+        if with_gradient:
+            for i in range(6):
+                grad[i] += term_grad[i]
 
 
 @njit(cache=True, inline="always")

@@ -8,8 +8,8 @@ sigmas, fully normalised (geodesy 4π), in the lunar principal-axis frame that D
 to the asked degree are read (degree 200: 20,300 of 1.44 million lines).
 
 `LunarField` carries the packed coefficients (dynamics.spherical_harmonics.packed_index) with the header's
-radius and GM; `crtbp_field_params` lays them out behind the CRTBP's mass ratio for the compiled propagators
-(dynamics.crtbp_field).
+radius and GM; `dynamics.crtbp_field.harmonics_term` lays them out in the CRTBP's parameter vector for the
+compiled propagators (and `j2_term` takes its J2 alone).
 """
 
 from dataclasses import dataclass

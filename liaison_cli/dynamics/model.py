@@ -16,7 +16,8 @@ from numba import njit
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
-from liaison_cli.dynamics.crtbp_field import crtbp_params, field_degree, field_derivative, moon_harmonics_into
+from liaison_cli.dynamics.crtbp_field import (added_terms_into, crtbp_params, field_derivative, harmonics_term,
+                                              has_added_terms, j2_term)
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.integrators.rk8 import rk8_advance, rk8_states_forced, step_counts
 from liaison_cli.dynamics.lunar_gravity import lunar_field
@@ -126,8 +127,8 @@ class DynamicsModel:
             forcing = forcing + extra_acceleration_lu_tu2
         state0, forcing = np.asarray(state0, dtype=float), np.ascontiguousarray(forcing, dtype=float)
         # A point-mass field keeps the recorded RK4; the lunar harmonics cost tens of point-mass evaluations each,
-        # so their truth steps by RK8 (TRUTH_RK8_MAX_STEP_S), under the same tolerance.
-        rk8 = field_degree(self.params) > 0
+        # so a truth with added terms steps by RK8 (TRUTH_RK8_MAX_STEP_S), under the same tolerance.
+        rk8 = has_added_terms(self.params)
         integrate, order = (rk8_states_forced, 8) if rk8 else (rk4_states_forced, 4)
         step_s = TRUTH_RK8_MAX_STEP_S if rk8 else TRUTH_MAX_STEP_S
         states = integrate(state0, times_tu, step_s / TU_S, self.params, forcing)
@@ -145,16 +146,16 @@ class DynamicsModel:
         return np.array([field_derivative(np.asarray(state, dtype=float), params)[3:6] for state in states])
 
     def moon_field_difference(self, states) -> np.ndarray:
-        """(m, 3) LU/TU^2: the truth's lunar harmonics minus the filter's at states (m, 6) (zero when they are the
-        same field); the rotating frame's axes."""
+        """(m, 3) LU/TU^2: the truth's added terms (crtbp_field: the lunar harmonics, or J2) minus the filter's at
+        states (m, 6) (zero when they are the same field); the rotating frame's axes."""
         states = np.asarray(states, dtype=float)
         out = np.zeros((len(states), 3))
         acc, grad = np.empty(3), np.empty(6)
         for params, sign in ((self.params, 1.0), (self.filter_params, -1.0)):
-            if field_degree(params) == 0 or self.filter_only_params is None:
+            if not has_added_terms(params) or self.filter_only_params is None:
                 continue
             for k, state in enumerate(states):
-                moon_harmonics_into(params, state[0], state[1], state[2], False, acc, grad)
+                added_terms_into(params, state[0], state[1], state[2], False, acc, grad)
                 out[k] += sign * acc
         return out
 
@@ -205,12 +206,17 @@ def truth_error_growth_m(coarse, fine, order: int = 4) -> float:
 
 
 def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0), moon_degree: int = 0,
-                filter_moon_degree: int | None = None) -> DynamicsModel:
+                filter_moon_degree: int | None = None, filter_j2_only: bool = False) -> DynamicsModel:
     """The CRTBP of mass ratio mu; its truth also feels truth_acceleration_m_s2 (3,) on the rotating axes, and the
-    Moon's field to moon_degree (0: a point mass), the filter's to filter_moon_degree (None: the truth's)."""
+    Moon's field to moon_degree (0: a point mass), the filter's to filter_moon_degree (None: the truth's), or, with
+    filter_j2_only, the Moon's J2 alone in closed form."""
     filter_moon_degree = moon_degree if filter_moon_degree is None else filter_moon_degree
-    truth = crtbp_params(mu, lunar_field(moon_degree) if moon_degree else None)
-    own = (None if filter_moon_degree == moon_degree
-           else crtbp_params(mu, lunar_field(filter_moon_degree) if filter_moon_degree else None))
+    truth = crtbp_params(mu, harmonics_term(lunar_field(moon_degree)) if moon_degree else None)
+    if filter_j2_only:
+        own = crtbp_params(mu, j2_term(lunar_field(2)))
+    elif filter_moon_degree == moon_degree:
+        own = None
+    else:
+        own = crtbp_params(mu, harmonics_term(lunar_field(filter_moon_degree)) if filter_moon_degree else None)
     unmodelled = np.asarray(truth_acceleration_m_s2, dtype=float) / M_S2_PER_LU_TU2
     return DynamicsModel(CRTBP.name, CRTBP.code, truth, unmodelled, own)

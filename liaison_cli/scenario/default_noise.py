@@ -126,7 +126,7 @@ def default_psd(scenario: Scenario, model, states, times_s) -> DefaultNoise:
         parts["unmodelled forces"] = 2.0 * rms**2 * scenario.settle_days() * SECONDS_PER_DAY
     field = field_truncation_psd(scenario, model, states, times_s)
     if field > NEGLIGIBLE_PSD_M2_S3:
-        parts[f"lunar field beyond degree {scenario.moon_gravity.filter_degree_or_truth}"] = field
+        parts[f"lunar field beyond {scenario.moon_gravity.filter_field_label}"] = field
     return DefaultNoise(float(sum(parts.values())), parts)
 
 

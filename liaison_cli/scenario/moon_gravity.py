@@ -6,8 +6,12 @@ along each orbit).
     moon_gravity: {degree: 50, filter_degree: 20}
 
 degree: the truth's (2..EVALUATOR_MAX_DEGREE); filter_degree: the filter's (0 = a point-mass Moon; default: the
-truth's, a filter whose field is the truth's). The CRTBP only, for now: the dated model keeps a point-mass Moon.
+truth's, a filter whose field is the truth's); or filter_field: j2, the filter carrying the Moon's J2 alone in
+closed form (dynamics.zonal_j2), as many flight filters do. The CRTBP only, for now: the dated model keeps a
+point-mass Moon.
 """
+
+from typing import Literal
 
 from pydantic import Field, model_validator
 
@@ -22,9 +26,15 @@ class MoonGravitySpec(StrictModel):
                         f"(2..{EVALUATOR_MAX_DEGREE}; a 100 km orbit needs tens: docs/model.md)")
     filter_degree: int | None = Field(None, ge=0, le=EVALUATOR_MAX_DEGREE, description="the filter's degree and "
                                       "order, at most degree (0: a point-mass Moon; absent: the truth's)")
+    filter_field: Literal["harmonics", "j2"] = Field("harmonics", description="the filter's field: harmonics, "
+                                                     f"{FIELD_NAME} to filter_degree; j2: the Moon's J2 alone, in "
+                                                     "closed form (no filter_degree then)")
 
     @model_validator(mode="after")
     def _filter_not_above_truth(self):
+        if self.filter_field == "j2" and self.filter_degree is not None:
+            raise ValueError(f"moon_gravity.filter_degree = {self.filter_degree} with filter_field: j2; allowed: one "
+                             "of the two (j2 is the filter's whole field)")
         if self.filter_degree is not None and self.filter_degree > self.degree:
             raise ValueError(f"moon_gravity.filter_degree = {self.filter_degree}: at most moon_gravity.degree "
                              f"({self.degree}); a filter cannot model more of the field than the truth holds")
@@ -33,3 +43,8 @@ class MoonGravitySpec(StrictModel):
     @property
     def filter_degree_or_truth(self) -> int:
         return self.degree if self.filter_degree is None else self.filter_degree
+
+    @property
+    def filter_field_label(self) -> str:
+        """The filter's field in words: 'J2' or 'degree N'."""
+        return "J2" if self.filter_field == "j2" else f"degree {self.filter_degree_or_truth}"

@@ -203,7 +203,8 @@ def _dated_model(scenario: Scenario):
 def _crtbp_model(scenario: Scenario):
     gravity = scenario.moon_gravity
     return crtbp_model(MU, scenario.model_error.truth_acceleration_m_s2, gravity.degree if gravity else 0,
-                       gravity.filter_degree_or_truth if gravity else None)
+                       gravity.filter_degree_or_truth if gravity else None,
+                       gravity is not None and gravity.filter_field == "j2")
 
 
 MODEL_BUILDERS = {"crtbp": _crtbp_model,

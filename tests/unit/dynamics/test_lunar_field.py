@@ -9,7 +9,8 @@ from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant
-from liaison_cli.dynamics.crtbp_field import FIELD_HEADER, crtbp_params, field_derivative, moon_harmonics_into
+from liaison_cli.dynamics.crtbp_field import (TERM_HARMONICS, crtbp_params, field_degree, field_derivative,
+                                              harmonics_term, moon_harmonics_into, term_payload)
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm
 from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.spherical_harmonics import packed_index, potential
@@ -26,9 +27,10 @@ def low_orbit_state(altitude_km=100.0, inclination_deg=90.0):
 
 def field_jacobi(state, params):
     """C = 2 (U_CRTBP + U_field) - v^2: the field is fixed in the rotating frame, so C is an integral of motion."""
-    degree, radius = int(params[1]), params[2]
+    payload = term_payload(params, TERM_HARMONICS)
+    degree, radius = int(payload[0]), payload[1]
     size = packed_index(degree, degree) + 1
-    c, s = params[FIELD_HEADER:FIELD_HEADER + size], params[FIELD_HEADER + size:FIELD_HEADER + 2 * size]
+    c, s = payload[2:2 + size], payload[2 + size:2 + 2 * size]
     pa = np.array([1.0 - MU - state[0], -state[1], state[2]])
     return jacobi_constant(state, MU) + 2.0 * potential(c, s, MU, radius, degree, pa)
 
@@ -45,7 +47,7 @@ def test_grgm1200a_is_read_as_published():
 
 
 def test_the_field_keeps_the_jacobi_integral():
-    params = crtbp_params(MU, lunar_field(20))
+    params = crtbp_params(MU, harmonics_term(lunar_field(20)))
     x0 = low_orbit_state()
     span = 0.5 * 86400.0 / TU_S
     orbit = solve_ivp(lambda t, y: field_derivative(y, params), (0.0, span), x0, method="DOP853", rtol=1e-12,
@@ -60,13 +62,13 @@ def test_the_field_moves_a_100_km_orbit_by_kilometres_in_a_day():
     x0 = low_orbit_state()
     span = 86400.0 / TU_S
     ends = [solve_ivp(lambda t, y, p=p: field_derivative(y, p), (0.0, span), x0, method="DOP853", rtol=1e-12,
-                      atol=1e-14).y[:3, -1] for p in (np.array([MU]), crtbp_params(MU, lunar_field(20)))]
+                      atol=1e-14).y[:3, -1] for p in (np.array([MU]), crtbp_params(MU, harmonics_term(lunar_field(20))))]
     apart_km = np.linalg.norm(ends[0] - ends[1]) * LU_KM
     assert 1.0 < apart_km < 200.0
 
 
 def test_the_filters_stm_with_the_field_matches_finite_differences():
-    params = crtbp_params(MU, lunar_field(30))
+    params = crtbp_params(MU, harmonics_term(lunar_field(30)))
     x0 = low_orbit_state(150.0, 60.0)
     dt = 600.0 / TU_S
     _, phi = rk4_state_stm(x0, dt, 64, params)
@@ -85,7 +87,8 @@ def test_a_point_mass_parameter_vector_changes_nothing():
     x0 = low_orbit_state()
     assert np.array_equal(field_derivative(x0, np.array([MU])), derivative(x0, MU))
     acc, grad = np.empty(3), np.empty(6)
-    moon_harmonics_into(crtbp_params(MU, lunar_field(2)), x0[0], x0[1], x0[2], True, acc, grad)
+    params = crtbp_params(MU, harmonics_term(lunar_field(2)))
+    moon_harmonics_into(params, int(params[3]), x0[0], x0[1], x0[2], True, acc, grad)
     assert np.all(np.isfinite(acc)) and abs(grad[0] + grad[1] + grad[2]) < 1e-10 * np.abs(grad).max()
 
 
@@ -104,7 +107,7 @@ def test_the_scenario_keys_ask_for_the_field_and_refuse_what_cannot_be():
     from liaison_cli.scenario.truth import dynamics_model
 
     model = dynamics_model(_scenario(moon_gravity={"degree": 12, "filter_degree": 4}))
-    assert int(model.params[1]) == 12 and int(model.filter_params[1]) == 4
+    assert field_degree(model.params) == 12 and field_degree(model.filter_params) == 4
     assert dynamics_model(_scenario(moon_gravity={"degree": 6})).filter_params is not None
     assert len(dynamics_model(_scenario(moon_gravity={"degree": 6, "filter_degree": 0})).filter_params) == 1
     with pytest.raises(Exception, match="at most moon_gravity.degree"):
