@@ -73,3 +73,9 @@ def lunar_field(degree: int) -> LunarField:
     c.setflags(write=False)
     s.setflags(write=False)
     return LunarField(degree, c, s, radius_km, gm_km3_s2)
+
+
+def lunar_j2() -> tuple[float, float]:
+    """(J2, reference radius km) of GRGM1200A: J2 = -sqrt(5) C̄20."""
+    field = lunar_field(2)
+    return float(-np.sqrt(5.0) * field.c[packed_index(2, 0)]), float(field.radius_km)

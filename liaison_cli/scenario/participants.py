@@ -9,6 +9,7 @@ from liaison_cli.dynamics.clock_presets import CLOCK_PRESETS, clock_preset_names
 from liaison_cli.dynamics.constants import MOON_RADIUS_KM, WGS84_EQUATORIAL_RADIUS_KM
 from liaison_cli.orbits.catalog import catalog_names
 from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
+from liaison_cli.orbits.frozen import NoFrozenOrbit, frozen_elements
 from liaison_cli.orbits.families import family_names
 from liaison_cli.scenario.exchange_specs import (
     ORBIT_FILE_KINDS, OrbitFileSpec, orbit_file_from_mapping, orbit_json_schema)
@@ -38,34 +39,75 @@ UNPHASED_ORBITS = (KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS, "oem")
 class KeplerianElements(StrictModel):
     """Moon-centred elements in inertial axes aligned with the rotating frame at t0. The orbit's size is a_km or,
     for a low lunar orbit, altitude_km: the perilune's altitude above the mean lunar radius (a circular orbit's
-    altitude when e is 0), from which a_km follows."""
+    altitude when e is 0), from which a_km follows. With frozen: true, an elliptical frozen orbit (ELFO): give
+    e or i_deg and the other is solved so that the argument of perilune (90 or 270 deg) stands still under the
+    Moon's J2 and the Earth's tide (orbits.frozen)."""
 
-    model_config = ConfigDict(json_schema_extra=schema_rules(one_of(given("a_km"), given("altitude_km"))))
+    model_config = ConfigDict(json_schema_extra=schema_rules(
+        one_of(given("a_km"), given("altitude_km")),
+        when(equals("frozen", True), one_of(given("e"), given("i_deg")), all_of(given("e"), given("i_deg")))))
 
     a_km: float | None = Field(None, gt=MOON_RADIUS_KM, description="semi-major axis, above the lunar radius; or "
                                "give altitude_km (km)")
     altitude_km: float | None = Field(None, gt=0, description="instead of a_km: the perilune's altitude above the "
                                       f"mean lunar radius ({MOON_RADIUS_KM} km); with e = 0 a circular orbit's "
                                       "altitude (km)")
-    e: float = Field(ge=0.0, lt=1.0, description="eccentricity; the perilune a_km (1 - e) must clear the lunar "
-                     "radius (dimensionless)")
-    i_deg: float = Field(ge=0.0, le=180.0, description="inclination (deg)")
+    e: float | None = Field(None, ge=0.0, lt=1.0, description="eccentricity; the perilune a_km (1 - e) must clear "
+                            "the lunar radius; with frozen: true, give e or i_deg (dimensionless)")
+    i_deg: float | None = Field(None, ge=0.0, le=180.0, description="inclination to the Earth-Moon orbit plane; with "
+                                "frozen: true, give e or i_deg (deg)")
     raan_deg: float = Field(0.0, description="right ascension of the ascending node (deg)")
-    argp_deg: float = Field(0.0, description="argument of perilune (deg)")
+    argp_deg: float | None = Field(None, description="argument of perilune (default 0; frozen: 90 or 270, default 90) "
+                                   "(deg)")
     ta_deg: float = Field(0.0, description="true anomaly at t0 (deg)")
+    frozen: bool = Field(False, description="an elliptical frozen orbit: the one of e / i_deg not given is solved so "
+                         "that the perilune stays put (orbits.frozen; docs/orbits.md)")
 
     @property
     def semi_major_axis_km(self) -> float:
         """a_km, or the one altitude_km gives: (lunar radius + altitude) / (1 - e)."""
-        return self.a_km if self.a_km is not None else (MOON_RADIUS_KM + self.altitude_km) / (1.0 - self.e)
+        return self.a_km if self.a_km is not None else (MOON_RADIUS_KM + self.altitude_km) / (1.0 - self.eccentricity)
+
+    @property
+    def eccentricity(self) -> float:
+        """e, or the frozen one for i_deg."""
+        return self.e if self.e is not None else self._frozen()[1]
+
+    @property
+    def inclination_deg(self) -> float:
+        """i_deg, or the frozen (prograde) one for e."""
+        return self.i_deg if self.i_deg is not None else self._frozen()[2]
+
+    def _frozen(self) -> tuple[float, float, float]:
+        """(a_km, e, i_deg) of the frozen orbit these elements name (orbits.frozen.frozen_elements, cached)."""
+        from liaison_cli.dynamics.lunar_gravity import lunar_j2
+
+        return frozen_elements(*lunar_j2(), self.argument_of_perilune_deg % 360.0, e=self.e, i_deg=self.i_deg,
+                               a_km=self.a_km, perilune_altitude_km=self.altitude_km)
+
+    @property
+    def argument_of_perilune_deg(self) -> float:
+        return self.argp_deg if self.argp_deg is not None else (90.0 if self.frozen else 0.0)
 
     @model_validator(mode="after")
     def _perilune_above_surface(self):
         if (self.a_km is None) == (self.altitude_km is None):
             raise ValueError("give the orbit's size as a_km or as altitude_km (one of the two)")
-        if self.semi_major_axis_km * (1.0 - self.e) <= MOON_RADIUS_KM:
+        if self.frozen:
+            if (self.e is None) == (self.i_deg is None):
+                raise ValueError("frozen: true: give e or i_deg (one of the two); the other is solved")
+            if self.argument_of_perilune_deg % 360.0 not in (90.0, 270.0):
+                raise ValueError(f"frozen: true: argp_deg = {self.argp_deg:g}; allowed: 90 or 270 (the perilune over "
+                                 "the southern or northern hemisphere's highest latitude)")
+            try:
+                self.eccentricity, self.inclination_deg
+            except NoFrozenOrbit as exc:
+                raise ValueError(f"frozen: true: {exc}") from None
+        elif self.e is None or self.i_deg is None:
+            raise ValueError("give e and i_deg (or frozen: true and one of them)")
+        if self.semi_major_axis_km * (1.0 - self.eccentricity) <= MOON_RADIUS_KM:
             raise ValueError(
-                f"perilune a_km*(1-e) = {self.semi_major_axis_km * (1 - self.e):.1f} km is inside the Moon "
+                f"perilune a_km*(1-e) = {self.semi_major_axis_km * (1 - self.eccentricity):.1f} km is inside the Moon "
                 f"(radius {MOON_RADIUS_KM} km)"
             )
         return self

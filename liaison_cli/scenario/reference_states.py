@@ -22,7 +22,8 @@ def initial_state_lu(spec) -> np.ndarray:
         return np.array(member_by_amplitude_km(spec.orbit, float(spec.amplitude_km)).state)
     if spec.orbit == KEPLERIAN_ORBIT:
         el = spec.elements
-        return lunar_orbiter_state_lu(el.semi_major_axis_km, el.e, el.i_deg, el.raan_deg, el.argp_deg, el.ta_deg)
+        return lunar_orbiter_state_lu(el.semi_major_axis_km, el.eccentricity, el.inclination_deg, el.raan_deg,
+                                      el.argument_of_perilune_deg, el.ta_deg)
     return CATALOG[spec.orbit].state()
 
 
