@@ -14,8 +14,16 @@ PACKAGE = REPO / "liaison_cli"
 
 
 def _builds_offline() -> bool:
-    """The running environment has a wheel-building setuptools: then no build isolation (no index needed)."""
-    return bool(importlib.util.find_spec("wheel")) or bool(importlib.util.find_spec("setuptools.command.bdist_wheel"))
+    """The running environment has a wheel-building setuptools that pyproject.toml's build-system accepts (77 or
+    later: the SPDX license string): then no build isolation (no index needed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        major = int(version("setuptools").split(".")[0])
+    except (PackageNotFoundError, ValueError):
+        return False
+    wheel_building = importlib.util.find_spec("wheel") or importlib.util.find_spec("setuptools.command.bdist_wheel")
+    return major >= 77 and bool(wheel_building)
 
 
 def test_the_wheel_holds_every_shipped_scenario_and_data_file(tmp_path):
