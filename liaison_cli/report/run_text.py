@@ -175,10 +175,17 @@ def format_ric(summary: list[dict], spacecraft, settle_days: float) -> str:
             for axis in AXES:
                 values = [mean(ok_values(summary, name, f"{stat}_{axis}_{kind}_settled_{unit}", scale))
                           for stat in ("rms", "mean", "sigma")]
-                digits = 0 if kind == "position" else 2
+                digits = _position_digits(values) if kind == "position" else 2
                 cells.append(right(f"{values[0]:.{digits}f} / {values[1]:+.{digits}f} / {values[2]:.{digits}f}", 24))
             lines.append(left(name if kind == "position" else "", 12) + left(label, 5) + "".join(cells))
     return "\n".join(lines)
+
+
+def _position_digits(values) -> int:
+    """Decimals for a RIC position cell (m): none from 10 m up, so a sub-metre axis (a radial error of 0.3 m)
+    does not print as 0."""
+    largest = max((abs(v) for v in values if math.isfinite(v)), default=0.0)
+    return 0 if largest >= 10.0 else 1 if largest >= 1.0 else 2
 
 
 def format_smoothed(summary: list[dict], spacecraft) -> str:
