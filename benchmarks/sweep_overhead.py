@@ -115,18 +115,18 @@ def time_stages(runs: int, jobs: int) -> dict:
 
 def time_compute(runs: int, sample: int = 3) -> float:
     """Sum of every run's compute: `sample` runs of each grid point, serially here, scaled to `runs`."""
-    from liaison_cli.campaign.sweep.worker import execute_batch
+    from liaison_cli.campaign.sweep.worker import execute_sweep_batch
     from liaison_cli.scenario.setup import prepare_problem
 
     plan = _plan(runs)
     cache: dict = {}
     problems = [prepare_problem(point.scenario, cache) for point in plan.points]
-    execute_batch(problems[0], plan.tasks[:1])  # loads the compiled core: not a run's cost
+    execute_sweep_batch(problems[0], plan.tasks[:1])  # loads the compiled core: not a run's cost
     total = 0.0
     for index, problem in enumerate(problems):
         tasks = [task for task in plan.tasks if task.point == index][:sample]
         t0 = time.perf_counter()
-        execute_batch(problem, tasks)
+        execute_sweep_batch(problem, tasks)
         total += (time.perf_counter() - t0) / len(tasks) * runs
     return total
 

@@ -31,7 +31,7 @@ def errors(
     from liaison_cli.campaign.studies.budget_tables import budget_tables, by_source, provenance
     from liaison_cli.campaign.studies.error_budget import budget_study, select_sources
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
-    from liaison_cli.report.error_budget import draw_budget, format_consistency, format_shares
+    from liaison_cli.report.error_budget import draw_budget, format_budget_consistency, format_shares
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
 
@@ -45,7 +45,7 @@ def errors(
     progress = not quiet and not as_json and sys.stderr.isatty()
     study = budget_study(prepare_problem(scenario), chosen, check_runs, jobs, where, progress)
     table = format_shares(study.rows_all, study.rows_late)
-    consistency_text = format_consistency(study.consistency_rows, scenario.settle_days(), study.nees_share,
+    consistency_text = format_budget_consistency(study.consistency_rows, scenario.settle_days(), study.nees_share,
                                           check_runs)
     if not as_json:
         _print_budget(scenario, table, study.checks, check_runs)

@@ -183,14 +183,14 @@ def tables002(
     """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms; with
     the nrho_gateway_anchors_mesh* scenarios in the sweep, both readings of 002's links side by side."""
     from liaison_cli.campaign.studies.output import StudyOutput, write_files
-    from liaison_cli.campaign.studies.tables002 import (NRHO_PERIOD_DAYS, clock_table, consistency_table, drms_table,
+    from liaison_cli.campaign.studies.tables002 import (NRHO_PERIOD_DAYS, batch_consistency_table, clock_rms_p90_table, drms_table,
                                                         histogram_cell, per_run_metrics)
-    from liaison_cli.report.nrho002 import draw_histograms, format_consistency, format_readings, format_tables
+    from liaison_cli.report.nrho002 import draw_histograms, format_batch_consistency, format_readings, format_tables
 
     metrics = per_run_metrics(sweep_dir)
-    drms, clocks, consistency = drms_table(metrics), clock_table(metrics), consistency_table(sweep_dir)
+    drms, clocks, consistency = drms_table(metrics), clock_rms_p90_table(metrics), batch_consistency_table(sweep_dir)
     readings = format_readings(drms, clocks)
-    text = format_tables(drms, clocks) + ("\n" + readings if readings else "") + "\n" + format_consistency(consistency)
+    text = format_tables(drms, clocks) + ("\n" + readings if readings else "") + "\n" + format_batch_consistency(consistency)
     typer.echo(text, nl=False)
     cell = histogram_cell(metrics, span_days, interval_s)
     output_ = StudyOutput({"drms_p90": drms, "clock_p90": clocks, "per_run": metrics, "consistency": consistency},

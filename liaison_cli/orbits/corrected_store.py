@@ -31,7 +31,7 @@ STORE_FORMAT = 4
 FIELDS = ("node_times_s", "nodes", "position_defects_km", "velocity_defects_km_s", "iterations", "converged")
 
 
-def cache_dir() -> Path:
+def corrected_orbits_dir() -> Path:
     return cache_folder("dated-orbits")
 
 
@@ -60,7 +60,7 @@ def corrected_orbit(state_lu, epoch_s: float, span_s: float, node_spacing_s: flo
     Same result as corrected_in_stages with these arguments."""
     key = correction_key(state_lu, epoch_s, span_s, node_spacing_s, forces, steps_per_node, max_iterations,
                          period_tu)
-    path = cache_dir() / f"{key}.npz"
+    path = corrected_orbits_dir() / f"{key}.npz"
     if path.exists():
         orbit = _load_intact(path)
         if orbit is not None:

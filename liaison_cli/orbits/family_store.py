@@ -23,14 +23,14 @@ from liaison_cli.orbits.periodic import PeriodicOrbit
 DEFAULT_COUNT = CATALOGUE_COUNT
 
 
-def cache_dir() -> Path:
+def family_tables_dir() -> Path:
     if os.environ.get("LIAISON_ORBIT_CACHE_DIR"):
         return Path(os.environ["LIAISON_ORBIT_CACHE_DIR"])
     return cache_folder("families")
 
 
 def family_path(name: str, count: int) -> Path:
-    return cache_dir() / f"{name}-n{count}-{core_source_hash(('orbits', 'dynamics'))[:12]}.npz"
+    return family_tables_dir() / f"{name}-n{count}-{core_source_hash(('orbits', 'dynamics'))[:12]}.npz"
 
 
 def _save(table: FamilyTable, path: Path) -> None:
@@ -81,7 +81,7 @@ def load_or_generate(name: str, count: int = DEFAULT_COUNT, regenerate: bool = F
 
 
 def cached_families() -> list[Path]:
-    folder = cache_dir()
+    folder = family_tables_dir()
     return sorted(folder.glob("*.npz")) if folder.exists() else []
 
 

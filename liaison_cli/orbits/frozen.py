@@ -29,7 +29,6 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.optimize import brentq
 
 from liaison_cli.dynamics.constants import GM_EARTH_KM3_S2, GM_MOON_KM3_S2, LU_KM, MOON_RADIUS_KM, MU, TU_S, VU_KM_S
 
@@ -53,6 +52,8 @@ class NoFrozenOrbit(ValueError):
 
 def frozen_inclination_deg(a_km: float, e: float, j2: float, radius_km: float) -> float:
     """The prograde inclination (deg, 0..90) at which an orbit of (a_km, e) with omega = 90 / 270 deg is frozen."""
+    from scipy.optimize import brentq  # here: `liaison run` does not load scipy.optimize (tests/test_architecture.py)
+
     def rate(i_deg):
         return omega_rate_rad_s(a_km, e, i_deg, j2, radius_km)
 
@@ -66,6 +67,8 @@ def frozen_eccentricity(i_deg: float, j2: float, radius_km: float, a_km: float |
                         perilune_altitude_km: float | None = None) -> float:
     """The eccentricity at which an orbit of inclination i_deg with omega = 90 / 270 deg is frozen, for a given
     semi-major axis or a given perilune altitude above the mean radius (then a = (R + h) / (1 - e))."""
+    from scipy.optimize import brentq  # here: `liaison run` does not load scipy.optimize (tests/test_architecture.py)
+
     def a_of(e):
         return a_km if a_km is not None else (MOON_RADIUS_KM + perilune_altitude_km) / (1.0 - e)
 

@@ -69,7 +69,7 @@ def draw_budget(budget, grouped: dict, path: Path, title: str) -> Path:
     return path
 
 
-def format_consistency(rows: list[dict], settle_days: float, nees_share: float | None = None,
+def format_budget_consistency(rows: list[dict], settle_days: float, nees_share: float | None = None,
                        check_runs: int = 0) -> str:
     """Per spacecraft after the settle time: the budget's error RMS, the filter's sigma RMS and their ratio
     for position and velocity ('!' outside [1/1.5, 1.5]: the ratio test of analysis.consistency), and the check runs' NEES-in-band share when there were

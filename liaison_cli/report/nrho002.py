@@ -13,7 +13,7 @@ from liaison_cli.analysis.metrics import CONSISTENCY_RATIO_LIMIT
 READING_LABELS = {"mesh": " + anchor link", "visible": " always-visible station"}
 
 
-def format_consistency(table: pd.DataFrame) -> str:
+def format_batch_consistency(table: pd.DataFrame) -> str:
     """The consistency table as Markdown, one row per grid cell, case and spacecraft ('+ anchor link' or
     'always-visible station' after the case for a second reading); '!' marks a ratio outside the ratio test's range, and a closing line
     counts the rows that fail the verdict."""

@@ -74,7 +74,7 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
                                   np.asarray(scenario.model_error.truth_acceleration_m_s2, dtype=float) * 1e-3)
 
 
-def departure_state_km(spec, epoch_utc) -> np.ndarray:
+def departure_from_spec_km(spec, epoch_utc) -> np.ndarray:
     """The departure's geocentric ICRF state (6,) km, km/s at the scenario epoch."""
     if spec.mission is None:
         c3, dla, rla = spec.c3_km2_s2, spec.dla_deg, spec.rla_deg
@@ -101,7 +101,7 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
 
         return opm_state_lu(spacecraft, model.epoch_tdb_s)
     if spacecraft.departure is not None:
-        return departure_state_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
+        return departure_from_spec_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
     return corrected_nodes_lu(spacecraft, scenario, model)[1][0]
 
 

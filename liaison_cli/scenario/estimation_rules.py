@@ -84,7 +84,7 @@ def check_initial_batch(scenario):
                              f"the initial batch window ({longest_h:g} h); allowed: after it")
 
 
-def check_batch(scenario):
+def check_batch_section(scenario):
     """The batch section's spans against the scenario's epochs."""
     if scenario.batch is None:
         return

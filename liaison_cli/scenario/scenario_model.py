@@ -14,7 +14,7 @@ from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimators_that, get_estimator
 from liaison_cli.scenario.estimation_settings import (
     BatchSpec, ClockSyncSpec, FilterSpec, InitialErrorSpec, MonteCarloSpec, OutputSpec)
-from liaison_cli.scenario.estimation_rules import (OWN_SECTIONS, check_batch, check_clock_sync, check_estimator,
+from liaison_cli.scenario.estimation_rules import (OWN_SECTIONS, check_batch_section, check_clock_sync, check_estimator,
                                                    check_initial_batch, check_smoother)
 from liaison_cli.scenario.exchange_specs import MeasurementFileSpec
 from liaison_cli.scenario.link_rules import (check_observable, check_repeated_links, check_second_receiver,
@@ -131,7 +131,7 @@ class Scenario(StrictModel):
         check_station_priority(self)
         check_estimator(self)
         self._check_manoeuvres()
-        check_batch(self)
+        check_batch_section(self)
         check_smoother(self)
         check_initial_batch(self)
         check_clock_sync(self)

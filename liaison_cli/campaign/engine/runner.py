@@ -27,7 +27,7 @@ class CampaignResult:
         return self.problem.scenario
 
 
-def execute_batch(problem, runs):
+def execute_run_batch(problem, runs):
     """Worker side: the outcomes of a batch of runs, given by their indexes (each outcome carries its own)."""
     interrupts.ignore_in_worker_process()
     return [execute_run(problem, RunTask(run)) for run in runs]
@@ -61,7 +61,7 @@ def iter_outcomes(problem: Problem, n_runs: int, jobs: int = 2, progress: bool =
     Memory is bounded by the fan-out's window (batches submitted and not yet consumed, a batch that finished
     ahead of its turn included) times the batch size, not by `n_runs`.
     """
-    return run_tasks_in_order(execute_batch, problem, problem, n_runs, jobs, where, progress,
+    return run_tasks_in_order(execute_run_batch, problem, problem, n_runs, jobs, where, progress,
                               description or problem.scenario.name)
 
 

@@ -274,7 +274,7 @@ class CheckRun:
     reason: str = ""
 
 
-def check_batch(inputs: CheckInputs, tasks) -> list[CheckRun]:
+def run_check_batch(inputs: CheckInputs, tasks) -> list[CheckRun]:
     """Worker side: task indexes (CheckInputs); each, the EKF run with only its group's sources on."""
     interrupts.ignore_in_worker_process()
     return [_check_run(inputs, *divmod(task, inputs.runs)) for task in tasks]
@@ -311,7 +311,7 @@ def _check_runs(problem: Problem, runs: int, groups: list[tuple], settle_s: floa
                   f.channel_kind, f.channel_ends, f.channel_flags)
     model_y = filter_model_along_truth(*model_args)
     inputs = CheckInputs(problem, model_y, tuple(groups), runs, settle_s)
-    for result in run_tasks_in_order(check_batch, inputs, problem, len(groups) * runs, jobs, where, progress,
+    for result in run_tasks_in_order(run_check_batch, inputs, problem, len(groups) * runs, jobs, where, progress,
                                      f"{problem.scenario.name} check"):
         if result.reason:
             raise BudgetError(f"{problem.scenario.name}: Monte Carlo run {result.run} of the check with "

@@ -72,7 +72,7 @@ def case_rows(formation: str, sigma_m: float, spacecraft, summary: pd.DataFrame)
     return rows
 
 
-def compare(ours: pd.DataFrame) -> pd.DataFrame:
+def compare_with_paper(ours: pd.DataFrame) -> pd.DataFrame:
     """Join our rows with the paper's, add `<metric>_ratio` = ours / paper and the per-row verdict."""
     paper = paper_table3()
     table = ours.merge(paper, on=["formation", "spacecraft", "sigma_m"], how="left", validate="one_to_one")
@@ -149,7 +149,7 @@ class Table3Computed:
 
 
 def compute_table3(scenarios_dir, runs: int, jobs: int, progress: bool, where: Backend = LOCAL) -> Table3Computed:
-    """Run the paper's six cases (each formation file at 150 and 300 m) and compare with the paper."""
+    """Run the paper's six cases (each formation file at 150 and 300 m) and compare them with the paper."""
     loaded = {}
     for case in cases():
         if case.formation not in loaded:
@@ -163,7 +163,7 @@ def compute_table3(scenarios_dir, runs: int, jobs: int, progress: bool, where: B
         rows += case_rows(case.formation, case.sigma_m, problem.spacecraft, summary)
         summaries.append(summary.assign(formation=case.formation, sigma_m=case.sigma_m))
         texts[case.formation] = text
-    table = compare(pd.DataFrame(rows))
+    table = compare_with_paper(pd.DataFrame(rows))
     return Table3Computed(table, ordering_checks(table), pd.concat(summaries, ignore_index=True), texts,
                           {f: loaded[f][0].monte_carlo.seed for f in loaded})
 

@@ -15,7 +15,7 @@ mesh / star per cell (report.nrho002.format_readings prints them side by side).
 Metrics, per run: DRMS = the mean over the constellation of each spacecraft's prediction RMS (002 Eq. 37-39,
 the 3 h after the span); clock RMS = each anchor's synchronisation error RMS over the sync window and over
 the prediction after it. Tables give the 90th percentile over the runs that finished ('ok').
-Consistency (consistency_table): per grid cell, case and spacecraft, the error RMS against the batch's own
+Consistency (batch_consistency_table): per grid cell, case and spacecraft, the error RMS against the batch's own
 sigma RMS after the settle time and the NEES-in-band share, from the sweep's per-run summary columns. A sweep
 keeps no per-epoch series: the error and sigma curves of one cell come from `liaison run` on its scenario
 (timeseries.parquet).
@@ -129,7 +129,7 @@ CONSISTENCY_COLUMNS = ("rms_position_settled_m", "sigma_position_settled_m", "rm
                        "sigma_velocity_settled_m_s", "frac_nees_in_band_settled")
 
 
-def consistency_table(sweep_dir) -> pd.DataFrame:
+def batch_consistency_table(sweep_dir) -> pd.DataFrame:
     """Per (span, interval, case, measurements, reading, spacecraft), over the runs that finished ('ok' for every
     spacecraft, as in the DRMS tables) and the epochs after the scenario's settle time (filter.settle_days):
     the error RMS and sigma RMS of position (m) and velocity (m/s) (root of the mean square over the runs),
@@ -209,7 +209,7 @@ def drms_table(metrics: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def clock_table(metrics: pd.DataFrame) -> pd.DataFrame:
+def clock_rms_p90_table(metrics: pd.DataFrame) -> pd.DataFrame:
     """Table 4 layout: per (span, interval) and RR / NORR, the p90 over runs and anchors of the clock RMS over
     the 3 h sync window and over the 3 h prediction after it (autonomous cases only, star reading). With mesh
     runs in the sweep, also `mesh_runs_ok`, `mesh_clock_{window,prediction}_p90_ns` and

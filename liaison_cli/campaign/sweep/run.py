@@ -15,7 +15,7 @@ from liaison_cli.campaign.engine.backends import Backend, can_fork, check_backen
 from liaison_cli.campaign.sweep.manifest import Manifest, read_manifest
 from liaison_cli.campaign.sweep.plan import SweepInterrupted, SweepPlan, SweepTask
 from liaison_cli.campaign.sweep.tables import build_curve_table, build_runs_table, write_sweep_tables
-from liaison_cli.campaign.sweep.worker import execute_batch  # the workers import that light module, not this one
+from liaison_cli.campaign.sweep.worker import execute_sweep_batch  # the workers import that light module, not this one
 from liaison_cli import interrupts
 from liaison_cli.scenario.setup import prepare_problem
 
@@ -120,7 +120,7 @@ def _run_pending(plan: SweepPlan, pending: list[SweepTask], manifest: Manifest, 
 
     pooled = bool(pending) and not (where.name == "joblib" and jobs == 1)
     if pooled and not can_fork():
-        start_workers(where, jobs, execute_batch.__module__)
+        start_workers(where, jobs, execute_sweep_batch.__module__)
     problems = _Problems(plan, {t.point for t in pending})
     if where.name == "dask":
         problems.prepare_all()
@@ -133,7 +133,7 @@ def _run_pending(plan: SweepPlan, pending: list[SweepTask], manifest: Manifest, 
     # (numba's callbacks) can be swallowed, and a batch cut in half would be recomputed anyway.
     interrupted = []
     previous = _catch_sigint(interrupted)
-    results = map_batches(execute_batch, problems, _batches(pending, batch_runs), where, jobs, fork=True)
+    results = map_batches(execute_sweep_batch, problems, _batches(pending, batch_runs), where, jobs, fork=True)
     try:
         for records in results:
             manifest.append(records)
@@ -152,4 +152,4 @@ def _run_pending(plan: SweepPlan, pending: list[SweepTask], manifest: Manifest, 
 
 def run_first_here(problem, task: SweepTask) -> list[dict]:
     """The first task's record, computed in this process before any worker starts (see _run_pending)."""
-    return execute_batch(problem, [task])
+    return execute_sweep_batch(problem, [task])

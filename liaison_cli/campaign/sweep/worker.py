@@ -8,7 +8,7 @@ from liaison_cli.campaign.engine.worker import RunTask, execute_run
 from liaison_cli.interrupts import ignore_in_worker_process
 
 
-def execute_batch(problem, tasks) -> list[dict]:
+def execute_sweep_batch(problem, tasks) -> list[dict]:
     """One JSON-ready record per task (plan.SweepTask). Never raises (execute_run reports failures)."""
     ignore_in_worker_process()
     records = []

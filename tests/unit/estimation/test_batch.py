@@ -264,8 +264,8 @@ def test_tables002_consistency_pools_the_runs_that_finished_and_marks_both_sides
 
     import pandas as pd
 
-    from liaison_cli.campaign.studies.tables002 import consistency_table
-    from liaison_cli.report.nrho002 import format_consistency
+    from liaison_cli.campaign.studies.tables002 import batch_consistency_table
+    from liaison_cli.report.nrho002 import format_batch_consistency
 
     rows = []
     for run, status, anchor_error in ((0, "ok", 3.0), (1, "ok", 4.0), (2, "diverged", 100.0)):
@@ -279,13 +279,13 @@ def test_tables002_consistency_pools_the_runs_that_finished_and_marks_both_sides
     pd.DataFrame(rows).to_parquet(tmp_path / "runs.parquet")
     text = (SCENARIOS / "nrho_gateway_anchors.yaml").read_text()
     (tmp_path / "sweep.json").write_text(json.dumps({"scenarios_yaml": {"nrho_gateway_anchors": text}}))
-    table = consistency_table(tmp_path).set_index("spacecraft")
+    table = batch_consistency_table(tmp_path).set_index("spacecraft")
     assert table.loc["Anchor1", "position_error_to_sigma"] == pytest.approx(math.sqrt(12.5))
     assert table.loc["Gateway", "velocity_error_to_sigma"] == pytest.approx(0.5)
     assert list(table.runs_ok) == [2, 2] and list(table.consistent) == [False, False]
     assert "optimistic" in table.loc["Anchor1", "consistency_failed"]
     assert "pessimistic" in table.loc["Gateway", "consistency_failed"]
-    text = format_consistency(table.reset_index())
+    text = format_batch_consistency(table.reset_index())
     assert "| 1 T | 60 min | autonomous RR | Anchor1 | 2/3 | 3.536 | 1.000 | 3.54 ! | 3.54 ! | 90 % |" in text
     assert "| Gateway | 2/3 | 1.000 | 2.000 | 0.50 ! | 0.50 ! | 90 % |" in text
     assert "2 of 2 rows fail the consistency verdict" in text

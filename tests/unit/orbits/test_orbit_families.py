@@ -19,7 +19,7 @@ def families():
     from liaison_cli.orbits import family_store
 
     tables = {name: family_store.load_or_generate(name)[0] for name in sorted(FAMILIES)}
-    return tables, family_store.cache_dir()
+    return tables, family_store.family_tables_dir()
 
 
 def test_another_count_fills_an_empty_cache_and_is_then_read(tmp_path, monkeypatch):
