@@ -131,12 +131,14 @@ OBSERVABILITY_PATHS = sorted(p for p in SCENARIOS.rglob("*.yaml") if "links" not
 
 
 def test_the_observability_check_covers_every_shipped_scenario():
-    assert len(OBSERVABILITY_PATHS) == 42
+    assert len(OBSERVABILITY_PATHS) == 45
 
 
-# The NRHO scenarios' truths take 4-6 s each (a perilune at 3,250 km halves the truth's step to ~1 s): slow; the
-# kinds they hold (stations, dual one-way links, a mesh) are covered by faster scenarios in the default suite.
-@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.name.startswith("nrho_") else p
+# The NRHO scenarios' truths take 4-6 s each (a perilune at 3,250 km halves the truth's step to ~1 s), the lunar
+# ones' tens of seconds (the GRGM1200A field to degree 50-100): slow; the kinds they hold (stations, dual one-way
+# links, a mesh, the lunar field) are covered by faster scenarios in the default suite.
+@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow)
+                                  if p.name.startswith("nrho_") or "lunar" in p.parent.name else p
                                   for p in OBSERVABILITY_PATHS],
                          ids=[str(p.relative_to(SCENARIOS)) for p in OBSERVABILITY_PATHS])
 def test_observability_on_every_shipped_scenario_works_or_is_one_line(path):

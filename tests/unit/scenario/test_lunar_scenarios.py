@@ -18,7 +18,7 @@ def _table_rows() -> dict:
     rows = {}
     for line in TABLE.read_text().splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) == 9 and re.fullmatch(r"[\d.e+-]+", cells[4] or "x"):
+        if len(cells) == 9 and re.fullmatch(r"\d[\d.e+-]*", cells[4]):
             rows[(cells[0], cells[1])] = float(cells[4])
     return rows
 
