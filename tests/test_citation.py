@@ -21,7 +21,7 @@ def test_citation_file_has_the_required_keys_and_the_package_version():
         assert citation.get(key), key
     assert citation["cff-version"] == "1.2.0"
     assert citation["version"] == _project()["version"]
-    assert citation["license"] == _project()["license"]["text"]  # an SPDX identifier: MIT
+    assert citation["license"] == _project()["license"]  # an SPDX identifier: MIT
     assert citation["authors"] and all(isinstance(a, dict) and (a.get("name") or a.get("family-names"))
                                        for a in citation["authors"])
     assert "repository-code" not in citation  # the repository states no address of its own
@@ -41,6 +41,6 @@ def test_citation_references_are_the_five_papers_of_the_bibliography():
 
 
 def test_license_is_the_mit_text_pyproject_names():
-    assert _project()["license"]["text"] == "MIT"
+    assert _project()["license"] == "MIT"  # PEP 639: an SPDX expression, the file in license-files
     text = (REPO / "LICENSE").read_text()
     assert text.startswith("MIT License") and "Permission is hereby granted, free of charge" in text
