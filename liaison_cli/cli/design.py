@@ -36,7 +36,8 @@ def design(
     Example: liaison design relay.yaml --open Relay --family l2_nrho_south --periods 6.2:8:10 --phases 4
     --objective User --verify 3 --runs 30"""
     from liaison_cli.campaign.studies.budget_tables import provenance
-    from liaison_cli.campaign.studies.design import make_design, rank_agreement, score_all, verify
+    from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
+                                                     verify)
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.design import draw_score_plane, format_ranking
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
@@ -56,6 +57,10 @@ def design(
         ranking = format_ranking(table, objective)
         agreement = (f"\nSpearman rank correlation, LinCov score against Monte Carlo RMS over the {top} verified: "
                      f"{rho:.2f}\n" if rho == rho else "")
+        by_condition = condition_agreement(table)
+        if by_condition == by_condition:
+            agreement += (f"Spearman rank correlation, range condition number against LinCov score over every scored "
+                          f"candidate: {by_condition:.2f}\n")
         title = f"{base.name}: {open_spacecraft} on {family}, objective {objective}"
         return StudyOutput({"candidates": table}, {**provenance(base.name, text), "method": (
             "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo")},

@@ -10,16 +10,16 @@ import numpy as np
 def format_ranking(table, objective: str, shown: int = 10) -> str:
     """Markdown: the best `shown` candidates by LinCov score, with their Monte Carlo check where it was run;
     then the candidates that could not be scored, with their reason."""
-    lines = [f"| rank | family | period d | phase | LinCov {objective} RMS m | Monte Carlo RMS m | MC / LinCov | "
-             "runs ok | consistent |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = [f"| rank | family | period d | phase | LinCov {objective} RMS m | range condition number | "
+             "Monte Carlo RMS m | MC / LinCov | runs ok | consistent |", "|---|---|---|---|---|---|---|---|---|---|"]
     scored = table[table.score_m.notna()]
     for row in scored.head(shown).to_dict("records"):
         checked = "mc_score_m" in row and isinstance(row["mc_score_m"], float) and math.isfinite(row["mc_score_m"])
-        lines.append(f"| {row['rank']} | {row['family']} | {row['period_days']:g} | {row['phase']:g} | "
-                     f"{row['score_m']:.4g} | {row['mc_score_m']:.4g} | {row['mc_over_lincov']:.2f} | "
-                     f"{row['mc_runs_ok']} | {row['mc_consistent']} |" if checked else
-                     f"| {row['rank']} | {row['family']} | {row['period_days']:g} | {row['phase']:g} | "
-                     f"{row['score_m']:.4g} | | | | |")
+        condition = row.get("range_condition_number", math.nan)
+        head = (f"| {row['rank']} | {row['family']} | {row['period_days']:g} | {row['phase']:g} | "
+                f"{row['score_m']:.4g} | {condition:.3g} |")
+        lines.append(f"{head} {row['mc_score_m']:.4g} | {row['mc_over_lincov']:.2f} | {row['mc_runs_ok']} | "
+                     f"{row['mc_consistent']} |" if checked else f"{head} | | | |")
     failed = table[table.score_m.isna()]
     if len(failed):
         lines.append(f"\nNot scored ({len(failed)} of {len(table)}):")

@@ -40,7 +40,18 @@ def test_design_ranks_every_candidate_verifies_the_best_and_is_the_same_on_two_c
     assert list(verified["rank"]) == [1, 2, 3]  # the best three, by Monte Carlo
     assert ((verified.mc_over_lincov > 0.3) & (verified.mc_over_lincov < 3.0)).all()  # 4 runs: a loose check
     assert (tmp_path / "one" / "design.png").stat().st_size > 0
-    assert "Spearman rank correlation" in (tmp_path / "one" / "ranking.md").read_text()
+    ranking = (tmp_path / "one" / "ranking.md").read_text()
+    assert "Spearman rank correlation" in ranking and "range condition number against LinCov" in ranking
+    # Each candidate's condition number is `liaison observability`'s on that candidate's scenario.
+    from liaison_cli.campaign.studies.observability_study import observability_study
+    from liaison_cli.scenario.loading import validate_scenario
+
+    design = Design(BASE, "Relay", "User", (Candidate(0, "dro", 5.0, 0.0), Candidate(1, "dro", 11.0, 0.5)))
+    for candidate in design.candidates:
+        study = observability_study(validate_scenario(candidate_mapping(design, candidate), "c"), taylor=False)
+        row = table[(table.period_days == candidate.period_days) & (table.phase == candidate.phase)].iloc[0]
+        assert row.range_condition_number == pytest.approx(
+            study.summary["observables"]["range"]["condition_number"], rel=1e-6)
     two = _design(base, tmp_path / "two", 2, "--verify", "0")
     assert two.returncode == 0, two.stderr
     again = pd.read_parquet(tmp_path / "two" / "candidates.parquet")

@@ -129,7 +129,8 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
         scenario = validate_scenario(candidate_mapping(design, candidate), "design candidate")
         if len(_FLOWN) > FLOWN_MAX_ENTRIES:
             _FLOWN.clear()
-        budget = error_budget(prepare_problem(scenario, {SPACECRAFT_CACHE: _FLOWN}))
+        problem = prepare_problem(scenario, {SPACECRAFT_CACHE: _FLOWN})
+        budget = error_budget(problem)
         settled = budget.times_s >= scenario.settle_days() * SECONDS_PER_DAY
         rms = {}
         for s, name in enumerate(budget.spacecraft):
@@ -140,9 +141,44 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
         if not math.isfinite(score):
             raise ValueError("the covariance analysis diverged (a non-finite error)")
         row["score_m"] = score
+        row["range_condition_number"] = range_condition_number(problem)
     except Exception as exc:  # a worker never raises: the reason goes into the table
         row["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
     return row
+
+
+def range_condition_number(problem) -> float:
+    """The condition number of the range information matrix of the candidate's links between estimated
+    spacecraft, over the epochs each measures (analysis.observability.analyse, 001's measure: point-mass CRTBP
+    STMs from t0, no a priori; a link with a known end is left out). Large: some direction of the formation's
+    state is barely seen."""
+    from liaison_cli.analysis.observability import analyse
+    from liaison_cli.dynamics.constants import M_PER_LU, TU_S
+
+    n_sc = problem.n_spacecraft
+    states0 = np.asarray(problem.truth[0, : 6 * n_sc]).reshape(n_sc, 6)
+    observed = np.isfinite(problem.measurements_true)
+    links, visible = [], []
+    for index, (receiver, transponder) in enumerate(problem.link_ends):
+        if receiver >= 0 and transponder >= 0:
+            links.append((receiver, transponder))
+            visible.append(observed[:, problem.channel_link == index].any(axis=1))
+    if not links:
+        return math.nan
+    result = analyse(states0, np.asarray(problem.times_s) / TU_S, links, problem.sigma_m / M_PER_LU, "range",
+                     list(problem.spacecraft), visible=np.array(visible))
+    return float(result.condition_number)
+
+
+def condition_agreement(table: pd.DataFrame) -> float:
+    """Spearman's rank correlation between the range information's condition number and the LinCov score over
+    every scored candidate (NaN with fewer than three): does the condition number rank as the covariance does?"""
+    from scipy.stats import spearmanr
+
+    scored = table[table.score_m.notna() & np.isfinite(table.get("range_condition_number", np.nan))]
+    if len(scored) < 3:
+        return math.nan
+    return float(spearmanr(scored.range_condition_number, scored.score_m).statistic)
 
 
 def score_batch(design: Design, tasks) -> list[dict]:
