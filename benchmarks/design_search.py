@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from liaison_cli.campaign.engine.backends import LOCAL
-from liaison_cli.campaign.studies.design import make_design, rank_agreement, score_all, verify
+from liaison_cli.campaign.studies.design import condition_agreement, make_design, rank_agreement, score_all, verify
 
 REPO = Path(__file__).resolve().parents[1]
 OUTPUT = REPO / "results" / "reference" / "design_search.md"
@@ -44,8 +44,8 @@ def base_mapping(spacecraft, runs: int) -> dict:
 
 def formation_rows(runs: int, jobs: int = 2) -> list[str]:
     lines = ["| formation | candidates | LinCov wall s (2 cores) | candidates / s | Monte Carlo runs each | "
-             "Spearman ρ | MC / LinCov range | best (period d, phase) LinCov / MC |",
-             "|---|---|---|---|---|---|---|---|"]
+             "Spearman ρ | MC / LinCov range | best (period d, phase) LinCov / MC | ρ condition number / LinCov |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for label, (spacecraft, open_name, family, periods, objective) in FORMATIONS.items():
         design = make_design(base_mapping(spacecraft, runs), open_name, objective, family, periods, 4)
         score_all(make_design(base_mapping(spacecraft, runs), open_name, objective, family, "10:10:1", 1)
@@ -62,7 +62,7 @@ def formation_rows(runs: int, jobs: int = 2) -> list[str]:
         lines.append(f"| {label} | {len(table)} | {seconds:.1f} | {len(table) / seconds:.2f} | {runs} | "
                      f"{rank_agreement(checked):.2f} | {ratio.min():.2f}–{ratio.max():.2f} | "
                      f"({best_lincov.period_days:g}, {best_lincov.phase:g}) / ({best_mc.period_days:g}, "
-                     f"{best_mc.phase:g}) |")
+                     f"{best_mc.phase:g}) | {condition_agreement(checked):.2f} |")
         print(lines[-1], flush=True)
     return lines
 

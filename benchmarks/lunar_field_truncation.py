@@ -218,7 +218,7 @@ def main(argv=None) -> None:
         "down while the verdict passes, else down, or up when a spacecraft's NEES lies mostly above its band): the smallest factor at which every spacecraft passes "
         "the consistency verdict, and the figures there (or, when none passes, at the factor whose worst own-NEES "
         "share is best):", "", *tuned, "",
-        f"Total {time.perf_counter() - started:.0f} s on 2 worker processes."]) + "\n"
+        f"Total {time.perf_counter() - started:.0f} s wall time (--jobs 2; campaigns this small run in one process)."]) + "\n"
     args.output.write_text(text)
     print(text)
 
