@@ -23,6 +23,9 @@ def design(
     objective: str = typer.Option("worst", "--objective", metavar="NAME", help="the spacecraft whose position "
                                   "error RMS after the settle time is minimised, or worst (the largest of them)"),
     top: int = typer.Option(3, "--verify", min=0, help="verify the best N by Monte Carlo (0: none)"),
+    condition: bool = typer.Option(False, "--condition", help="also each candidate's range information condition "
+                                   "number (liaison observability's; about 0.5 s per spacecraft of a 10-day "
+                                   "formation, several times the LinCov score)"),
     runs: int = typer.Option(30, "--runs", min=2, help="Monte Carlo runs per verified candidate"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/<name>-design)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier design there"),
@@ -30,6 +33,7 @@ def design(
     backend: common.BackendOption = "joblib",
     scheduler: common.SchedulerOption = None,
     scheduler_timeout: common.SchedulerTimeoutOption = 20.0,
+    as_json: bool = common.json_option(),
 ):
     """Which orbit should a spacecraft fly? Score every candidate by LinCov, rank, verify the best by Monte Carlo.
 
@@ -46,10 +50,11 @@ def design(
     scenario_path = scenario_file(scenario_path)
     data, text = read_scenario_text(scenario_path)
     base = validate_scenario(data, str(scenario_path))  # the base itself must be a valid scenario
-    plan = make_design(data, open_spacecraft, objective, family, periods, phases)
+    plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition)
     out_dir = output or Path("results") / f"{base.name}-design"
-    typer.echo(f"{base.name}: {len(plan.candidates)} candidates for {open_spacecraft} ({family}), scored by LinCov "
-               f"on {objective}'s position error RMS after {base.settle_days():g} d")
+    if not as_json:
+        typer.echo(f"{base.name}: {len(plan.candidates)} candidates for {open_spacecraft} ({family}), scored by "
+                   f"LinCov on {objective}'s position error RMS after {base.settle_days():g} d")
 
     def make():
         table = verify(plan, score_all(plan, jobs, where), top, runs, jobs, where)
@@ -66,8 +71,14 @@ def design(
             "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo")},
             {"ranking.md": ranking + agreement}, lambda folder: [draw_score_plane(table, folder / "design.png",
                                                                                   title)],
-            result=ranking + agreement)
+            result=(ranking + agreement, table, rho, by_condition))
 
-    written = write_folder(out_dir, overwrite, make)
-    typer.echo(written.result, nl=False)
+    text, table, rho, by_condition = write_folder(out_dir, overwrite, make).result
+    if as_json:
+        from liaison_cli.report.json_summary import design_document
+
+        common.echo_json(design_document(base.name, open_spacecraft, family, objective, table, out_dir, rho,
+                                         by_condition))
+        return
+    typer.echo(text, nl=False)
     typer.echo(f"results: {out_dir}")

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli.cli.common import user_errors
+from liaison_cli.cli.common import echo_json, json_option, user_errors
 from liaison_cli.cli.root import app
 
 
@@ -18,8 +18,11 @@ def observability(
         None, "--range-rate-sigma", min=1e-9,
         help="range-rate 1-sigma in m/s for the range-rate weights [default: the scenario's, else 0.001]"),
     no_taylor: bool = typer.Option(False, "--no-taylor", help="skip the Taylor-series STM comparison"),
+    as_json: bool = json_option(),
 ):
-    """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori)."""
+    """Information matrix, SVD, condition number, unobservability index and effectiveness (no a-priori).
+
+    Example: liaison observability scenarios/eml2_lunar.yaml --no-taylor"""
     from liaison_cli.campaign.studies.observability_study import (check_supported, observability_study, provenance,
                                                                   study_tables)
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
@@ -40,6 +43,11 @@ def observability(
                            result=study.summary)
 
     summary = write_folder(out_dir, overwrite, make).result
+    if as_json:
+        from liaison_cli.report.json_summary import observability_document
+
+        echo_json(observability_document(summary, out_dir))
+        return
     for observable, values in summary["observables"].items():
         least = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["least_observable"])
         most = ", ".join(f"{label} {weight:+.2f}" for label, weight in values["most_observable"])

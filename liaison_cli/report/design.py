@@ -17,7 +17,7 @@ def format_ranking(table, objective: str, shown: int = 10) -> str:
         checked = "mc_score_m" in row and isinstance(row["mc_score_m"], float) and math.isfinite(row["mc_score_m"])
         condition = row.get("range_condition_number", math.nan)
         head = (f"| {row['rank']} | {row['family']} | {row['period_days']:g} | {row['phase']:g} | "
-                f"{row['score_m']:.4g} | {condition:.3g} |")
+                f"{row['score_m']:.4g} | {f'{condition:.3g}' if condition == condition else '–'} |")
         lines.append(f"{head} {row['mc_score_m']:.4g} | {row['mc_over_lincov']:.2f} | {row['mc_runs_ok']} | "
                      f"{row['mc_consistent']} |" if checked else f"{head} | | | |")
     failed = table[table.score_m.isna()]

@@ -1,5 +1,5 @@
 """The machine-readable summaries `--json` prints instead of the text (run, sweep, compare, budget, errors,
-validate); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
+validate, observability, design); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
 from the campaign's summary rows, the sweep's curve table, the link file and the error budget. Units are in
 the key names (`_m`, `_m_s`, `_db`, ...), shares are fractions in [0, 1], and a number that does not exist
 (NaN: no healthy run) is null."""
@@ -152,3 +152,30 @@ def validate_document(results: list[tuple]) -> dict:
     files = [{"path": str(path), "ok": error is None, "error": error} for path, error in results]
     return {**_header("validate"), "files": files, "ok": sum(f["ok"] for f in files),
             "failed": sum(not f["ok"] for f in files)}
+
+
+def observability_document(summary: dict, out_dir) -> dict:
+    """`liaison observability --json`: the summary the text prints (observability.json), with the result folder."""
+    return {**_computed_header("observability"), "output": str(out_dir), **summary}
+
+
+# The candidates' columns `liaison design --json` lists (campaign.studies.design; NaN / empty: not verified).
+DESIGN_COLUMNS = ("rank", "candidate", "family", "period_days", "phase", "score_m", "range_condition_number",
+                  "mc_score_m", "mc_over_lincov", "mc_runs_ok", "mc_consistent")
+
+
+def design_document(scenario_name: str, open_spacecraft: str, family: str, objective: str, table, out_dir,
+                    rank_rho: float, condition_rho: float) -> dict:
+    """`liaison design --json`: every scored candidate in rank order (DESIGN_COLUMNS), the ones not scored with
+    their reason, and the two rank correlations."""
+    scored = table[table.score_m.notna()]
+    failed = table[table.score_m.isna()]
+    candidates = [{column: row.get(column) for column in DESIGN_COLUMNS} for row in scored.to_dict("records")]
+    for row in candidates:  # not verified: null, not an empty string
+        for column in ("mc_runs_ok", "mc_consistent"):
+            row[column] = row[column] or None
+    return {**_computed_header("design"), "scenario": scenario_name, "open": open_spacecraft, "family": family,
+            "objective": objective, "output": str(out_dir), "candidates": candidates,
+            "not_scored": [{"candidate": int(row["candidate"]), "period_days": row["period_days"],
+                            "phase": row["phase"], "error": row["error"]} for row in failed.to_dict("records")],
+            "spearman_lincov_monte_carlo": rank_rho, "spearman_condition_lincov": condition_rho}

@@ -1,4 +1,4 @@
-"""`--json` on run, sweep, compare, budget, errors and validate: standard output is one JSON object whose keys
+"""`--json` on run, sweep, compare, budget, errors, validate, observability and design: standard output is one JSON object whose keys
 are exactly those docs/json-output.md documents, its numbers are the ones the text prints, and errors stay
 one line on standard error with the usual exit code (nothing on standard output)."""
 
@@ -139,3 +139,29 @@ def test_an_error_in_json_mode_is_one_line_and_no_json(tmp_path):
     result = invoke("run", tmp_path / "missing.yaml", "--json")
     assert result.exit_code == 2 and result.stdout == ""
     assert result.stderr.strip().count("\n") == 0 and "missing.yaml" in result.stderr
+
+
+def test_observability_json_is_its_summary_file(tmp_path):
+    summary = parsed(invoke("observability", SCENARIOS / "smoke.yaml", "--no-taylor", "--output", tmp_path / "o",
+                            "--json"))
+    (top,) = documented_tables("observability")
+    assert set(summary) == top - {"taylor_stm"}  # --no-taylor
+    written = json.loads((tmp_path / "o" / "observability.json").read_text())
+    assert {key: summary[key] for key in written} == written
+
+
+def test_design_json_lists_the_ranked_candidates(tmp_path):
+    import pandas as pd
+    import yaml
+
+    from tests.cli.test_design import BASE
+
+    base = tmp_path / "base.yaml"
+    base.write_text(yaml.safe_dump(BASE, sort_keys=False))
+    summary = parsed(invoke("design", base, "--open", "Relay", "--family", "dro", "--periods", "5:11:3", "--verify",
+                            "0", "--jobs", "1", "--output", tmp_path / "d", "--json"))
+    top, candidate = documented_tables("design")
+    assert set(summary) == top and all(set(row) == candidate for row in summary["candidates"])
+    table = pd.read_parquet(tmp_path / "d" / "candidates.parquet")
+    assert [row["score_m"] for row in summary["candidates"]] == table.score_m.tolist()
+    assert all(row["mc_score_m"] is None for row in summary["candidates"])  # --verify 0

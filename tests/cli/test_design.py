@@ -30,7 +30,7 @@ def _design(base, out, jobs, *extra):
 
 
 def test_design_ranks_every_candidate_verifies_the_best_and_is_the_same_on_two_cores(base, tmp_path):
-    one = _design(base, tmp_path / "one", 1, "--verify", "3", "--runs", "4")
+    one = _design(base, tmp_path / "one", 1, "--verify", "3", "--runs", "4", "--condition")
     assert one.returncode == 0, one.stderr
     table = pd.read_parquet(tmp_path / "one" / "candidates.parquet")
     assert len(table) == 6 and (table.error == "").all()
@@ -52,11 +52,13 @@ def test_design_ranks_every_candidate_verifies_the_best_and_is_the_same_on_two_c
         row = table[(table.period_days == candidate.period_days) & (table.phase == candidate.phase)].iloc[0]
         assert row.range_condition_number == pytest.approx(
             study.summary["observables"]["range"]["condition_number"], rel=1e-6)
-    two = _design(base, tmp_path / "two", 2, "--verify", "0")
+    two = _design(base, tmp_path / "two", 2, "--verify", "0")  # no --condition: no condition numbers
     assert two.returncode == 0, two.stderr
     again = pd.read_parquet(tmp_path / "two" / "candidates.parquet")
     pd.testing.assert_series_equal(table.score_m, again.score_m)  # jobs and batches do not move a number
     pd.testing.assert_series_equal(table.candidate, again.candidate)
+    assert again.range_condition_number.isna().all() and "range condition number against" not in \
+        (tmp_path / "two" / "ranking.md").read_text()
 
 
 @pytest.mark.parametrize("option, value, fragment", [
