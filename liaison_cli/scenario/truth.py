@@ -19,6 +19,7 @@ from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.measurements.visibility import elevation_rad, not_occulted
 from liaison_cli.scenario.reference_states import phased_state_lu
 from liaison_cli.scenario.scenario_model import Scenario
+from liaison_cli.scenario.truth_store import load_truth, store_truth
 
 
 def truth_key(scenario: Scenario) -> str:
@@ -41,12 +42,13 @@ def _spacecraft_fields(sc) -> dict:
 SPACECRAFT_CACHE = "spacecraft_truths"
 
 
-def _spacecraft_truth_key(scenario: Scenario, model, sc, times_s) -> str:
-    """What fixes one spacecraft's CRTBP truth: its orbit fields, the epochs and the model (its parameters and
-    the truth's unmodelled acceleration)."""
+def _spacecraft_truth_key(scenario: Scenario, model, sc, times_s, state0) -> str:
+    """What fixes one spacecraft's CRTBP truth: its orbit fields, its initial state, the epochs and the model (its
+    parameters and the truth's unmodelled acceleration)."""
     digest = hashlib.sha256(np.ascontiguousarray(model.params).tobytes()
                             + np.ascontiguousarray(model.truth_acceleration_lu_tu2).tobytes()
-                            + np.ascontiguousarray(times_s, dtype=float).tobytes()).hexdigest()
+                            + np.ascontiguousarray(times_s, dtype=float).tobytes()
+                            + np.ascontiguousarray(state0, dtype=float).tobytes()).hexdigest()
     return json.dumps({"spacecraft": _spacecraft_fields(sc), "model": model.name, "numbers": digest}, sort_keys=True)
 
 
@@ -149,13 +151,18 @@ def _trajectories(scenario: Scenario, model: DynamicsModel, times_s, flown: dict
 
             out[sc.name] = model.trajectory(crtbp_oem_truth_lu(sc, times_s))
             continue
-        key = _spacecraft_truth_key(scenario, model, sc, times_s) if flown is not None else None
-        if key is None or key not in flown:
-            states = _flown(scenario, model, sc, phased_state_lu(sc), times_tu)
-            if key is not None:
+        state0 = phased_state_lu(sc)
+        key = _spacecraft_truth_key(scenario, model, sc, times_s, state0)
+        states = flown.get(key) if flown is not None else None
+        if states is None:
+            states = load_truth(key, len(times_s))  # scenario.truth_store: flown once per machine
+            if states is None:
+                states = _flown(scenario, model, sc, state0, times_tu)
                 states.setflags(write=False)  # shared between scenarios: nobody writes into it
+                store_truth(key, states)
+            if flown is not None:
                 flown[key] = states
-        out[sc.name] = model.trajectory(flown[key] if key is not None else states)
+        out[sc.name] = model.trajectory(states)
     for st in scenario.ground_stations:
         out[st.name] = GroundStationTrajectory(st.latitude_deg, st.longitude_deg, st.altitude_m, times_tu)
     return out
