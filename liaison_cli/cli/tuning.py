@@ -6,7 +6,8 @@ from pathlib import Path
 import typer
 
 from liaison_cli.cli.common import (BackendOption, JobsOption, QuietOption, SchedulerOption, SchedulerTimeoutOption,
-                                    check_file_output, check_runs, fan_out, file_starts_with, user_errors)
+                                    check_file_output, check_runs, echo_json, fan_out, file_starts_with, json_option,
+                                    user_errors)
 from liaison_cli.cli.root import app
 from liaison_cli.cli.studies import _load_study
 from liaison_cli.errors import LiaisonError
@@ -31,6 +32,7 @@ def tune(
                                     "tune table there is replaced, any other file only with --overwrite"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace existing files given by --table"),
     quiet: QuietOption = False,
+    as_json: bool = json_option(),
 ):
     """Consistency of each scenario's shipped process noise, and the SNC a stated rule chooses on a ladder.
 
@@ -53,7 +55,8 @@ def tune(
     cases = [TuningCase(name, scenario, text, str(path)) for path, (name, scenario, text) in zip(scenarios, loaded)]
     frame = run_tuning(cases, rungs, runs, work, jobs, progress=not quiet and sys.stderr.isatty(),
                        on_case=None if quiet else lambda label: typer.echo(f"tune: {label}", err=True), where=where)
-    typer.echo(format_ladder(frame))
+    if not as_json:
+        typer.echo(format_ladder(frame))
     settle = sorted({(case.scenario.settle_days(), case.label) for case in cases})
     other = [f"{label} {days:g} d" for days, label in settle if days != 1.0]
     settle_note = "filter.settle_days; 1 d" + (f" except {', '.join(other)}" if other else "")
@@ -62,6 +65,11 @@ def tune(
     markdown = format_table(frame, rule_text(rungs, runs), command, settle_note, paper_tuned_notes())
     write_files(table.parent, StudyOutput({table.stem: frame}, provenance(cases, rungs, runs, command),
                                           {table.name: markdown}))
+    if as_json:
+        from liaison_cli.report.json_summary import tune_document
+
+        echo_json(tune_document(frame, rule_text(rungs, runs), table))
+        return
     typer.echo(f"wrote {table} and {table.with_suffix('.parquet')}")
 
 

@@ -1,5 +1,5 @@
 """The machine-readable summaries `--json` prints instead of the text (run, sweep, compare, budget, errors,
-validate, observability, design); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
+validate, observability, design, tune); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
 from the campaign's summary rows, the sweep's curve table, the link file and the error budget. Units are in
 the key names (`_m`, `_m_s`, `_db`, ...), shares are fractions in [0, 1], and a number that does not exist
 (NaN: no healthy run) is null."""
@@ -179,3 +179,10 @@ def design_document(scenario_name: str, open_spacecraft: str, family: str, objec
             "not_scored": [{"candidate": int(row["candidate"]), "period_days": row["period_days"],
                             "phase": row["phase"], "error": row["error"]} for row in failed.to_dict("records")],
             "spearman_lincov_monte_carlo": rank_rho, "spearman_condition_lincov": condition_rho}
+
+
+def tune_document(frame, rule: str, table_path) -> dict:
+    """`liaison tune --json`: the rule in words, the files written, and the tune table's rows (the Parquet's
+    columns), one per scenario, setting (the shipped noise or a rung) and spacecraft."""
+    return {**_computed_header("tune"), "rule": rule, "table": str(table_path),
+            "parquet": str(table_path.with_suffix(".parquet")), "rows": frame.to_dict("records")}

@@ -1,4 +1,4 @@
-"""`--json` on run, sweep, compare, budget, errors, validate, observability and design: standard output is one JSON object whose keys
+"""`--json` on run, sweep, compare, budget, errors, validate, observability, design and tune: standard output is one JSON object whose keys
 are exactly those docs/json-output.md documents, its numbers are the ones the text prints, and errors stay
 one line on standard error with the usual exit code (nothing on standard output)."""
 
@@ -165,3 +165,15 @@ def test_design_json_lists_the_ranked_candidates(tmp_path):
     table = pd.read_parquet(tmp_path / "d" / "candidates.parquet")
     assert [row["score_m"] for row in summary["candidates"]] == table.score_m.tolist()
     assert all(row["mc_score_m"] is None for row in summary["candidates"])  # --verify 0
+
+
+def test_tune_json_rows_are_the_parquets(tmp_path):
+    import pandas as pd
+
+    summary = parsed(invoke("tune", SCENARIOS / "smoke.yaml", "--ladder", "1e-10,1e-9", "--runs", "4", "--jobs", "1",
+                            "--work", tmp_path / "w", "--table", tmp_path / "t.md", "--quiet", "--json"))
+    (top,) = documented_tables("tune")
+    assert set(summary) == top
+    table = pd.read_parquet(tmp_path / "t.parquet")
+    assert len(summary["rows"]) == len(table) and [r["spacecraft"] for r in summary["rows"]] == list(table.spacecraft)
+    assert [r["setting"] for r in summary["rows"]] == list(table.setting)
