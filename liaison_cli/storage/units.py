@@ -43,8 +43,8 @@ def unit_of(name: str) -> str | None:
     tokens = name.lower().replace(".", "_").split("_")
     while len(tokens) > 1 and tokens[-1] in _STATISTICS:
         tokens = tokens[:-1]
-    if len(tokens) < 2:  # a bare word ("case", "runs") names no unit
-        return None
+    if len(tokens) < 2 or "per" in tokens:  # a bare word ("case", "runs"); a rate such as mu2_per_s or
+        return None                          # chi2_per_measurement is not in the unit its last token names
     for suffix, unit in _UNIT_TOKENS:
         width = suffix.count("_") + 1
         if len(tokens) > width and "_".join(tokens[-width:]) == suffix:

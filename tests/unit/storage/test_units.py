@@ -20,7 +20,8 @@ def test_units_read_from_names(name, unit):
 
 @pytest.mark.parametrize("name", ["run", "spacecraft", "nees", "runs_ok", "frac_in_2sigma", "corr_xy",
                                   "frac_nees_in_band_settled", "innovations_settled", "position_error_to_sigma",
-                                  "frequency_error", "case", "s"])
+                                  "frequency_error", "case", "s", "mu2_per_s", "sigma1_s_per_sqrt_s",
+                                  "initial_batch_chi2_per_measurement"])
 def test_counts_shares_and_labels_have_no_unit(name):
     assert unit_of(name) is None
 
