@@ -9,6 +9,9 @@
 - bias (with range biases estimated or considered): per link and run, estimate - truth with +-3 sigma bars;
 - ric and directions: the consistency figures of report.consistency_plots.
 
+Time axes are days from t0, with t0's date on the TDB scale for a dated run; the errors and NEES figures mark
+the settle time after which the run text judges consistency (from the result's metadata).
+
 Faint lines and points are rasterised inside the SVG so that it stays small for many runs."""
 
 from pathlib import Path
@@ -71,6 +74,23 @@ def _days(t_s) -> np.ndarray:
     return np.asarray(t_s, dtype=float) / SECONDS_PER_DAY
 
 
+def time_label(result: RunResult) -> str:
+    """The time axis' label: days from t0, and t0's date on the TDB scale for a dated run (timeseries'
+    epoch_tdb)."""
+    series = result.timeseries
+    if "epoch_tdb" in series.columns and len(series):
+        first = series.iloc[0]
+        t0 = np.datetime64(first.epoch_tdb, "ns") - np.timedelta64(int(round(float(first.t_s) * 1e9)), "ns")
+        return f"days from t0 = {np.datetime_as_string(t0, unit='s').replace('T', ' ')} TDB"
+    return "time (days from t0)"
+
+
+def mark_settle(ax, result: RunResult) -> None:
+    """A dashed line at the settle time, after which the run text judges consistency (when the result says it)."""
+    if np.isfinite(result.settle_days):
+        ax.axvline(result.settle_days, color="0.3", linestyle="--", linewidth=0.9, label="settle time")
+
+
 def _draw_errors(result: RunResult, highlight: int):
     import matplotlib.pyplot as plt
 
@@ -91,11 +111,12 @@ def _draw_errors(result: RunResult, highlight: int):
             ax.plot(t, chosen[sigma], color=SIGMA_COLOUR, linewidth=1.2, label=f"3σ (run {highlight})")
             ax.plot(t, chosen[error], color=HIGHLIGHT, linewidth=1.0, label=f"error, run {highlight}")
             _log_scale(ax, mine[[error, sigma]].to_numpy())
+            mark_settle(ax, result)
             ax.set_ylabel(f"{name} {error.split('_')[0]} ({unit})")
             ax.grid(True, which="both", alpha=0.3)
     axes[0, 0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
-        ax.set_xlabel("time (days)")
+        ax.set_xlabel(time_label(result))
     fig.suptitle(f"{result.name}: estimation error norms, {_runs_phrase(runs, highlight)}, with its 3σ norm")
     return fig
 
@@ -125,12 +146,13 @@ def _draw_nees(result: RunResult, highlight: int):
                     label="95 % χ² band of the mean")
     ax.plot(t, table.mean_nees, color=HIGHLIGHT, linewidth=1.0, label="NEES averaged over the runs")
     _log_scale(ax, table[["mean_nees", "band_low", "band_high"]].to_numpy())
+    mark_settle(ax, result)
     inside = 100.0 * float(np.mean(table.inside_band)) if len(table) else float("nan")
     runs, states = int(table.runs.max()), int(table.state_size.max())
     ax.set_title(f"{result.name}: run-averaged NEES test, band χ²({runs}·{states})/{runs} at 95 %: inside at "
                  f"{inside:.0f} % of all epochs\n(the run text's verdict is the single-run band test after the "
                  "settle time: analysis.consistency)", fontsize=10)
-    ax.set_xlabel("time (days)")
+    ax.set_xlabel(time_label(result))
     ax.set_ylabel("NEES")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
@@ -176,7 +198,7 @@ def _draw_innovations(result: RunResult, highlight: int):
         ax.set_visible(False)
     axes.flat[0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
-        ax.set_xlabel("time (days)")
+        ax.set_xlabel(time_label(result))
     runs = table.run.nunique()
     shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
     note = f"\n({', '.join(left_out)}: read by clock_sync, not by the {result.estimator}; not drawn)" if left_out else ""
@@ -221,7 +243,7 @@ def _draw_clocks(result: RunResult, highlight: int):
             ax.grid(True, alpha=0.3)
     axes[0, 0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
-        ax.set_xlabel("time (days)")
+        ax.set_xlabel(time_label(result))
     fig.suptitle(f"{result.name}: clock estimation errors, {_runs_phrase(table.run.nunique(), highlight)}, with "
                  "its ±3σ")
     return fig

@@ -30,6 +30,7 @@ class RunResult:
     bias: pd.DataFrame              # per run and link: true range bias, estimate, sigma, treatment
     links: pd.DataFrame = None      # per run and channel: NIS after the settle time (older results: empty)
     estimator: str = ""             # the scenario's estimator (summary metadata)
+    settle_days: float = float("nan")  # the settle time after which consistency is judged (NaN: older results)
 
 
 def load_run_result(folder) -> RunResult:
@@ -49,8 +50,8 @@ def load_run_result(folder) -> RunResult:
     for name in OPTIONAL_TABLES:
         path = folder / f"{name}.parquet"
         tables[name] = _read(path) if path.is_file() else pd.DataFrame()
-    name, estimator = _scenario_facts(folder)
-    return RunResult(folder=folder, name=name, estimator=estimator, **tables)
+    name, estimator, settle_days = _scenario_facts(folder)
+    return RunResult(folder=folder, name=name, estimator=estimator, settle_days=settle_days, **tables)
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -62,18 +63,21 @@ def _read(path: Path) -> pd.DataFrame:
                                   "scenario to rebuild it") from None
 
 
-def _scenario_facts(folder: Path) -> tuple[str, str]:
-    """(the scenario's name, its estimator) from the summary's metadata; the folder's name and the EKF when the
-    metadata cannot say (they only title the figures and choose which channels the innovations draw)."""
+def _scenario_facts(folder: Path) -> tuple[str, str, float]:
+    """(the scenario's name, its estimator, its settle time in days) from the summary's metadata; the folder's
+    name, the EKF and NaN when the metadata cannot say (they only title the figures, choose which channels the
+    innovations draw and place the settle-time line)."""
     from liaison_cli.estimation.estimators import DEFAULT_ESTIMATOR
     from liaison_cli.storage import read_metadata
 
     try:
         meta = read_metadata(folder / "summary.parquet")
         estimator = (meta.get("scenario_effective") or {}).get("estimator", DEFAULT_ESTIMATOR)
-        return str(meta.get("scenario_name", folder.name)), str(estimator)
+        settle = meta.get("settle_days")
+        return (str(meta.get("scenario_name", folder.name)), str(estimator),
+                float(settle) if isinstance(settle, (int, float)) else float("nan"))
     except Exception:  # noqa: BLE001 - see the docstring
-        return folder.name, DEFAULT_ESTIMATOR
+        return folder.name, DEFAULT_ESTIMATOR, float("nan")
 
 
 def highlighted_run(result: RunResult, requested: int | None) -> int:

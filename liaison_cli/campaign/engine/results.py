@@ -42,6 +42,7 @@ def provenance(problem: Problem, n_runs: int, scenario_text: str, extra: dict | 
         "seed": scenario.monte_carlo.seed,
         "runs": n_runs,
         "sigma_m": problem.sigma_m,
+        "settle_days": scenario.settle_days(),
         "seeding": "numpy SeedSequence(seed, spawn_key=(run,)); initial error drawn first, then noise; a random "
                    "truth acceleration from SeedSequence(seed, spawn_key=(run, 1))",
         "chosen_settings": chosen_settings(problem),
