@@ -81,8 +81,8 @@ def frozen_eccentricity(i_deg: float, j2: float, radius_km: float, a_km: float |
     if top <= 0.0 or rate(0.0) * rate(top) > 0.0:
         size = f"a = {a_km:.0f} km" if a_km is not None else f"a perilune {perilune_altitude_km:g} km up"
         raise NoFrozenOrbit(f"no eccentricity up to {max(top, 0.0):.3g} freezes an orbit inclined {i_deg:g} deg with "
-                            f"{size} under the Moon's J2 and the Earth's tide (their frozen orbits are high, a of "
-                            "thousands of km, and inclined more than 39.2 deg)")
+                            f"{size} under the Moon's J2 and the Earth's tide: the tide that freezes an orbit needs "
+                            "it high (a of thousands of km) and inclined between 39.2 and 140.8 deg")
     return float(brentq(rate, 0.0, top, xtol=1e-13))
 
 
@@ -153,11 +153,11 @@ def frozen_elements(j2: float, radius_km: float, argp_deg: float, e: float | Non
     x0, x1 = start, start + step
     r0, r1 = rate(x0), rate(x1)
     for _ in range(12):
-        if abs(r1) < RATE_TOLERANCE_DEG_DAY or r1 == r0:
+        if not (math.isfinite(r0) and math.isfinite(r1)) or abs(r1) < RATE_TOLERANCE_DEG_DAY or r1 == r0:
             break
         x0, x1, r0 = x1, x1 - r1 * (x1 - x0) / (r1 - r0), r1
         r1 = rate(x1)
-    if abs(r1) >= RATE_TOLERANCE_DEG_DAY:
+    if not abs(r1) < RATE_TOLERANCE_DEG_DAY:  # NaN too: a flight that failed (a perilune inside the Moon)
         raise NoFrozenOrbit(f"the CRTBP's frozen orbit near the average's ({start:.4g}) was not found: the perilune "
                             f"still turns {r1:.2g} deg/day")
     ecc = e if i_deg is None else x1

@@ -97,8 +97,8 @@ class KeplerianElements(StrictModel):
             if (self.e is None) == (self.i_deg is None):
                 raise ValueError("frozen: true: give e or i_deg (one of the two); the other is solved")
             if self.argument_of_perilune_deg % 360.0 not in (90.0, 270.0):
-                raise ValueError(f"frozen: true: argp_deg = {self.argp_deg:g}; allowed: 90 or 270 (the perilune over "
-                                 "the southern or northern hemisphere's highest latitude)")
+                raise ValueError(f"frozen: true: argp_deg = {self.argp_deg:g}; allowed: 90 (the perilune at its "
+                                 "northernmost) or 270 (at its southernmost)")
             try:
                 self.eccentricity, self.inclination_deg
             except NoFrozenOrbit as exc:

@@ -6,7 +6,10 @@ by a statistic over runs or a qualifier (`rms_position_m_p90`, `clock_rms_window
 ratios, labels, NEES) gets no unit entry: it is dimensionless or text.
 """
 
+import re
+
 UNIT_KEY = b"unit"
+_THRESHOLD = re.compile(r"\d+(?:cm|mm|m|km|s|ms|ns|deg)")
 
 # Longest first: the last tokens of a name, joined by "_", against these.
 _UNIT_TOKENS = (
@@ -35,12 +38,18 @@ _UNIT_TOKENS = (
     ("hz", "Hz"),
 )
 # Qualifiers that may follow the unit (`time_shift_lag_s_settled`, `rms_position_m_p90`).
-_STATISTICS = {"mean", "median", "std", "min", "max", "p10", "p50", "p90", "p95", "p99", "halfwidth", "settled"}
+_STATISTICS = {"mean", "median", "std", "max", "p10", "p50", "p90", "p95", "p99", "halfwidth", "settled"}
+# Names whose tail reads as a unit it is not (study004's days until the velocity error stays below 1 cm/s).
+_NAMED = {"days_below_1cm_s": "d"}
 
 
 def unit_of(name: str) -> str | None:
     """The unit the column `name` is in, from its last tokens (see the module docstring), or None."""
+    if name in _NAMED:
+        return _NAMED[name]
     tokens = name.lower().replace(".", "_").split("_")
+    if any(_THRESHOLD.fullmatch(token) for token in tokens):  # a threshold (1cm): its unit, not the column's
+        return None
     while len(tokens) > 1 and tokens[-1] in _STATISTICS:
         tokens = tokens[:-1]
     if len(tokens) < 2 or "per" in tokens:  # a bare word ("case", "runs"); a rate such as mu2_per_s or

@@ -329,12 +329,15 @@ def _primaries(problem: Problem):
 
 
 def _epoch_states(problem: Problem, inputs: RunInputs, history, n_dyn: int) -> dict:
-    """This run's rows of states.parquet (analysis.epoch_states), at the epochs of the EKF's covariance record
-    (or, for an estimator without one, at the same stride), with t_s; the writer adds run and epoch columns."""
+    """This run's rows of states.parquet (analysis.epoch_states), at the epochs the EKF's covariance record holds
+    (with an initial batch those count from its handover, not from t0; a diverged run's end where it stopped), or,
+    for an estimator without one, every k-th epoch by the record's rule; with t_s; the writer adds run and epoch
+    columns."""
     m = len(problem.times_s)
     directions = history.directions
-    stride = directions.stride if directions is not None else max(1, -(-m // MAX_DIRECTION_SAMPLES))
-    rows = sampled_epochs(m, stride)
+    recorded = (np.flatnonzero(np.isfinite(directions.covariance[:, 0, 0])) if directions is not None
+                else np.zeros(0, dtype=np.int64))
+    rows = recorded if len(recorded) else sampled_epochs(m, max(1, -(-m // MAX_DIRECTION_SAMPLES)))
     positions, velocities = _primaries(problem)
     columns = {"t_s": np.repeat(np.asarray(problem.times_s, dtype=float)[rows], problem.n_spacecraft)}
     columns.update(epoch_state_columns(rows, history.err[:, :n_dyn], history.sigma[:, :n_dyn], inputs.truth[:, :n_dyn],

@@ -143,33 +143,32 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
         if not math.isfinite(score):
             raise ValueError("the covariance analysis diverged (a non-finite error)")
         row["score_m"] = score
-        row["range_condition_number"] = range_condition_number(problem) if design.condition else math.nan
+        row["range_condition_number"] = range_condition_number(scenario) if design.condition else math.nan
     except Exception as exc:  # a worker never raises: the reason goes into the table
         row["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
     return row
 
 
-def range_condition_number(problem) -> float:
-    """The condition number of the range information matrix of the candidate's links between estimated
-    spacecraft, over the epochs each measures (analysis.observability.analyse, 001's measure: point-mass CRTBP
-    STMs from t0, no a priori; a link with a known end is left out). Large: some direction of the formation's
-    state is barely seen. Its STMs (scipy's DOP853, as `liaison observability`'s) cost about 0.5 s per spacecraft
-    of a 10-day formation, eight times the candidate's LinCov: asked for with `liaison design --condition`."""
+def range_condition_number(scenario) -> float:
+    """The condition number of the candidate's range information matrix, computed as `liaison observability`
+    computes it (campaign.studies.observability_study: point-mass CRTBP STMs from t0, no a priori, known
+    participants and stations as given trajectories, each link over the epochs it measures); NaN where that
+    command refuses the scenario (a dated model, a manoeuvre, a second receiver). Large: some direction of the
+    formation's state is barely seen. Its STMs (scipy's DOP853) cost about 0.5 s per spacecraft of a 10-day
+    formation, eight times the candidate's LinCov: asked for with `liaison design --condition`."""
     from liaison_cli.analysis.observability import analyse
+    from liaison_cli.campaign.studies.observability_study import check_supported, known_inputs, scenario_inputs
     from liaison_cli.dynamics.constants import M_PER_LU, TU_S
+    from liaison_cli.errors import ScenarioError
 
-    n_sc = problem.n_spacecraft
-    states0 = np.asarray(problem.truth[0, : 6 * n_sc]).reshape(n_sc, 6)
-    observed = np.isfinite(problem.measurements_true)
-    links, visible = [], []
-    for index, (receiver, transponder) in enumerate(problem.link_ends):
-        if receiver >= 0 and transponder >= 0:
-            links.append((receiver, transponder))
-            visible.append(observed[:, problem.channel_link == index].any(axis=1))
-    if not links:
+    try:
+        check_supported(scenario, "design candidate")
+    except ScenarioError:
         return math.nan
-    result = analyse(states0, np.asarray(problem.times_s) / TU_S, links, problem.sigma_m / M_PER_LU, "range",
-                     list(problem.spacecraft), visible=np.array(visible))
+    names, states0, times_s, links = scenario_inputs(scenario)
+    known_states, visible = known_inputs(scenario, times_s)
+    result = analyse(states0, times_s / TU_S, links, scenario.noise.resolved_sigma_m() / M_PER_LU, "range", names,
+                     known_states=known_states, visible=visible)
     return float(result.condition_number)
 
 

@@ -12,7 +12,7 @@ from liaison_cli.storage import unit_of, units_of_file, write_columns_atomic, wr
     ("psd_m2_s3", "m^2/s^3"), ("vx_km_s", "km/s"), ("x_km", "km"), ("phase_error_ns", "ns"),
     ("rms_position_after_day1_m_p90", "m"), ("clock_rms_window_ns_mean", "ns"), ("time_shift_lag_s_settled", "s"),
     ("settle_days", "d"), ("initial_batch_window_h", "h"), ("measurement.interval_s", "s"),
-    ("rms_accel_error_settled_m_s2", "m/s^2"),
+    ("rms_accel_error_settled_m_s2", "m/s^2"), ("interval_min", "min"), ("days_below_1cm_s", "d"),
 ])
 def test_units_read_from_names(name, unit):
     assert unit_of(name) == unit
