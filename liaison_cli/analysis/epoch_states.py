@@ -2,8 +2,8 @@
 sampled epoch, the estimate, its error and the filter's sigma along the model's axes and along radial /
 in-track / cross-track, and the correlations within the position and within the velocity block.
 
-The epochs are every `stride`-th from t0, the ones at which the EKF records its covariance blocks
-(estimation.kernel_args.direction_record: at most MAX_DIRECTION_SAMPLES a run). The RIC axes are
+The rows are the epochs the caller gives: the ones at which the EKF records its covariance blocks
+(estimation.kernel_args.direction_record: at most MAX_DIRECTION_SAMPLES a run; campaign.engine.worker picks them). The RIC axes are
 analysis.ric's (from the true state relative to the nearer primary), so the table's RIC errors average to the
 run summary's rms_{axis}_... columns over the same epochs. The radial / in-track / cross-track sigma is
 sqrt(u' P u) of the spacecraft's 3 x 3 block; the axis sigmas come from the filter's diagonal at every epoch,

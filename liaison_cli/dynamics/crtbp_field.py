@@ -39,9 +39,9 @@ def harmonics_term(field) -> tuple[int, np.ndarray]:
     return TERM_HARMONICS, np.concatenate([[float(field.degree), field.radius_km / LU_KM], field.c, field.s])
 
 
-def j2_term(field) -> tuple[int, np.ndarray]:
-    """(TERM_J2, payload): the J2 of a LunarField of degree 2 or more (J2 = -sqrt(5) C̄20, unnormalised)."""
-    return TERM_J2, np.array([-np.sqrt(5.0) * field.c[packed_index(2, 0)], field.radius_km / LU_KM])
+def j2_term(j2: float, radius_km: float) -> tuple[int, np.ndarray]:
+    """(TERM_J2, payload): a J2 (unnormalised) and its reference radius, e.g. lunar_gravity.lunar_j2()'s."""
+    return TERM_J2, np.array([j2, radius_km / LU_KM])
 
 
 def crtbp_params(mu: float, *terms) -> np.ndarray:

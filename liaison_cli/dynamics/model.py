@@ -20,7 +20,7 @@ from liaison_cli.dynamics.crtbp_field import (added_terms_into, crtbp_params, fi
                                               has_added_terms, j2_term)
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.integrators.rk8 import rk8_advance, rk8_states_forced, step_counts
-from liaison_cli.dynamics.lunar_gravity import lunar_field
+from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2
 from liaison_cli.dynamics.registry import CRTBP, DYNAMICS, MODEL_CRTBP, MODEL_EPHEMERIS
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 
@@ -213,7 +213,7 @@ def crtbp_model(mu: float, truth_acceleration_m_s2=(0.0, 0.0, 0.0), moon_degree:
     filter_moon_degree = moon_degree if filter_moon_degree is None else filter_moon_degree
     truth = crtbp_params(mu, harmonics_term(lunar_field(moon_degree)) if moon_degree else None)
     if filter_j2_only:
-        own = crtbp_params(mu, j2_term(lunar_field(2)))
+        own = crtbp_params(mu, j2_term(*lunar_j2()))
     elif filter_moon_degree == moon_degree:
         own = None
     else:

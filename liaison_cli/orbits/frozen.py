@@ -96,11 +96,11 @@ def flown_argp_rate_deg_day(a_km: float, e: float, i_deg: float, argp_deg: float
                             raan_deg: float = 0.0) -> float:
     """The perilune's mean turn (deg/day) over one sidereal month (2 pi TU) of the orbit flown in the CRTBP with the
     Moon's J2: the mean argument of perilune over the last revolution minus over the first, over the time between."""
-    from liaison_cli.dynamics.crtbp_field import TERM_J2, crtbp_params
+    from liaison_cli.dynamics.crtbp_field import crtbp_params, j2_term
     from liaison_cli.dynamics.integrators.rk8 import rk8_states_forced
     from liaison_cli.orbits.keplerian import lunar_orbiter_state_lu
 
-    params = crtbp_params(MU, (TERM_J2, np.array([j2, radius_km / LU_KM])))
+    params = crtbp_params(MU, j2_term(j2, radius_km))
     period_tu = 2.0 * math.pi * math.sqrt(a_km**3 / GM_MOON_KM3_S2) / TU_S
     month_tu = 2.0 * math.pi
     first = np.linspace(0.0, period_tu, _SAMPLES_PER_REVOLUTION, endpoint=False)

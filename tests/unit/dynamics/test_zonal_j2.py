@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.dynamics.crtbp_field import (TERM_HARMONICS, TERM_J2, added_terms_into, crtbp_params, field_derivative,
                                               harmonics_term, j2_term, term_payload)
-from liaison_cli.dynamics.lunar_gravity import lunar_field
+from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2
 from liaison_cli.dynamics.spherical_harmonics import acceleration_gradient_into, packed_index
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 from liaison_cli.scenario.loading import validate_scenario
@@ -71,7 +71,7 @@ def test_a_low_orbit_regresses_its_node_at_the_textbook_rate():
     """dOmega/dt = -3/2 n J2 (R/p)^2 cos i (secular, first order in J2): the node's drift with the J2 term minus
     its drift without (the Earth's pull on the node is the same in both) over two days, fitted by a line through
     samples every minute (the short-period terms average out), within 0.5 % (measured: 0.15 %)."""
-    j2_params = crtbp_params(MU, j2_term(lunar_field(2)))
+    j2_params = crtbp_params(MU, j2_term(*lunar_j2()))
     j2, radius_lu = term_payload(j2_params, TERM_J2)[:2]
     a_lu, inclination = (1737.4 + 100.0) / LU_KM, np.radians(60.0)
     speed = np.sqrt(MU / a_lu)
@@ -92,10 +92,10 @@ def test_a_low_orbit_regresses_its_node_at_the_textbook_rate():
 def test_terms_add_and_the_scenario_key_asks_for_j2():
     x, y, z = 1.0 - MU + 1900.0 / LU_KM, 300.0 / LU_KM, 500.0 / LU_KM
     field = lunar_field(8)
-    both = crtbp_params(MU, harmonics_term(field), j2_term(field))
+    both = crtbp_params(MU, harmonics_term(field), j2_term(*lunar_j2()))
     one, other, total, grad = np.empty(3), np.empty(3), np.empty(3), np.empty(6)
     added_terms_into(crtbp_params(MU, harmonics_term(field)), x, y, z, False, one, grad)
-    added_terms_into(crtbp_params(MU, j2_term(field)), x, y, z, False, other, grad)
+    added_terms_into(crtbp_params(MU, j2_term(*lunar_j2())), x, y, z, False, other, grad)
     added_terms_into(both, x, y, z, False, total, grad)
     np.testing.assert_allclose(total, one + other, rtol=1e-14)
     assert term_payload(both, TERM_HARMONICS)[0] == 8

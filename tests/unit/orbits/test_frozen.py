@@ -30,7 +30,7 @@ def _turn_over_two_months_deg(a_km, e, i_deg, params) -> float:
 def test_the_solved_orbit_stays_frozen_and_its_neighbours_do_not(field):
     j2, radius_km = lunar_j2()
     a_km, e, i_deg = frozen_elements(j2, radius_km, 90.0, e=0.6, a_km=6142.0)
-    params = crtbp_params(MU, j2_term(lunar_field(2)) if field == "j2" else harmonics_term(lunar_field(8)))
+    params = crtbp_params(MU, j2_term(*lunar_j2()) if field == "j2" else harmonics_term(lunar_field(8)))
     frozen = _turn_over_two_months_deg(a_km, e, i_deg, params)
     neighbours = [_turn_over_two_months_deg(a_km, e, i_deg + d, params) for d in (-3.0, 3.0)]
     assert neighbours[0] > 2.0 and neighbours[1] < -2.0  # measured: +3.1 and -3.4 deg
