@@ -3,6 +3,7 @@ the code, its output tables list exactly the columns that real runs write, and e
 from a reference output is that output's (the tables themselves are included verbatim from
 results/reference/ by pymdownx.snippets, which the strict build checks)."""
 
+import json
 import re
 import subprocess
 import sys
@@ -271,9 +272,14 @@ def test_batch_clock_and_study_columns_are_documented(tmp_path):
                    "--output", tmp_path / "clock")
     assert proc.returncode == 0, proc.stderr
     assert _schema(tmp_path / "clock" / "clocks.parquet") == expected_columns("clocks", {"estimated clocks"})
-    proc = run_cli_in_process("table3", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "table3")
+    proc = run_cli_in_process("table3", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "table3",
+                              "--json")
     assert proc.returncode == 0, proc.stderr
     assert _schema(tmp_path / "table3" / "table3.parquet") == expected_columns("table3", ALWAYS)
+    from tests.cli.test_cli_json import _study_rows_are_the_parquets
+
+    printed = _study_rows_are_the_parquets(json.loads(proc.stdout), tmp_path / "table3", "table3")  # docs/json-output.md
+    assert printed["runs_per_case"] == 1 and set(printed["ordering_checks"]) and set(printed["tables"]) == {"table3"}
     proc = run_cli_in_process("compare", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--output", tmp_path / "compare")
     assert proc.returncode == 0, proc.stderr
     assert _schema(tmp_path / "compare" / "compare.parquet") == expected_columns("compare", ALWAYS)

@@ -72,8 +72,11 @@ def geometry(
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an existing result folder"),
     count: int = typer.Option(7, "--count", min=2, max=30, help="orbits per family"),
     interval_s: float = typer.Option(600.0, "--interval", min=10.0, help="sampling interval of the links, s"),
+    as_json: bool = json_option(),
 ):
-    """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter."""
+    """Formation-geometry study: condition number of every L1 x L2 halo pair and L2 halo x lunar orbiter.
+
+    Example: liaison geometry --count 5 --json"""
     from liaison_cli.campaign.studies.geometry import GRIDS, geometry_tables, provenance
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.geometry import draw_study
@@ -87,6 +90,11 @@ def geometry(
             tables, titles, interval_s, folder), table_meta={key: {"study": key} for key in tables}, result=tables)
 
     tables = write_folder(out_dir, overwrite, make).result
+    if as_json:
+        from liaison_cli.report.json_summary import study_document
+
+        echo_json(study_document("geometry", out_dir, tables, count=count, interval_s=interval_s))
+        return
     for key, table in tables.items():
         for observable in ("range", "range_rate"):
             col = table[f"{observable}_condition_number"]

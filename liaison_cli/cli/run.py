@@ -180,8 +180,11 @@ def table3(
                                    "(default: the shipped scenarios/, read from the installed package whatever "
                                    "the working folder)"),
     quiet: QuietOption = False,
+    as_json: bool = json_option(),
 ):
-    """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper."""
+    """Reproduce Turan et al. (2022) Table 3: 3 formations x 150/300 m, printed beside the paper.
+
+    Example: liaison table3 --runs 10 --json"""
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.campaign.studies.table3 import compute_table3, provenance
     from liaison_cli.report.table3 import to_markdown
@@ -194,7 +197,14 @@ def table3(
         return StudyOutput({"table3": computed.table, "summary": computed.summaries}, provenance(computed, runs),
                            {"table3.md": to_markdown(computed.table, computed.checks)})
 
-    typer.echo(write_folder(output, overwrite, make).texts["table3.md"])
+    written = write_folder(output, overwrite, make)
+    if as_json:
+        from liaison_cli.report.json_summary import study_document
+
+        echo_json(study_document("table3", output, {"table3": written.tables["table3"]}, runs_per_case=runs,
+                                 ordering_checks=written.meta["ordering_checks"]))
+        return
+    typer.echo(written.texts["table3.md"])
     typer.echo(f"results: {output}")
 
 

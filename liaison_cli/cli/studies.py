@@ -14,7 +14,9 @@ from liaison_cli.cli.common import (
     StudyGridOption,
     StudyOverwriteOption,
     check_runs,
+    echo_json,
     fan_out,
+    json_option,
     refuse_repeated_labels,
     user_errors,
 )
@@ -63,6 +65,7 @@ def study003(
     dsn_noise: str = typer.Option(None, "--dsn-noise", help="set every ground link's noise to one of 003's "
                                   "readings: table2 (10 m, 0.5 mm/s) or text (1 m, 0.1 mm/s); default: the files'"),
     quiet: QuietOption = False,
+    as_json: bool = json_option(),
 ):
     """003's study: each departure mission x (DSN + LiAISON, DSN only, LiAISON only); 3D RMS table, figures.
 
@@ -85,7 +88,7 @@ def study003(
                                     grid=axes, dsn_noise=dsn_noise, where=where, work=_work_folder(work, output))
     first = loaded[0][1]
     noise = (f"003 {dsn_noise} {DSN_NOISE_READINGS[dsn_noise]}" if dsn_noise else "as in the scenario files")
-    typer.echo(f"003 study, {runs} runs per case, DSN noise: {noise}; "
+    heading = (f"003 study, {runs} runs per case, DSN noise: {noise}; "
                f"3D RMS after t0 (σ: the filter's; 003: its stated full-set values). Filter ({first.name}): "
                f"{tuning(first)}" + (f"; grid over {', '.join(k for k, _ in axes)}" if axes else ""))
 
@@ -96,9 +99,16 @@ def study003(
         draw_comparison(shown, folder)
 
     table = format_table(summary, [k for k, _ in axes], first.settle_days())
-    typer.echo(table, nl=False)
     write_folder(output, overwrite, lambda: StudyOutput({"summary": summary, "histories": history},
                                                         study_meta(loaded, runs), {"table.md": table}, draw))
+    if as_json:
+        from liaison_cli.report.json_summary import study_document
+
+        echo_json(study_document("study003", output, {"summary": summary}, runs=runs, dsn_noise=dsn_noise,
+                                 grid_keys=[k for k, _ in axes]))
+        return
+    typer.echo(heading)
+    typer.echo(table, nl=False)
     typer.echo(f"results: {output}")
 
 
@@ -122,6 +132,7 @@ def study004(
     work: Path = work_option(),
     grid: StudyGridOption = None,
     quiet: QuietOption = False,
+    as_json: bool = json_option(),
 ):
     """004's study: each transmitter x receiver pair (TDoA + FDoA); LinCov 3σ and the EKF Monte Carlo
     (converged share, time to converge, consistency), rankings, DOP, and 004's claims checked on the EKF's
@@ -164,9 +175,15 @@ def study004(
         for name, _, _ in loaded:
             draw_histories(shown, name, folder)
 
-    typer.echo(table, nl=False)
     write_folder(output, overwrite, lambda: StudyOutput({"summary": summary, "histories": history, "claims": claims},
                                                         study_meta(loaded, runs), {"table.md": table}, draw))
+    if as_json:
+        from liaison_cli.report.json_summary import study_document
+
+        echo_json(study_document("study004", output, {"summary": summary, "claims": claims}, runs=runs,
+                                 grid_keys=keys))
+        return
+    typer.echo(table, nl=False)
     typer.echo(f"results: {output}")
 
 
@@ -179,6 +196,7 @@ def tables002(
                                                       "SWEEP_DIR/tables002)"),
     span_days: float = typer.Option(9.885, "--span", help="grid cell of the histograms: span (days)"),
     interval_s: float = typer.Option(1800, "--interval", help="grid cell of the histograms: interval (s)"),
+    as_json: bool = json_option(),
 ):
     """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms; with
     the nrho_gateway_anchors_mesh* scenarios in the sweep, both readings of 002's links side by side."""
@@ -191,11 +209,20 @@ def tables002(
     drms, clocks, consistency = drms_table(metrics), clock_rms_p90_table(metrics), batch_consistency_table(sweep_dir)
     readings = format_readings(drms, clocks)
     text = format_tables(drms, clocks) + ("\n" + readings if readings else "") + "\n" + format_batch_consistency(consistency)
-    typer.echo(text, nl=False)
+    if not as_json:
+        typer.echo(text, nl=False)
     cell = histogram_cell(metrics, span_days, interval_s)
     output_ = StudyOutput({"drms_p90": drms, "clock_p90": clocks, "per_run": metrics, "consistency": consistency},
                           {"package": "liaison", "source": str(sweep_dir), "metric": "p90 over runs with status ok"},
                           {"tables.md": text, **({"readings.md": readings} if readings else {})},
                           lambda folder: draw_histograms(cell, span_days / NRHO_PERIOD_DAYS, interval_s, folder))
-    for path in write_files(output or sweep_dir / "tables002", output_):
+    written = write_files(output or sweep_dir / "tables002", output_)
+    if as_json:
+        from liaison_cli.report.json_summary import study_document
+
+        echo_json(study_document("tables002", output or sweep_dir / "tables002",
+                                 {"drms_p90": drms, "clock_p90": clocks, "consistency": consistency},
+                                 source=str(sweep_dir), files=[str(path) for path in written]))
+        return
+    for path in written:
         typer.echo(f"wrote {path}")

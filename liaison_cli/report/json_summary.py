@@ -1,5 +1,5 @@
 """The machine-readable summaries `--json` prints instead of the text (run, sweep, compare, budget, errors,
-validate, observability, design, tune); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
+validate, observability, design, tune, table3, geometry, study003, study004, tables002); docs/json-output.md documents every key. Formats only: the numbers are those the text shows,
 from the campaign's summary rows, the sweep's curve table, the link file and the error budget. Units are in
 the key names (`_m`, `_m_s`, `_db`, ...), shares are fractions in [0, 1], and a number that does not exist
 (NaN: no healthy run) is null."""
@@ -186,3 +186,11 @@ def tune_document(frame, rule: str, table_path) -> dict:
     columns), one per scenario, setting (the shipped noise or a rung) and spacecraft."""
     return {**_computed_header("tune"), "rule": rule, "table": str(table_path),
             "parquet": str(table_path.with_suffix(".parquet")), "rows": frame.to_dict("records")}
+
+
+def study_document(command: str, output, tables: dict, **extra) -> dict:
+    """`liaison table3 | geometry | study003 | study004 | tables002 --json`: the result folder and, under
+    `tables`, each named table's rows as the Parquet of that name holds them (the per-epoch histories and
+    per-run rows stay in their Parquet files), plus the command's own keys (`extra`)."""
+    return {**_computed_header(command), "output": str(output), **extra,
+            "tables": {stem: frame.to_dict("records") for stem, frame in tables.items()}}

@@ -1,4 +1,5 @@
-"""`--json` on run, sweep, compare, budget, errors, validate, observability, design and tune: standard output is one JSON object whose keys
+"""`--json` on run, sweep, compare, budget, errors, validate, observability, design, tune and the study commands (table3,
+geometry, study003, study004, tables002): standard output is one JSON object whose keys
 are exactly those docs/json-output.md documents, its numbers are the ones the text prints, and errors stay
 one line on standard error with the usual exit code (nothing on standard output)."""
 
@@ -177,3 +178,55 @@ def test_tune_json_rows_are_the_parquets(tmp_path):
     table = pd.read_parquet(tmp_path / "t.parquet")
     assert len(summary["rows"]) == len(table) and [r["spacecraft"] for r in summary["rows"]] == list(table.spacecraft)
     assert [r["setting"] for r in summary["rows"]] == list(table.setting)
+
+
+def _study_rows_are_the_parquets(summary, folder, command):
+    """The documented top-level keys, and each table's rows equal to its Parquet's (same rows, same columns)."""
+    import pandas as pd
+
+    (top,) = documented_tables(command)
+    assert set(summary) == top and summary["command"] == command and summary["output"] == str(folder)
+    for stem, rows in summary["tables"].items():
+        table = pd.read_parquet(folder / f"{stem}.parquet")
+        assert len(rows) == len(table) and set(rows[0]) == set(table.columns), stem
+    return summary
+
+
+def test_geometry_json_rows_are_the_parquets(tmp_path):
+    out = tmp_path / "geo"
+    summary = _study_rows_are_the_parquets(parsed(invoke("geometry", "--count", "2", "--interval", "7200", "--output",
+                                                         out, "--json")), out, "geometry")
+    assert set(summary["tables"]) == {"l1_l2_halo", "l2_halo_lunar"} and summary["count"] == 2
+    import pandas as pd
+
+    table = pd.read_parquet(out / "l1_l2_halo.parquet")
+    assert [row["range_condition_number"] for row in summary["tables"]["l1_l2_halo"]] == list(
+        table.range_condition_number)
+
+
+def test_study004_json_rows_are_the_parquets(tmp_path):
+    from tests.studies.test_study004 import _one_day_halo
+
+    out = tmp_path / "s4"
+    summary = _study_rows_are_the_parquets(parsed(invoke("study004", _one_day_halo(tmp_path), "--runs", "1", "--jobs",
+                                                         "1", "--quiet", "--output", out, "--json")), out, "study004")
+    assert set(summary["tables"]) == {"summary", "claims"} and summary["runs"] == 1 and summary["grid_keys"] == []
+
+
+def test_study003_json_rows_are_the_parquets(tmp_path):
+    from tests.studies.test_study003 import CASSINI
+
+    short = tmp_path / "cassini.yaml"
+    short.write_text(CASSINI.read_text().replace("duration_days: 9", "duration_days: 1"))
+    out = tmp_path / "s3"
+    summary = _study_rows_are_the_parquets(parsed(invoke("study003", short, "--runs", "1", "--jobs", "1", "--quiet",
+                                                         "--output", out, "--json")), out, "study003")
+    assert set(summary["tables"]) == {"summary"} and summary["dsn_noise"] is None
+
+
+def test_table3_json_rows_are_the_parquets(tmp_path):
+    out = tmp_path / "t3"
+    summary = _study_rows_are_the_parquets(parsed(invoke("table3", "--runs", "1", "--jobs", "1", "--quiet", "--output",
+                                                         out, "--json")), out, "table3")
+    assert summary["runs_per_case"] == 1 and set(summary["tables"]) == {"table3"}
+    assert summary["ordering_checks"] and all(isinstance(v, bool) for v in summary["ordering_checks"].values())

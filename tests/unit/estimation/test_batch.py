@@ -1,6 +1,7 @@
 """002: dual one-way observables, clocks and their synchronisation, the RK8 propagator and the batch
 least-squares estimator, the NRHO scenarios and the tables."""
 
+import json
 import math
 
 import numpy as np
@@ -253,6 +254,13 @@ def test_sweep_and_tables002_give_both_tables(tmp_path):
     assert len(consistency) == 4 * 3 and (consistency.runs_ok == 3).all()  # 4 scenarios x 3 spacecraft
     assert consistency.position_error_to_sigma.between(0.2, 3.0).all() and consistency.nees_in_band_share.notna().all()
     assert "| 1 T | 60 min | autonomous RR | Gateway | 3/3 |" in proc.stdout
+    from tests.cli.test_cli_json import _study_rows_are_the_parquets  # --json: the same tables, as rows
+
+    proc = run_cli_in_process("tables002", out, "--span", "6.59", "--interval", "3600", "--output", tmp_path / "t",
+                              "--json")
+    printed = _study_rows_are_the_parquets(json.loads(proc.stdout), tmp_path / "t", "tables002")
+    assert printed["source"] == str(out) and len(printed["files"]) >= 4
+    assert [row["autonomous_RR_drms_p90_m"] for row in printed["tables"]["drms_p90"]] == list(drms.autonomous_RR_drms_p90_m)
 
 
 def test_tables002_consistency_pools_the_runs_that_finished_and_marks_both_sides(tmp_path):
