@@ -52,14 +52,32 @@ def read_message(path, kind: str):
     return message
 
 
+# Where a validator finds the schema of the XML written: SANA's unqualified NDM/XML 4.0.0 master schema (OEM 3.0,
+# OPM 3.0 and TDM 2.0 are its messages; ccsds-ndm's models are generated from it).
+XSI_NAMESPACE = "http://www.w3.org/2001/XMLSchema-instance"
+NDM_XML_SCHEMA = "https://sanaregistry.org/r/ndmxml_unqualified/ndmxml-4.0.0-master-4.0.xsd"
+
+
 def message_text(message, data_format: str) -> str:
-    """The message as KVN or XML text."""
+    """The message as KVN or XML text; the XML's root element names its schema (xsi:noNamespaceSchemaLocation)."""
     from ccsds_ndm.mapping import NDMFileFormats
 
     io = _ndm_io()
     if data_format not in FORMATS:
         raise ExchangeFileError(f"format {data_format!r}: allowed {', '.join(FORMATS)}")
-    return io.to_string(message, NDMFileFormats.KVN if data_format == "kvn" else NDMFileFormats.XML)
+    text = io.to_string(message, NDMFileFormats.KVN if data_format == "kvn" else NDMFileFormats.XML)
+    return text if data_format == "kvn" else with_schema_location(text)
+
+
+def with_schema_location(xml_text: str) -> str:
+    """The XML with xmlns:xsi and xsi:noNamespaceSchemaLocation on its root element (unchanged if it has them)."""
+    import re
+
+    root = re.search(r"<(?![?!])([A-Za-z_][\w.-]*)", xml_text)
+    if root is None or "noNamespaceSchemaLocation" in xml_text[root.start():xml_text.index(">", root.start())]:
+        return xml_text
+    insert = f' xmlns:xsi="{XSI_NAMESPACE}" xsi:noNamespaceSchemaLocation="{NDM_XML_SCHEMA}"'
+    return xml_text[:root.end()] + insert + xml_text[root.end():]
 
 
 def models():

@@ -22,12 +22,23 @@ RANGE_ONE_WAY_COMMENT = ("RANGE convention: a one-way pseudorange along PATH (km
                          "offset, as measured")
 
 
-def range_convention(keyword: str, paths: tuple) -> tuple:
-    """The COMMENT lines that state a track's range convention (none for a keyword other than RANGE)."""
-    if keyword != "RANGE":
-        return ()
+# A DOPPLER_INSTANTANEOUS value is a range rate in km/s (TDM 2.0); its sign and leg count are said as for RANGE.
+DOPPLER_TWO_WAY_COMMENT = ("DOPPLER_INSTANTANEOUS convention: the range rate along PATH at the tag (km/s), positive "
+                           "when the range grows (receding), the one-way equivalent of the two-way measurement: half "
+                           "the round trip's rate; the Doppler shift of the round trip is -2 f / c times it")
+DOPPLER_ONE_WAY_COMMENT = ("DOPPLER_INSTANTANEOUS convention: the one-way range rate along PATH at the tag (km/s), "
+                           "positive when the range grows (receding); the one-way Doppler shift is -f / c times it")
+
+
+def data_convention(keyword: str, paths: tuple) -> tuple:
+    """The COMMENT lines that state what a track's values mean: a RANGE's or a DOPPLER_INSTANTANEOUS's legs, sign
+    and units (none for another keyword, whose meaning TDM fixes)."""
     round_trip = any(len(path) > 2 and path[0] == path[-1] for path in paths)
-    return (RANGE_TWO_WAY_COMMENT if round_trip else RANGE_ONE_WAY_COMMENT,)
+    if keyword == "RANGE":
+        return (RANGE_TWO_WAY_COMMENT if round_trip else RANGE_ONE_WAY_COMMENT,)
+    if keyword == "DOPPLER_INSTANTANEOUS":
+        return (DOPPLER_TWO_WAY_COMMENT if round_trip else DOPPLER_ONE_WAY_COMMENT,)
+    return ()
 
 
 @dataclass(frozen=True, eq=False)

@@ -194,3 +194,12 @@ def study_document(command: str, output, tables: dict, **extra) -> dict:
     per-run rows stay in their Parquet files), plus the command's own keys (`extra`)."""
     return {**_computed_header(command), "output": str(output), **extra,
             "tables": {stem: frame.to_dict("records") for stem, frame in tables.items()}}
+
+
+def export_document(done: dict, out_dir) -> dict:
+    """`liaison export --json`: the run exported, the folder and files written, the frame, and how far the
+    recomputed run's position errors are from the stored ones."""
+    return {**_computed_header("export"), "scenario": done["scenario"], "run": done["run"], "output": str(out_dir),
+            "files": list(done["files"]), "epochs": done["epochs"], "ref_frame": done["ref_frame"],
+            "center_name": done["center_name"], "time_system": done["time_system"],
+            "stored_difference_m": done["stored_difference_m"], "not_in_tdm": list(done["skipped"])}

@@ -230,3 +230,15 @@ def test_table3_json_rows_are_the_parquets(tmp_path):
                                                          out, "--json")), out, "table3")
     assert summary["runs_per_case"] == 1 and set(summary["tables"]) == {"table3"}
     assert summary["ordering_checks"] and all(isinstance(v, bool) for v in summary["ordering_checks"].values())
+
+
+def test_export_json_names_the_frame_and_files(smoke_run, tmp_path):
+    result = json.loads(smoke_run.stdout)["output"]
+    summary = parsed(invoke("export", result, "--format", "kvn", "--frame", "icrf", "--epoch", "2030-01-01T00:00:00",
+                            "--output", tmp_path / "x", "--json"))
+    (top,) = documented_tables("export")
+    assert set(summary) == top
+    assert (summary["ref_frame"], summary["center_name"], summary["time_system"]) == ("ICRF", "EARTH", "TDB")
+    assert sorted(summary["files"]) == sorted(p.name for p in (tmp_path / "x").iterdir() if not p.name.startswith("."))
+    refused = invoke("export", result, "--frame", "icrf", "--output", tmp_path / "y")
+    assert refused.exit_code == 2 and "--epoch" in refused.stderr and not (tmp_path / "y").exists()

@@ -8,7 +8,9 @@ recomputed run's position errors are checked against the stored ones before anyt
 
 Frames and time tags (docs/exchange.md): a dated scenario is written in geocentric ICRF (REF_FRAME ICRF,
 CENTER_NAME EARTH) with TDB tags, the time of its ephemeris grid; a CRTBP scenario in its Earth-Moon rotating
-frame (REF_FRAME EARTH_MOON_ROTATING, barycentre-centred, km and km/s) with MET tags from t0.
+frame (REF_FRAME EARTH_MOON_ROTATING, barycentre-centred, km and km/s) with MET tags from t0, or, given t0's
+date (`--frame icrf --epoch`), in ICRF about the Earth or the Moon with TDB tags (export_frame; an approximation
+stated in the files and in docs/exchange.md).
 """
 
 from dataclasses import dataclass, replace
@@ -21,9 +23,9 @@ from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU, TU_S, VU_KM_S
 from liaison_cli.errors import ExchangeFileError, UnreadableFileError
 from liaison_cli.exchange import library
-from liaison_cli.exchange.frames import CRTBP_CENTRE, CRTBP_FRAME
+from liaison_cli.exchange.frames import CRTBP_CENTRE, CRTBP_FRAME, crtbp_anchor_axes, crtbp_icrf_jacobians
 from liaison_cli.exchange.oem import Ephemeris, oem_message
-from liaison_cli.exchange.tdm import Track, range_convention, tdm_message
+from liaison_cli.exchange.tdm import Track, data_convention, tdm_message
 from liaison_cli.exchange.timetags import met_tags, tdb_tags
 from liaison_cli.scenario.observed import channel_track
 from liaison_cli.scenario.loading import validate_scenario
@@ -124,42 +126,115 @@ def check_against_stored(result_dir, recomputed: RecomputedRun) -> tuple[float, 
     return (float(np.max(difference)) if difference.size else 0.0), within
 
 
-def _time_frame(problem: Problem):
-    """(tags, frame, centre, time system, comments) of the problem's epochs."""
+@dataclass(frozen=True, eq=False)
+class ExportFrame:
+    """How a run's epochs and states are written: the time tags, REF_FRAME, CENTER_NAME, TIME_SYSTEM and COMMENT
+    lines, and jacobians (m, 6, 6) with offset (6,): a scaled state x at epoch k is written as
+    jacobians[k] (x + offset) (km, km/s), its covariance as jacobians[k] P jacobians[k]^T; jacobians None: the
+    frame is the run's own, scaled to km and km/s (KM_PER_SCALED)."""
+
+    tags: list
+    frame: str
+    centre: str
+    time_system: str
+    comments: tuple
+    jacobians: np.ndarray | None = None
+    offset: np.ndarray | None = None
+
+    def states_km(self, states_scaled: np.ndarray) -> np.ndarray:
+        if self.jacobians is None:
+            return states_scaled * KM_PER_SCALED
+        return np.einsum("kij,kj->ki", self.jacobians[: len(states_scaled)], states_scaled + self.offset)
+
+    def covariance_km(self, covariance_scaled: np.ndarray, k: int) -> np.ndarray:
+        if self.jacobians is None:
+            return covariance_scaled * np.outer(KM_PER_SCALED, KM_PER_SCALED)
+        return self.jacobians[k] @ covariance_scaled @ self.jacobians[k].T
+
+
+@dataclass(frozen=True)
+class FrameRequest:
+    """What `liaison export --frame --epoch --centre` asked for: frame None (the run's own), "rotating" or "icrf";
+    a CRTBP run's t0 as TDB seconds past J2000 and as given (None: not given); the centre, EARTH or MOON."""
+
+    frame: str | None = None
+    epoch_tdb_s: float | None = None
+    epoch_text: str | None = None
+    centre: str = "EARTH"
+
+
+def export_frame(problem: Problem, request: FrameRequest = FrameRequest()) -> ExportFrame:
+    """The frame a run is written in: a dated scenario in geocentric ICRF with TDB tags; a CRTBP scenario in its
+    rotating frame with MET tags or, given t0's date, in ICRF about the Earth or the Moon with TDB tags
+    (exchange.frames.crtbp_to_icrf). A request the run cannot take is refused in one line."""
     scenario = problem.scenario
-    if scenario.dynamics_descriptor().dated:  # dated epochs: TDB dates in ICRF; else the rotating frame and MET
+    if scenario.dynamics_descriptor().dated:  # dated epochs: TDB dates in ICRF
+        if request.epoch_tdb_s is not None or request.frame == "rotating" or request.centre != "EARTH":
+            raise ExchangeFileError(f"{scenario.name}: a dated run is written in geocentric ICRF at its own dates; "
+                                    "allowed: --frame icrf (or none), no --epoch, --centre earth")
         epoch_s = problem.dynamics.epoch_tdb_s
-        return (tdb_tags(epoch_s + problem.times_s), "ICRF", "EARTH", "TDB",
-                (f"liaison scenario {scenario.name}: geocentric ICRF, TDB (the ephemeris time of the run)",))
-    return met_tags(problem.times_s), CRTBP_FRAME, CRTBP_CENTRE, "MET", CRTBP_COMMENTS
+        return ExportFrame(tdb_tags(epoch_s + problem.times_s), "ICRF", "EARTH", "TDB",
+                           (f"liaison scenario {scenario.name}: geocentric ICRF, TDB (the ephemeris time of the run)",))
+    if request.epoch_tdb_s is None:
+        if request.frame == "icrf" or request.centre != "EARTH":
+            raise ExchangeFileError(f"{scenario.name}: a CRTBP run has no date; --frame icrf and --centre moon need "
+                                    "its t0 as --epoch YYYY-MM-DDThh:mm:ss (TDB)")
+        return ExportFrame(met_tags(problem.times_s), CRTBP_FRAME, CRTBP_CENTRE, "MET", CRTBP_COMMENTS)
+    if request.frame == "rotating":
+        raise ExchangeFileError(f"{scenario.name}: --epoch: only with --frame icrf (the rotating frame has no date)")
+    axes0 = crtbp_anchor_axes(moon_state_km(request.epoch_tdb_s))
+    offset = np.array([MU if request.centre == "EARTH" else MU - 1.0, 0, 0, 0, 0, 0])
+    comments = (f"CRTBP run carried into ICRF axes about the {request.centre.title()} with t0 = {request.epoch_text} "
+                "TDB: the CRTBP's rotating frame turning uniformly at its mean motion from the axes of DE421's Moon at "
+                f"t0 (x towards the Moon, z along its orbit normal), lengths in the CRTBP's 1 LU = {LU_KM:.1f} km",
+                "An approximation: distances and range rates are the run's own, but the real Moon departs from the "
+                "CRTBP's circular one, which turns at the mean motion: by up to about 22,000 km in distance and 12 degrees "
+                "in longitude within a month (10.5 degrees within 10 days)"
+                + ("; the centre is the CRTBP's Moon" if request.centre == "MOON" else ""))
+    return ExportFrame(tdb_tags(request.epoch_tdb_s + problem.times_s), "ICRF", request.centre, "TDB", comments,
+                       crtbp_icrf_jacobians(axes0, problem.times_s), offset)
 
 
-def ephemerides(recomputed: RecomputedRun) -> dict[str, Ephemeris]:
+def moon_state_km(epoch_tdb_s: float) -> np.ndarray:
+    """The Moon's geocentric ICRF state (km, km/s) at a TDB epoch (DE421); refused in one line outside DE421."""
+    from liaison_cli.dynamics.ephemeris import BODY_MOON, geocentric_state, load_window
+
+    try:
+        window = load_window(epoch_tdb_s, epoch_tdb_s)
+    except ValueError as exc:
+        raise ExchangeFileError(f"--epoch: {exc}") from None
+    return geocentric_state(window.coeffs, window.start_s, window.interval_s, window.n_records, BODY_MOON,
+                            float(epoch_tdb_s))
+
+
+def ephemerides(recomputed: RecomputedRun, request: FrameRequest = FrameRequest()) -> dict[str, Ephemeris]:
     """{file stem: Ephemeris}: '<spacecraft>_truth' and '<spacecraft>_estimate' (with covariance)."""
     problem = recomputed.problem
-    tags, frame, centre, time_system, comments = _time_frame(problem)
+    frame = export_frame(problem, request)
     steps = recomputed.healthy_steps
     seconds = problem.times_s[:steps]
     out = {}
     for i, name in enumerate(problem.spacecraft):
         block = slice(6 * i, 6 * i + 6)
         note = f"run {recomputed.run} of seed {problem.scenario.monte_carlo.seed}"
-        out[f"{name}_truth"] = Ephemeris(name, name, centre, frame, time_system, tags[:steps], seconds,
-                                         recomputed.truth[:steps, block] * KM_PER_SCALED,
-                                         comments=(*comments, f"truth, {note}"))
-        covariances = {k: recomputed.covariance[k, block, block] * np.outer(KM_PER_SCALED, KM_PER_SCALED)
-                       for k in range(steps)}
-        out[f"{name}_estimate"] = Ephemeris(name, name, centre, frame, time_system, tags[:steps], seconds,
-                                            recomputed.estimate[:steps, block] * KM_PER_SCALED,
+        out[f"{name}_truth"] = Ephemeris(name, name, frame.centre, frame.frame, frame.time_system, frame.tags[:steps],
+                                         seconds, frame.states_km(recomputed.truth[:steps, block]),
+                                         comments=(*frame.comments, f"truth, {note}"))
+        covariances = {k: frame.covariance_km(recomputed.covariance[k, block, block], k) for k in range(steps)}
+        out[f"{name}_estimate"] = Ephemeris(name, name, frame.centre, frame.frame, frame.time_system,
+                                            frame.tags[:steps], seconds,
+                                            frame.states_km(recomputed.estimate[:steps, block]),
                                             covariances=covariances,
-                                            comments=(*comments, f"EKF estimate (after each epoch's update), {note}"))
+                                            comments=(*frame.comments, f"EKF estimate (after each epoch's update), {note}"))
     return out
 
 
-def tracks(recomputed: RecomputedRun) -> tuple[list[Track], list[str]]:
-    """The run's observed measurements as TDM tracks, and the channels that have no TDM keyword."""
+def tracks(recomputed: RecomputedRun, request: FrameRequest = FrameRequest()) -> tuple[list[Track], list[str]]:
+    """The run's observed measurements as TDM tracks (tagged as export_frame tags the run), and the channels that
+    have no TDM keyword."""
     problem = recomputed.problem
-    tags, _, _, time_system, _ = _time_frame(problem)
+    frame = export_frame(problem, request)
+    tags, time_system = frame.tags, frame.time_system
     out, skipped = [], []
     for c, channel in enumerate(problem.channels):
         form = channel_track(problem.scenario, channel)
@@ -171,14 +246,15 @@ def tracks(recomputed: RecomputedRun) -> tuple[list[Track], list[str]]:
         if not len(seen):
             continue
         values = recomputed.y_obs[seen, c] * channel.scale_si * factor
-        comments = (f"liaison {channel.label} on {channel.link_label}", *range_convention(keyword, paths))
+        comments = (f"liaison {channel.label} on {channel.link_label}", *data_convention(keyword, paths))
         out.append(Track(participants, paths, keyword, time_system, [tags[k] for k in seen],
                          problem.times_s[seen], values, comments))
     return out, skipped
 
 
-def export_run(result_dir, run: int, formats: tuple, out_dir) -> dict:
-    """Write the run's OEMs and TDM into out_dir; returns what was written and checked."""
+def export_run(result_dir, run: int, formats: tuple, out_dir, request: FrameRequest = FrameRequest()) -> dict:
+    """Write the run's OEMs and TDM into out_dir (in the frame `request` asks for, export_frame); returns what was written and
+    checked."""
     scenario = result_scenario(result_dir)
     if scenario.measurements is not None:
         run = 0
@@ -190,11 +266,11 @@ def export_run(result_dir, run: int, formats: tuple, out_dir) -> dict:
                                 f"{difference_m:.3g} m in position error, more than 1 mm plus the stored values' "
                                 "rounding; the folder's scenario or its files changed")
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
-    messages = {f"{stem}.oem": oem_message(eph, created) for stem, eph in ephemerides(recomputed).items()}
-    track_list, skipped = tracks(recomputed)
+    messages = {f"{stem}.oem": oem_message(eph, created) for stem, eph in ephemerides(recomputed, request).items()}
+    track_list, skipped = tracks(recomputed, request)
     comments = [f"liaison scenario {scenario.name}, run {run}, seed {scenario.monte_carlo.seed}"]
     comments += [f"not written (no TDM keyword): {s}" for s in skipped]
-    comments += sorted({line for track in track_list for line in range_convention(track.keyword, track.paths)})
+    comments += sorted({line for track in track_list for line in data_convention(track.keyword, track.paths)})
     if track_list:
         messages["measurements.tdm"] = tdm_message(track_list, created, comments)
     written = []
@@ -203,5 +279,7 @@ def export_run(result_dir, run: int, formats: tuple, out_dir) -> dict:
             path = Path(out_dir) / (name if data_format == "kvn" else f"{name}.xml")
             write_text_atomic(library.message_text(message, data_format), path)
             written.append(path.name)
+    frame = export_frame(problem, request)
     return {"scenario": scenario.name, "run": run, "files": written, "skipped": skipped,
-            "stored_difference_m": difference_m, "epochs": recomputed.healthy_steps}
+            "stored_difference_m": difference_m, "epochs": recomputed.healthy_steps, "ref_frame": frame.frame,
+            "center_name": frame.centre, "time_system": frame.time_system}
