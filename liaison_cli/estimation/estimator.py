@@ -44,4 +44,8 @@ class Estimator:
     dynamics_parameters: bool = False
     empirical_accelerations: bool = False
     residuals: str = "innovations"  # what its residuals table holds: pre-fit innovations, or post-fit residuals
-    covariance_record: bool = False  # it can keep its estimate and covariance at every epoch (CCSDS export)
+    # Its estimate and covariance at every epoch (a CCSDS export), None when it cannot keep them:
+    # (arrays, x0_hat (n,), y_obs (m, C), truth (m, n)) -> (EstimateHistory, estimates (m, n), covariances (m, n, n)),
+    # and what its estimate is, in words (the export's COMMENT line).
+    covariance_record: Callable | None = None
+    record_meaning: str = ""

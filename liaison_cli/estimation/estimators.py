@@ -165,6 +165,12 @@ def ekf_with_record(arrays: FilterArrays, x0_hat, y_obs, truth, record: bool):
     return _ekf_pass(arrays, x0_hat, arrays.P0, y_obs, truth, arrays.burns, 0.0, record)
 
 
+def _ekf_covariance_record(arrays: FilterArrays, x0_hat, y_obs, truth):
+    """Estimator.covariance_record of the EKF: its history, x_hat (m, n) and P (m, n, n) after each epoch's update."""
+    history, states, matrices = ekf_with_record(arrays, x0_hat, y_obs, truth, True)
+    return history, states[:, 0], matrices[:, 1]
+
+
 def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, record: bool):
     """One EKF pass over the epochs of y_obs / truth (m rows), epoch 0 at t0_tu, from (x0_hat, P0):
     (EstimateHistory, states, matrices) as ekf_with_record; the smoother runs when arrays.smoother."""
@@ -230,7 +236,20 @@ def _after_window(directions: DirectionRecord, e: int) -> DirectionRecord:
 
 
 def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
-    """Batch least squares in sliding windows (one window by default): window w starts at epoch w * renewal,
+    return _batch_windows(arrays, x0_hat, y_obs, truth, False)[0]
+
+
+def _batch_covariance_record(arrays: FilterArrays, x0_hat, y_obs, truth):
+    """Estimator.covariance_record of the batch: its history, each epoch's estimate (the solution of the window
+    that holds the epoch, propagated) and its covariance mapped there (Phi_k P Phi_k^T); NaN after a failure."""
+    return _batch_windows(arrays, x0_hat, y_obs, truth, True)
+
+
+def _batch_windows(arrays: FilterArrays, x0_hat, y_obs, truth, keep: bool):
+    """(EstimateHistory, estimates (m, n), covariances (m, n, n)): the batch run; the last two only with `keep`
+    (else None).
+
+    Batch least squares in sliding windows (one window by default): window w starts at epoch w * renewal,
     solves for the state there from the span's data, and predicts past the span. Window w > 0 starts from
     the previous solution propagated to its epoch (and, with a-priori information on, its propagated
     covariance). The history at an epoch is the latest window that starts at or before it (its smoothed
@@ -245,6 +264,8 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
     x_apriori, P_apriori = x0_hat, arrays.P0
     starts = [w * settings.renewal_steps for w in range(settings.windows)]
     windows, failure = [], ""
+    estimates = np.full((m, n), np.nan) if keep else None
+    covariances = np.full((m, n, n), np.nan) if keep else None
     for w, k0 in enumerate(starts):
         k1 = min(m, k0 + settings.n_use + settings.n_predict)  # this window's epochs: [k0, k1)
         piece_end = starts[w + 1] if w + 1 < len(starts) else m
@@ -258,6 +279,10 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
         nees_value = _epoch_nees(e[0], solution.P, arrays.n_nees) if ok else np.nan
         piece = slice(0, piece_end - k0)
         err[k0:piece_end], sigma[k0:piece_end], nees[k0:piece_end] = e[piece], s_w[piece], nees_value
+        if keep and ok:
+            estimates[k0:piece_end] = traj[piece]
+            for j in range(piece_end - k0):
+                covariances[k0 + j] = _mapped_covariance(solution.P, phi[j], kind, start)
         data = slice(k0 + 1, k0 + settings.n_use)
         innovation[data], spread[data] = post[1 : settings.n_use], post_spread[1 : settings.n_use]
         ahead = e[settings.n_use : k1 - k0].reshape(-1, n)
@@ -277,7 +302,7 @@ def _batch(arrays: FilterArrays, x0_hat, y_obs, truth) -> EstimateHistory:
               "status": last["status"], "windows": windows}
     data_end = starts[len(windows) - 1] + settings.n_use - 1
     return EstimateHistory(err, sigma, nees, innovation, spread, ok, failure, -1 if ok else starts[len(windows) - 1],
-                           data_end, extras)
+                           data_end, extras), estimates, covariances
 
 
 def _mapped_sigma(P, phi, kind, start):
@@ -318,12 +343,16 @@ def _prediction_rms(errors_ahead, kind, start):
 EKF = Estimator(
     name="ekf", summary="the extended Kalman filter", run=_ekf, carries_clocks=True, carries_biases=True,
     carries_manoeuvres=True, dynamics=("crtbp", "ephemeris"), smoother=True, consider=True, residual_gate=True,
-    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True, covariance_record=True,
+    error_budget=True, initial_batch=True, process_noise=True, dynamics_parameters=True,
+    covariance_record=_ekf_covariance_record, record_meaning="EKF estimate (after each epoch's update)",
     empirical_accelerations=True)
 # The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
 # apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
 BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",
-                  carries_biases=True, residuals="post-fit residuals")
+                  carries_biases=True, residuals="post-fit residuals", covariance_record=_batch_covariance_record,
+                  record_meaning="batch least-squares estimate: the solution of the window holding the epoch, "
+                                 "propagated (fitted to the span's data inside it, predicted after), with its "
+                                 "covariance mapped by the STM")
 ESTIMATORS: dict[str, Estimator] = {estimator.name: estimator for estimator in (EKF, BATCH)}
 DEFAULT_ESTIMATOR = EKF.name
 

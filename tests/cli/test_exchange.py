@@ -513,3 +513,28 @@ def test_export_of_a_folder_that_is_not_one_run_is_one_line(tmp_path):
     assert run_cli_in_process("compare", SCENARIOS / "smoke.yaml", "--runs", "1", "--output", compare).returncode == 0
     proc = run_cli_in_process("export", compare, "--output", tmp_path / "e2")
     assert proc.returncode == 2 and "not the folder of one `liaison run`" in proc.stderr
+
+
+def test_a_batch_result_exports_its_estimate_and_mapped_covariance(tmp_path):
+    """estimator: batch (002's NRHO trio tracked from one station, shortened): the estimate OEM is each epoch's
+    batch solution propagated, read by the independent reader; estimate minus truth is the run's stored error (to
+    its float32 rounding), the covariance's position sigmas are the stored 3-sigma over 3, and the file stops
+    where the batch's estimate does (the span plus its prediction); the COMMENT line says what the estimate is."""
+    import pandas as pd
+
+    scenario, text = load_scenario(SCENARIOS / "nrho_earth_station.yaml")
+    scenario = apply_overrides(scenario, {"duration_days": 3.0, "batch.span_days": 2.0, "batch.prediction_hours": 6})
+    stream_campaign(scenario, tmp_path, text, runs=1, jobs=1, progress=False)
+    done = export_run(tmp_path, 0, ("kvn",), tmp_path / "x")
+    assert "Gateway_estimate.oem" in done["files"] and "measurements.tdm" in done["files"]
+    (estimate,) = kvn_oem(tmp_path / "x" / "Gateway_estimate.oem")
+    (truth,) = kvn_oem(tmp_path / "x" / "Gateway_truth.oem")
+    stored = pd.read_parquet(tmp_path / "timeseries.parquet").query("spacecraft == 'Gateway'")
+    lines = len(estimate["epochs"])
+    assert lines == 2 * 48 + 12 + 1  # 2 days and 6 hours at 30 min, from t0
+    error_m = np.linalg.norm(estimate["states"][:, :3] - truth["states"][:, :3], axis=1) * 1e3
+    np.testing.assert_allclose(error_m, stored.position_error_m.values[:lines], rtol=1e-6, atol=1e-6)
+    sigma_m = np.array([np.sqrt(np.trace(estimate["covariances"][tag][:3, :3])) for tag in estimate["epochs"]]) * 1e3
+    np.testing.assert_allclose(3 * sigma_m, stored.position_3sigma_m.values[:lines], rtol=1e-6)
+    assert np.isnan(stored.position_error_m.values[lines:]).all()
+    assert "COMMENT batch least-squares estimate" in (tmp_path / "x" / "Gateway_estimate.oem").read_text()

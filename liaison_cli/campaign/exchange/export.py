@@ -1,6 +1,6 @@
 """`liaison export`: one run of a result folder as CCSDS files. Per estimated spacecraft an OEM of the truth and
-one of the EKF's estimate with its 6x6 covariance at every epoch (km, km/s), and a TDM of the run's observed
-measurements; KVN, XML or both.
+one of the estimate with its 6x6 covariance at every epoch (km, km/s; the estimator's covariance_record: the EKF's
+after each update, a batch's solution propagated), and a TDM of the run's observed measurements; KVN, XML or both.
 
 The result folder keeps error norms, not states, so the run is recomputed from the scenario the folder
 records (summary.parquet's provenance), its seed and the run index: runs are reproducible by design, and the
@@ -81,10 +81,12 @@ def result_scenario(result_dir) -> Scenario:
 
 
 def recompute_run(problem: Problem, run: int) -> RecomputedRun:
-    """Run `run` of the problem again with the EKF's forward record kept."""
-    from liaison_cli.estimation.estimators import ESTIMATORS, ekf_with_record
+    """Run `run` of the problem again with the estimator's estimate and covariance kept at every epoch
+    (Estimator.covariance_record)."""
+    from liaison_cli.estimation.estimators import ESTIMATORS
 
-    if not problem.scenario.estimator_descriptor().covariance_record:  # an OEM carries P at every epoch
+    descriptor = problem.scenario.estimator_descriptor()
+    if descriptor.covariance_record is None:  # an OEM carries P at every epoch
         keeps = ", ".join(e.name for e in ESTIMATORS.values() if e.covariance_record)
         raise ExchangeFileError(f"{problem.scenario.name}: export needs an estimator that keeps its covariance at "
                                 f"every epoch (estimator: {keeps}); this result used {problem.scenario.estimator}")
@@ -94,12 +96,12 @@ def recompute_run(problem: Problem, run: int) -> RecomputedRun:
     inputs = draw_run_inputs(problem, run)
     arrays = problem.filter if inputs.filter_params is None else replace(problem.filter,
                                                                          model_params=inputs.filter_params)
-    history, states, matrices = ekf_with_record(arrays, inputs.x0_hat, inputs.y_obs, inputs.truth, True)
+    history, estimates, covariances = descriptor.covariance_record(arrays, inputs.x0_hat, inputs.y_obs, inputs.truth)
     n_dyn = 6 * problem.n_spacecraft
     healthy = len(problem.times_s) if history.ok else history.fail_step
     error_m = np.linalg.norm(history.err[:, :n_dyn].reshape(len(problem.times_s), -1, 6)[:, :, :3], axis=2) * M_PER_LU
-    return RecomputedRun(problem, run, inputs.truth[:, :n_dyn], states[:, 0, :n_dyn],
-                         matrices[:, 1, :n_dyn, :n_dyn], inputs.y_obs, healthy, error_m)
+    return RecomputedRun(problem, run, inputs.truth[:, :n_dyn], estimates[:, :n_dyn],
+                         covariances[:, :n_dyn, :n_dyn], inputs.y_obs, healthy, error_m)
 
 
 def check_against_stored(result_dir, recomputed: RecomputedRun) -> tuple[float, bool]:
@@ -211,6 +213,7 @@ def ephemerides(recomputed: RecomputedRun, request: FrameRequest = FrameRequest(
     """{file stem: Ephemeris}: '<spacecraft>_truth' and '<spacecraft>_estimate' (with covariance)."""
     problem = recomputed.problem
     frame = export_frame(problem, request)
+    meaning = problem.scenario.estimator_descriptor().record_meaning
     steps = recomputed.healthy_steps
     seconds = problem.times_s[:steps]
     out = {}
@@ -225,7 +228,7 @@ def ephemerides(recomputed: RecomputedRun, request: FrameRequest = FrameRequest(
                                             frame.tags[:steps], seconds,
                                             frame.states_km(recomputed.estimate[:steps, block]),
                                             covariances=covariances,
-                                            comments=(*frame.comments, f"EKF estimate (after each epoch's update), {note}"))
+                                            comments=(*frame.comments, f"{meaning}, {note}"))
     return out
 
 
