@@ -29,7 +29,7 @@ LAYERS = [
     {"scenario"},
     {"campaign"},
     {"report"},
-    {"cli", "__main__"},
+    {"cli", "__main__", "api"},
 ]
 # Every registered observable's name (so a new kind is guarded from the day it is registered), and the LOS
 # angles' names.

@@ -97,3 +97,88 @@ def test_run_campaign_refuses_a_path_for_a_scenario_in_one_line():
 
     with pytest.raises(LiaisonError, match="scenario: str given; allowed: a Scenario"):
         run_campaign(str(SCENARIOS / "smoke.yaml"))
+
+
+# --- liaison_cli.api: the stable entry point ------------------------------------------------------------------------
+
+# The contract: these names with these parameters and defaults. A change here is a change of the major version.
+API_SIGNATURES = {
+    "load": "(scenario, overrides: collections.abc.Mapping | None = None)",
+    "run": "(scenario, runs: int | None = None, jobs: int = 1, progress: bool = False)",
+    "run_to_folder": "(scenario, output, runs: int | None = None, jobs: int = 2, overwrite: bool = False, "
+                     "progress: bool = False) -> pathlib.Path",
+    "write": "(result, folder, overwrite: bool = False) -> pathlib.Path",
+    "summary": "(result)",
+    "timeseries": "(result)",
+    "read_table": "(folder, table: str = 'summary')",
+    "provenance": "(folder, table: str = 'summary') -> dict",
+    "sweep": "(scenarios, grid: collections.abc.Mapping, output, runs: int = 10, jobs: int = 2, name: str | None = None, "
+             "overwrite: bool = False, progress: bool = False)",
+    "export": "(result_folder, run: int = 0, output=None, formats: collections.abc.Sequence[str] = ('kvn',), "
+              "frame: str | None = None, epoch: str | None = None, centre: str = 'earth', overwrite: bool = False) "
+              "-> list[pathlib.Path]",
+}
+
+
+def test_the_api_keeps_its_names_and_signatures_and_the_page_lists_them():
+    from liaison_cli import api
+
+    assert sorted(api.__all__) == sorted([*API_SIGNATURES, "ArgumentError"])
+    page = PAGE.read_text()
+    for name, signature in API_SIGNATURES.items():
+        assert str(inspect.signature(getattr(api, name))) == signature, name
+        assert f"`{name}(" in page, name
+
+
+@pytest.mark.parametrize("call, fragment", [
+    (lambda api, s: api.run(s, runs=-1), "runs: -1 (int); allowed: a whole number, 1 or more"),
+    (lambda api, s: api.run(s, runs="3"), "runs: '3' (str); allowed: a whole number"),
+    (lambda api, s: api.run(s, progress=1), "progress: 1 (int); allowed: True or False"),
+    (lambda api, s: api.run(42), "scenario: int given; allowed: a Scenario"),
+    (lambda api, s: api.load(3.5), "scenario: 3.5 (float); allowed: a path"),
+    (lambda api, s: api.load("smoke", ["noise.sigma_m"]), "overrides: ['noise.sigma_m'] (list); allowed: a mapping"),
+    (lambda api, s: api.sweep(s, {"noise.sigma_m": [1]}, output="x"), "scenarios: Scenario(name='smoke'"),
+    (lambda api, s: api.sweep([s], {"noise.sigma_m": 100}, output="x"), "grid: {'noise.sigma_m': 100} (dict)"),
+    (lambda api, s: api.export("x", run=True), "run: True (bool); allowed: a whole number, 0 or more"),
+    (lambda api, s: api.export("x", formats=("pdf",)), "formats: ('pdf',) (tuple); allowed: some of kvn, xml"),
+    (lambda api, s: api.export("x", epoch="tomorrow", frame="icrf"), "epoch: 'tomorrow' (str); allowed: a TDB date"),
+    (lambda api, s: api.summary([]), "result: list given; allowed: what api.run returns"),
+    (lambda api, s: api.read_table(".", "../x"), "table: '../x' (str); allowed: the stem of a Parquet file"),
+])
+def test_a_wrong_argument_is_one_typed_line_before_any_work(call, fragment, tmp_path, monkeypatch):
+    """issue 47: the API took runs=-1 (an empty result) and answered wrong types with AttributeError. Each refusal
+    is an ArgumentError (a LiaisonError, ValueError and TypeError) of one line naming the argument, the value (cut
+    to 60 characters) and what is allowed; nothing is written."""
+    from liaison_cli import api
+    from liaison_cli.errors import LiaisonError
+
+    monkeypatch.chdir(tmp_path)
+    scenario = api.load(SCENARIOS / "smoke.yaml")
+    with pytest.raises(api.ArgumentError) as refused:
+        call(api, scenario)
+    message = str(refused.value)
+    assert fragment in message and "\n" not in message and len(message) < 300, message
+    assert isinstance(refused.value, (LiaisonError, ValueError, TypeError))
+    assert not list(tmp_path.iterdir())
+
+
+def test_the_api_runs_sweeps_and_exports_as_the_commands_do(tmp_path):
+    """run_to_folder writes the folder `liaison run` writes (the same summary as the in-memory run of the same
+    scenario), sweep gives the curve the folder holds, export writes the CCSDS files of a run; the same numbers by
+    any path (the runs depend on the seed and the run index alone)."""
+    import pandas as pd
+
+    from liaison_cli import api
+
+    scenario = api.load("smoke", {"duration_days": 0.5, "monte_carlo.runs": 2})
+    folder = api.run_to_folder(scenario, tmp_path / "run", jobs=1)
+    in_memory = api.summary(api.run(scenario))
+    on_disk = api.read_table(folder)
+    pd.testing.assert_series_equal(on_disk["rms_position_m"], in_memory["rms_position_m"])
+    assert api.provenance(folder)["scenario_effective"]["duration_days"] == 0.5
+    curve = api.sweep([scenario], {"noise.sigma_m": [150, 300]}, tmp_path / "sweep", runs=2, jobs=1)
+    assert list(curve["noise.sigma_m"].unique()) == [150, 300]
+    assert curve.equals(api.read_table(tmp_path / "sweep", "curve"))
+    files = api.export(folder, run=1, formats=("kvn", "xml"))
+    assert {path.name for path in files} >= {"EML2_estimate.oem", "Lunar_truth.oem.xml", "measurements.tdm"}
+    assert all(path.is_file() and path.parent == folder / "ccsds-run1" for path in files)
