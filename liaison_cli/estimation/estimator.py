@@ -44,6 +44,9 @@ class Estimator:
     dynamics_parameters: bool = False
     empirical_accelerations: bool = False
     residuals: str = "innovations"  # what its residuals table holds: pre-fit innovations, or post-fit residuals
+    # Its NEES is a new sample at every epoch (a filter's), or one per run and solution (a batch's: its epoch
+    # state's, repeated over the epochs the solution covers), which a per-epoch band cannot judge.
+    nees_per_epoch: bool = True
     # Its estimate and covariance at every epoch (a CCSDS export), None when it cannot keep them:
     # (arrays, x0_hat (n,), y_obs (m, C), truth (m, n)) -> (EstimateHistory, estimates (m, n), covariances (m, n, n)),
     # and what its estimate is, in words (the export's COMMENT line).

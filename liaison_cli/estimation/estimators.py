@@ -349,7 +349,8 @@ EKF = Estimator(
 # The batch solves for the spacecraft's epoch states and constant blocks (link biases); clocks are synchronised
 # apart from it by clock_sync, and it has no consider treatment (estimation.batch treats every state alike).
 BATCH = Estimator(name="batch", summary="least squares (with a batch section)", run=_batch, settings_section="batch",
-                  carries_biases=True, residuals="post-fit residuals", covariance_record=_batch_covariance_record,
+                  carries_biases=True, residuals="post-fit residuals", nees_per_epoch=False,
+                  covariance_record=_batch_covariance_record,
                   record_meaning="batch least-squares estimate: the solution of the window holding the epoch, "
                                  "propagated (fitted to the span's data inside it, predicted after), with its "
                                  "covariance mapped by the STM")

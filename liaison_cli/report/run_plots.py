@@ -2,10 +2,12 @@
 
 - errors: per spacecraft, the position and velocity error norms of every run (faint) and of one highlighted
   run, against that run's 3-sigma norm (shaded below it), on log axes;
-- nees: the run-averaged NEES against its two-sided 95 % chi-square band (analysis.metrics.nees_band);
-- innovations: per link and observable, the innovations divided by their predicted standard deviation,
-  with the +-3 lines and the residual gate's rejections marked;
-- clocks (with clock states): per clock, phase and frequency errors with the highlighted run's +-3 sigma;
+- nees: the run-averaged NEES against its two-sided 95 % chi-square band (analysis.metrics.nees_band); for an
+  estimator with one NEES per solution (a batch), each run's against the single-run band, by run;
+- innovations: per link and observable, the innovations (a batch's post-fit residuals, so labelled) divided by
+  their predicted standard deviation, with the +-3 lines and the residual gate's rejections marked;
+- clocks (with clock states, or a batch's clock_sync fits): per clock, phase and frequency errors with the
+  highlighted run's +-3 sigma;
 - bias (with range biases estimated or considered): per link and run, estimate - truth with +-3 sigma bars;
 - ric and directions: the consistency figures of report.consistency_plots.
 
@@ -137,9 +139,14 @@ def _log_scale(ax, values: np.ndarray) -> None:
 def _draw_nees(result: RunResult, highlight: int):
     import matplotlib.pyplot as plt
 
+    from liaison_cli.estimation.estimators import ESTIMATORS
+
     table = result.consistency
     if table.empty:
         return None
+    estimator = ESTIMATORS.get(result.estimator)
+    if estimator is not None and not estimator.nees_per_epoch:
+        return _draw_nees_per_solution(result, highlight, int(table.state_size.max()))
     fig, ax = plt.subplots(figsize=(11, 4), layout="constrained")
     t = _days(table.t_s)
     ax.fill_between(t, table.band_low, table.band_high, color="tab:green", alpha=0.2, linewidth=0,
@@ -159,6 +166,42 @@ def _draw_nees(result: RunResult, highlight: int):
     return fig
 
 
+def _draw_nees_per_solution(result: RunResult, highlight: int, states: int):
+    """An estimator with one NEES per run and solution (a batch: its epoch state's, the same at every epoch the
+    solution covers): each solution's NEES by run against the single-run two-sided 95 % chi-square band of its
+    states, and the runs' mean against the band of the mean; a per-epoch line would only repeat each number."""
+    import matplotlib.pyplot as plt
+
+    from liaison_cli.analysis.metrics import chi2_quantile
+
+    series = result.timeseries.dropna(subset=["nees"]).drop_duplicates(["run", "nees"])
+    if series.empty:
+        return None
+    runs = series.run.nunique()
+    low, high = chi2_quantile(0.025, states), chi2_quantile(0.975, states)
+    mean_low, mean_high = chi2_quantile(0.025, states * runs) / runs, chi2_quantile(0.975, states * runs) / runs
+    fig, ax = plt.subplots(figsize=(11, 4), layout="constrained")
+    ax.axhspan(low, high, color="tab:green", alpha=0.2, linewidth=0, label=f"95 % χ²({states}) band of one run")
+    ax.axhspan(mean_low, mean_high, color="tab:purple", alpha=0.15, linewidth=0,
+               label=f"95 % band of the mean of {runs}")
+    others = series[series.run != highlight]
+    ax.plot(others.run, others.nees, "o", color="0.45", markersize=3, label="NEES of a solution")
+    mine = series[series.run == highlight]
+    ax.plot(mine.run, mine.nees, "o", color=HIGHLIGHT, markersize=4, label=f"run {highlight}")
+    mean = float(series.groupby("run").nees.first().mean())
+    ax.axhline(mean, color="tab:purple", linewidth=1.0, label=f"mean of the runs' first solutions: {mean:.3g}")
+    inside = int(((series.nees >= low) & (series.nees <= high)).sum())
+    _log_scale(ax, np.array([*series.nees, low, high]))
+    ax.set_title(f"{result.name}: NEES of each run's {result.estimator} solution ({states} states): inside the "
+                 f"single-run band for {inside} of {len(series)}\n(one number per run and solution: its epoch "
+                 "state's error against its covariance, the same at every epoch it covers)", fontsize=10)
+    ax.set_xlabel("run")
+    ax.set_ylabel("NEES")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    return fig
+
+
 def _draw_innovations(result: RunResult, highlight: int):
     import matplotlib.pyplot as plt
 
@@ -174,6 +217,7 @@ def _draw_innovations(result: RunResult, highlight: int):
     fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.6 * nrow + 1.0), squeeze=False, sharex=True,
                              layout="constrained")
     faint_runs = set(sorted(table.run.unique())[:MAX_FAINT_RUNS]) - {highlight}
+    kind = estimator.residuals if estimator is not None else "innovations"  # "post-fit residuals" of a batch
     for ax, (link, observable) in zip(axes.flat, channels):
         mine = table[(table.link == link) & (table.observable == observable)]
         normalised = mine.innovation / mine.innovation_std
@@ -191,7 +235,7 @@ def _draw_innovations(result: RunResult, highlight: int):
             ax.axhline(level, color=SIGMA_COLOUR, linewidth=1.0)
         spread = np.nanpercentile(np.abs(normalised), 99.5) if normalised.notna().any() else 3.0
         ax.set_ylim(-max(4.0, 1.2 * spread), max(4.0, 1.2 * spread))
-        ax.set_ylabel("innovation / σ")
+        ax.set_ylabel(f"{kind.removesuffix('s')} / σ")
         ax.set_title(f"{link}: {observable} ({mine.unit.iloc[0]})", fontsize=9)
         ax.grid(True, alpha=0.3)
     for ax in axes.flat[len(channels):]:
@@ -202,7 +246,6 @@ def _draw_innovations(result: RunResult, highlight: int):
     runs = table.run.nunique()
     shown = "" if len(faint_runs) + 1 == runs else f" ({len(faint_runs)} of the others drawn)"
     note = f"\n({', '.join(left_out)}: read by clock_sync, not by the {result.estimator}; not drawn)" if left_out else ""
-    kind = estimator.residuals if estimator is not None else "innovations"
     fig.suptitle(f"{result.name}: normalised {kind}, {_runs_phrase(runs, highlight)}{shown}; ±3 lines{note}")
     return fig
 
@@ -244,8 +287,13 @@ def _draw_clocks(result: RunResult, highlight: int):
     axes[0, 0].legend(loc="upper right", fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel(time_label(result))
-    fig.suptitle(f"{result.name}: clock estimation errors, {_runs_phrase(table.run.nunique(), highlight)}, with "
-                 "its ±3σ")
+    from liaison_cli.estimation.estimators import ESTIMATORS
+
+    estimator = ESTIMATORS.get(result.estimator)
+    fitted = estimator is not None and not estimator.carries_clocks  # a batch's clocks: clock_sync's fits
+    what = ("clock_sync's fitted clocks (each relative to its link's receiver), over the sync window and the "
+            "prediction" if fitted else "clock estimation errors")
+    fig.suptitle(f"{result.name}: {what}, {_runs_phrase(table.run.nunique(), highlight)}, with its ±3σ")
     return fig
 
 

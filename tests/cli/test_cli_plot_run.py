@@ -16,7 +16,7 @@ TEMPLATES = REPO / "liaison_cli" / "scenario" / "templates"
 ALWAYS = {"errors", "nees", "innovations", "ric"}
 CASES = {  # result: (scenario, runs, figures beyond ALWAYS); the EKF's consistency record draws its directions
     "ekf_crtbp": (SCENARIOS / "smoke.yaml", 2, {"directions"}),
-    "batch": (TEMPLATES / "nrho-batch.yaml", 2, set()),
+    "batch": (TEMPLATES / "nrho-batch.yaml", 2, {"clocks"}),  # clock_sync's fitted clocks
     "dated": (TEMPLATES / "dated-dsn.yaml", 2, {"directions"}),
     "clock": (SCENARIOS / "clock_one_way_eml2_lunar.yaml", 2, {"clocks", "directions"}),
     "bias": (SCENARIOS / "bias_eml2_lunar.yaml", 2, {"bias", "directions"}),
@@ -62,6 +62,30 @@ def test_plot_run_draws_every_figure_the_result_has(results, case):
         assert svg.read_text().lstrip().startswith("<?xml") and "</svg>" in svg.read_text()[-100:]
         assert f"wrote {png}" in result.stdout
     assert not list(plots.glob(".*"))  # no temporary file left behind
+
+
+def test_a_batch_result_says_what_a_batch_has(results):
+    """issue 47's batch figures: the NEES of each run's solution by run against the single-run band (not a constant
+    line scored per epoch), residual panels labelled post-fit residuals, and clock_sync's fitted clocks drawn from
+    clocks.parquet, whose phase errors over the sync window give the summary's clock RMS."""
+    import numpy as np
+
+    from liaison_cli.report.run_plots import _draw_clocks, _draw_innovations, _draw_nees
+    from liaison_cli.report.run_result import load_run_result
+
+    result = load_run_result(results / "batch")
+    nees = _draw_nees(result, 0)
+    assert "NEES of each run's batch solution" in nees.axes[0].get_title() and nees.axes[0].get_xlabel() == "run"
+    residuals = _draw_innovations(result, 0)
+    assert {ax.get_ylabel() for ax in residuals.axes if ax.get_visible()} == {"post-fit residual / σ"}
+    assert "clock_sync's fitted clocks" in _draw_clocks(result, 0)._suptitle.get_text()
+    clocks, summary = result.clocks, result.summary
+    for (run, clock), rows in clocks.dropna().groupby(["run", "clock"]):  # a 3 h window, then a 3 h prediction
+        inside = rows[rows.t_s <= rows.t_s.max() - 3 * 3600.0 + 1e-6]
+        rms_ns = float(np.sqrt(np.mean(inside.phase_error_ns.astype(float) ** 2)))
+        stored = summary[(summary.run == run) & (summary.spacecraft == clock)].clock_rms_window_ns.iloc[0]
+        assert rms_ns == pytest.approx(stored, rel=1e-5), (run, clock)
+    assert clocks.clock.nunique() == 2 and len(clocks.dropna()) > 0
 
 
 def test_plot_run_output_folder_and_highlighted_run(results, tmp_path):

@@ -17,7 +17,7 @@ from liaison_cli import __version__
 from liaison_cli.analysis.metrics import chi2_quantile, nees_band
 from liaison_cli.campaign.engine.backends import LOCAL, Backend
 from liaison_cli.campaign.engine.runner import CampaignResult, iter_outcomes
-from liaison_cli.campaign.engine.worker import RunOutcome
+from liaison_cli.campaign.engine.worker import RunOutcome, clock_record_names
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.scenario_model import Scenario
@@ -223,15 +223,15 @@ def _bias_columns(problem: Problem, outcome: RunOutcome, float_dtype=None) -> Co
 
 
 def _clock_columns(problem: Problem, outcome: RunOutcome, float_dtype) -> Columns | None:
-    """One row per (epoch, estimated clock) of one run: phase error and 1-sigma in ns, frequency error and
-    1-sigma (dimensionless, s/s)."""
+    """One row per (epoch, clock) of one run: phase error and 1-sigma in ns, frequency error and 1-sigma
+    (dimensionless, s/s); the estimated clocks, or a batch's clock_sync fits (worker.clock_record_names)."""
     if outcome.clock_error_s is None:
         return None
     m, n_clocks, _ = outcome.clock_error_s.shape
     return {
         "run": np.full(m * n_clocks, outcome.run, dtype=np.int32),
         "t_s": np.repeat(problem.times_s, n_clocks),
-        "clock": np.tile(np.array([c.owner for c in problem.clocks], dtype=object), m),
+        "clock": np.tile(np.array(clock_record_names(problem), dtype=object), m),
         "phase_error_ns": (1e9 * outcome.clock_error_s[:, :, 0]).reshape(-1).astype(float_dtype),
         "phase_sigma_ns": (1e9 * outcome.clock_sigma_s[:, :, 0]).reshape(-1).astype(float_dtype),
         "frequency_error": outcome.clock_error_s[:, :, 1].reshape(-1).astype(float_dtype),
