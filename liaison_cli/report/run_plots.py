@@ -112,7 +112,7 @@ def _draw_errors(result: RunResult, highlight: int):
             ax.fill_between(t, 0, chosen[sigma], color=SIGMA_COLOUR, alpha=0.15, linewidth=0)
             ax.plot(t, chosen[sigma], color=SIGMA_COLOUR, linewidth=1.2, label=f"3σ (run {highlight})")
             ax.plot(t, chosen[error], color=HIGHLIGHT, linewidth=1.0, label=f"error, run {highlight}")
-            _log_scale(ax, mine[[error, sigma]].to_numpy())
+            _log_scale(ax, mine[[error, sigma]].to_numpy(), always=True)  # every panel alike (issue 47)
             mark_settle(ax, result)
             ax.set_ylabel(f"{name} {error.split('_')[0]} ({unit})")
             ax.grid(True, which="both", alpha=0.3)
@@ -127,11 +127,11 @@ def _runs_phrase(runs: int, highlight: int) -> str:
     return f"run {highlight}" if runs == 1 else f"{runs} runs (grey; run {highlight} in colour)"
 
 
-def _log_scale(ax, values: np.ndarray) -> None:
-    """Log y when the values span more than a decade and are positive (errors shrink by orders as the filter
-    converges); linear otherwise."""
+def _log_scale(ax, values: np.ndarray, always: bool = False) -> None:
+    """Log y when the values are positive and span more than a decade (errors shrink by orders as the filter
+    converges), or `always` (the error figure: its panels alike, as its description says); linear otherwise."""
     finite = values[np.isfinite(values) & (values > 0)]
-    if finite.size and finite.max() / finite.min() > 10:
+    if finite.size and (always or finite.max() / finite.min() > 10):
         ax.set_yscale("log")
         ax.set_ylim(bottom=max(finite.min(), finite.max() * 1e-8) / 2)
 

@@ -171,3 +171,13 @@ def test_time_axes_name_the_dated_epoch_and_the_settle_time_is_read(tmp_path):
     proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "r")
     assert proc.returncode == 0, proc.stderr
     assert load_run_result(tmp_path / "r").settle_days == load_scenario(SCENARIOS / "smoke.yaml")[0].settle_days()
+
+
+@pytest.mark.parametrize("case", ["batch", "ekf_crtbp"])
+def test_every_error_panel_is_on_a_log_axis(results, case):
+    """issue 47: errors.png mixed linear and log panels (a batch's flat Anchor2 errors were linear)."""
+    from liaison_cli.report.run_plots import _draw_errors
+    from liaison_cli.report.run_result import load_run_result
+
+    figure = _draw_errors(load_run_result(results / case), 0)
+    assert {ax.get_yscale() for ax in figure.axes} == {"log"}
