@@ -32,7 +32,9 @@ def budget(
     sweep_dir: Path = typer.Option(None, "--sweep", help="a 'liaison sweep --sigma' folder to read errors from"),
     as_json: bool = json_option(),
 ):
-    """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off)."""
+    """Ranging sigma of each method from a link budget; with --sweep, the expected OD errors (Fig. 15 read-off).
+
+    Example: liaison budget links/turan2022_table2.yaml --json"""
     from liaison_cli.scenario.loading import load_link_file
 
     link = load_link_file(link_file)

@@ -37,8 +37,8 @@ def design(
 ):
     """Which orbit should a spacecraft fly? Score every candidate by LinCov, rank, verify the best by Monte Carlo.
 
-    Example: liaison design relay.yaml --open Relay --family l2_nrho_south --periods 6.2:8:10 --phases 4
-    --objective User --verify 3 --runs 30"""
+    Example: liaison design eml2_lunar --open EML2 --family l2_halo_south --periods 9:14:6 --phases 4
+    --objective Lunar --verify 3 --runs 30"""
     from liaison_cli.campaign.studies.budget_tables import provenance
     from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
                                                      verify)

@@ -27,7 +27,9 @@ def errors(
     as_json: bool = json_option(),
 ):
     """Error budget: the EKF's error split by source (LinCov along the truth) and its consistency after the
-    settle time (budget error RMS / filter sigma RMS), with an optional MC check (adds the NEES-in-band share)."""
+    settle time (budget error RMS / filter sigma RMS), with an optional MC check (adds the NEES-in-band share).
+
+    Example: liaison errors eml2_lunar --check-runs 20"""
     from liaison_cli.campaign.studies.budget_tables import budget_tables, by_source, provenance
     from liaison_cli.campaign.studies.error_budget import budget_study, select_sources
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder

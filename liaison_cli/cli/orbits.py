@@ -41,7 +41,9 @@ def orbits_generate(
     count: FamilyCountOption = 30,
     regenerate: bool = typer.Option(False, "--regenerate", help="ignore the cache"),
 ):
-    """Correct and continue a family; store its table (Parquet) in the user cache."""
+    """Correct and continue a family; store its table (Parquet) in the user cache.
+
+    Example: liaison orbits generate l2_halo_south --count 30"""
     import time
 
     from liaison_cli.orbits.family_store import family_path
@@ -61,7 +63,9 @@ def orbits_catalogue(
     output: Path = typer.Option(None, "--output", help="where to write the catalogue (default: the package's own "
                                 "orbits/data/family_catalogue.json, which a checkout commits)"),
 ):
-    """Regenerate the shipped orbit catalogue (every family's 30-member table) and say how far it moved."""
+    """Regenerate the shipped orbit catalogue (every family's 30-member table) and say how far it moved.
+
+    Example: liaison orbits catalogue --output family_catalogue.json"""
     import time
 
     from liaison_cli.orbits.family_catalogue import CATALOGUE_PATH, build_catalogue, largest_change, write_catalogue
@@ -76,7 +80,9 @@ def orbits_catalogue(
 
 @orbits_app.command("list")
 def orbits_list():
-    """The known families and the tables already in the cache."""
+    """The known families and the tables already in the cache.
+
+    Example: liaison orbits list"""
     from liaison_cli.orbits.family_store import cached_families
     from liaison_cli.orbits.families import FAMILIES
 
@@ -94,7 +100,9 @@ def orbits_show(
     family: FamilyArgument,
     count: FamilyCountOption = 30,
 ):
-    """Print a family table (generating it first if needed)."""
+    """Print a family table (generating it first if needed).
+
+    Example: liaison orbits show dro --count 10"""
     frame, _ = _family_table(family, count)
     typer.echo(_format_family(frame))
 
@@ -106,7 +114,9 @@ def orbits_plot(
     count: FamilyCountOption = 30,
     output: Path = typer.Option(None, "--output", help="PNG path (default: results/orbits/<family>.png)"),
 ):
-    """Draw a family in the x-y, x-z and y-z planes, coloured by period (PNG)."""
+    """Draw a family in the x-y, x-z and y-z planes, coloured by period (PNG).
+
+    Example: liaison orbits plot l1_halo_north --output l1_halo_north.png"""
     from liaison_cli.orbits.family_store import from_table
     from liaison_cli.report.orbit_plots import draw_family
 

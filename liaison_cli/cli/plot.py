@@ -18,7 +18,9 @@ def plot_fig15(
     output: Path = typer.Option(None, "--output", help="file stem for .png/.svg (default: SWEEP_DIR/fig15)"),
     title: str = typer.Option(None, "--title", help="figure title"),
 ):
-    """Error vs ranging sigma (Fig. 15), one line per formation and spacecraft, Table 3 overlaid."""
+    """Error vs ranging sigma (Fig. 15), one line per formation and spacecraft, Table 3 overlaid.
+
+    Example: liaison sweep --sigma 50:700 --runs 10; liaison plot fig15 results/sweep-fig15"""
     from liaison_cli.campaign.studies.table3 import paper_table3
     from liaison_cli.report.fig15 import draw_fig15, load_curve, paper_points_vs_curve
 

@@ -222,7 +222,9 @@ def compare(
     quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
-    """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7)."""
+    """Run several scenarios; tabulate RMS errors averaged over each scenario's spacecraft (001 Tables 6-7).
+
+    Example: liaison compare eml2_lunar eml1_lunar --runs 10"""
     from liaison_cli.campaign.studies.compare import compare_study, provenance
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.compare import to_markdown

@@ -13,7 +13,9 @@ from liaison_cli.errors import LiaisonError
 
 @app.command()
 def version():
-    """Print the package version."""
+    """Print the package version.
+
+    Example: liaison version"""
     typer.echo(__version__)
 
 
@@ -26,7 +28,7 @@ def schema(
 ):
     """Print the scenario JSON Schema (every key's description, unit and allowed values) for editors.
 
-    Example: liaison schema --output scenarios/liaison-scenario.schema.json"""
+    Example: liaison schema --output liaison-scenario.schema.json"""
     from liaison_cli.scenario.json_schema import scenario_json_schema_text
 
     text = scenario_json_schema_text()
@@ -55,7 +57,7 @@ def validate(
 ):
     """Check scenarios (and link files) as `run` (and `budget`) would, without propagating: one line each.
 
-    Example: liaison validate scenarios/*.yaml"""
+    Example: liaison validate eml2_lunar 004/dro links/turan2022_table2.yaml"""
     from liaison_cli.scenario.loading import check_file
 
     results = []

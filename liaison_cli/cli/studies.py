@@ -136,7 +136,9 @@ def study004(
 ):
     """004's study: each transmitter x receiver pair (TDoA + FDoA); LinCov 3σ and the EKF Monte Carlo
     (converged share, time to converge, consistency), rankings, DOP, and 004's claims checked on the EKF's
-    settled error with LinCov σ beside it (claims.parquet); table and figures."""
+    settled error with LinCov σ beside it (claims.parquet); table and figures.
+
+    Example: liaison study004 --runs 10"""
     from liaison_cli.campaign.sweep.grid import check_grid_size, parse_grid
     from liaison_cli.campaign.studies.study003 import tuning
     from liaison_cli.campaign.studies.output import StudyOutput, study_meta, write_folder
@@ -199,7 +201,9 @@ def tables002(
     as_json: bool = json_option(),
 ):
     """002's Table 3 (DRMS p90) and Table 4 (clock RMS p90) layouts from a sweep, consistency, histograms; with
-    the nrho_gateway_anchors_mesh* scenarios in the sweep, both readings of 002's links side by side."""
+    the nrho_gateway_anchors_mesh* scenarios in the sweep, both readings of 002's links side by side.
+
+    Example: liaison sweep nrho_gateway_anchors nrho_earth_station --grid batch.span_days=6.59 --grid measurement.interval_s=1800 --runs 10 --output results/sweep-002; liaison tables002 results/sweep-002 --span 6.59 --interval 1800"""
     from liaison_cli.campaign.studies.output import StudyOutput, write_files
     from liaison_cli.campaign.studies.tables002 import (NRHO_PERIOD_DAYS, batch_consistency_table, clock_rms_p90_table, drms_table,
                                                         histogram_cell, per_run_metrics)

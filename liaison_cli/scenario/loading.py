@@ -155,15 +155,17 @@ def _nesting(data) -> int:
     return deepest
 
 
-def scenario_file(path) -> Path:
+def scenario_file(path, links: bool = False) -> Path:
     """`path` itself, or, when no such file exists here, the shipped scenario it names (scenario.shipped:
-    `liaison run eml2_lunar` from any folder), said in one note."""
-    from liaison_cli.scenario.shipped import shipped_by_name
+    `liaison run eml2_lunar` from any folder) or, with `links`, the shipped link file (`liaison budget
+    turan2022_table2`), said in one note."""
+    from liaison_cli.scenario.shipped import shipped_by_name, shipped_link_by_name
 
-    shipped = shipped_by_name(path)
+    shipped = shipped_by_name(path) or (shipped_link_by_name(path) if links else None)
     if shipped is None:
         return Path(path)
-    logging.getLogger("liaison").warning(f"{path}: no such file here; the shipped scenario {shipped}")
+    kind = "link file" if shipped.parent.name == "links" else "scenario"
+    logging.getLogger("liaison").warning(f"{path}: no such file here; the shipped {kind} {shipped}")
     return shipped
 
 
@@ -176,7 +178,8 @@ def load_scenario(path) -> tuple[Scenario, str]:
 
 
 def load_link_file(path) -> RangingLinkFile:
-    """Read and validate a `liaison budget` link file."""
+    """Read and validate a `liaison budget` link file (or the shipped one its name stands for: scenario_file)."""
+    path = scenario_file(path, links=True)
     data, _ = read_scenario_text(path)
     return validate_scenario(data, str(path), RangingLinkFile)
 
@@ -188,7 +191,7 @@ def check_file(path) -> str:
     """Every check `liaison run` makes of a scenario before it computes (reading, keys, values, the rules
     between them, dates, orbit families' ranges), or `liaison budget` of a link file; nothing is propagated
     or compiled. Returns what the file is ('scenario' or 'link file'); a problem raises ScenarioError."""
-    path = scenario_file(path)
+    path = scenario_file(path, links=True)
     data, _ = read_scenario_text(path)
     if isinstance(data, dict) and "spacecraft" not in data and any(k in data for k in LINK_FILE_KEYS):
         validate_scenario(data, str(path), RangingLinkFile)

@@ -9,7 +9,9 @@ copy is the one that matches the code that runs it.
 
 A scenario named on the command line that is no file here is looked up among the shipped ones (shipped_by_name:
 `eml2_lunar`, `eml2_lunar.yaml`, `scenarios/eml2_lunar.yaml`, `004/dro`), so what `liaison warm-up --list`
-names runs from any folder after `pip install`; a file here always wins, and the run says which it took.
+names runs from any folder after `pip install`; a file here always wins, and the run says which it took. A link
+file (`liaison budget`, `liaison validate`) is looked up the same way among the shipped links/
+(shipped_link_by_name: `links/turan2022_table2.yaml`, `turan2022_table2`).
 """
 
 from importlib.resources import files
@@ -54,6 +56,23 @@ def shipped_by_name(given) -> Path | None:
         path = root / candidate
         if candidate.endswith(".yaml") and path.is_file() and "links" not in Path(candidate).parts[:1]:
             return path
+    return None
+
+
+def shipped_link_by_name(given) -> Path | None:
+    """The shipped link file (links/) a name that is no file in the working folder stands for, or None: with or
+    without `.yaml`, a leading `scenarios/` and `links/`."""
+    text = str(given).replace("\\", "/")
+    if Path(given).exists() or Path(text).is_absolute() or ".." in Path(text).parts:
+        return None
+    text = text.removeprefix("scenarios/").removeprefix("links/")
+    try:
+        root = shipped_dir() / "links"
+    except LiaisonError:
+        return None
+    for candidate in (text, f"{text}.yaml"):
+        if candidate.endswith(".yaml") and "/" not in candidate and (root / candidate).is_file():
+            return root / candidate
     return None
 
 

@@ -91,3 +91,58 @@ def test_tune_replaces_its_own_earlier_table(tmp_path):
     write_parquet_atomic(pd.DataFrame({"x": [1.0]}), parquet, {"command": "liaison sweep"})
     with pytest.raises(OutputExistsError):
         check_file_output(parquet, False, "beside --table", "a tune table", _tune_parquet)
+
+
+def _leaf_commands():
+    """(path, click command) of every leaf command of the CLI."""
+    import click
+    import typer.main
+
+    from liaison_cli.cli import app
+
+    root = typer.main.get_command(app)
+    context = click.Context(root)
+
+    def walk(command, path):
+        if hasattr(command, "list_commands"):
+            for name in command.list_commands(context):
+                yield from walk(command.get_command(context, name), [*path, name])
+        else:
+            yield path, command
+
+    return list(walk(root, [])), root
+
+
+SCENARIO_PARAMETERS = ("scenario", "scenarios", "scenario_args", "scenario_opts", "link_file", "files")
+
+
+def test_every_command_has_an_example_that_parses_and_names_what_ships(tmp_path, monkeypatch):
+    """issue 47: 11 commands had no --help example, and the examples used checkout paths. Every leaf command's help
+    has an `Example:` line; each command in it (`;`- or `&&`-separated) parses with that command's own options, and
+    every scenario or link file it names is a shipped name (scenario.shipped) or a file an earlier command of the
+    example writes, so it works from an empty folder (benchmarks/wheel_walk.py runs them all from a wheel)."""
+    import re
+    import shlex
+
+    from liaison_cli.scenario.shipped import shipped_by_name, shipped_link_by_name
+
+    monkeypatch.chdir(tmp_path)  # an empty folder: names resolve to what ships, not to this checkout's files
+    commands, root = _leaf_commands()
+    assert len(commands) >= 26
+    for path, command in commands:
+        text = " ".join((command.help or "").split())
+        found = re.search(r"Examples?: (.*)$", text)
+        assert found, f"liaison {' '.join(path)}: no Example in its help"
+        written = set()
+        for line in re.split(r";\s*|\s*&&\s*", found.group(1).rstrip(".")):
+            words = shlex.split(re.sub(r"\(.*?\)", "", line))
+            assert words[0] == "liaison", line
+            target, rest = root, words[1:]
+            while hasattr(target, "list_commands"):
+                target, rest = target.get_command(None, rest[0]), rest[1:]
+            parsed = target.make_context("liaison", list(rest)).params  # unknown options or bad values raise here
+            for name in SCENARIO_PARAMETERS:
+                values = parsed.get(name) or []
+                for value in [values] if not isinstance(values, (list, tuple)) else values:
+                    assert str(value) in written or shipped_by_name(value) or shipped_link_by_name(value), (line, value)
+            written |= {str(v) for v in parsed.values() if isinstance(v, (str, type(tmp_path)))}
