@@ -90,18 +90,32 @@ def test_shipped_scenarios_run_by_name_from_any_folder(tmp_path):
     one note; a file there wins; another name is still refused in one line."""
     from tests.conftest import run_cli
 
-    for name in ("smoke", "smoke.yaml", "scenarios/smoke.yaml", "004/dro"):
-        proc = run_cli("validate", name, cwd=tmp_path)
-        assert proc.returncode == 0, proc.stderr
-        assert "the shipped scenario" in proc.stderr and proc.stdout.strip() == f"ok: {name}"
-    ran = run_cli("run", "smoke", "--runs", "1", "--jobs", "1", "--quiet", cwd=tmp_path)
-    assert ran.returncode == 0, ran.stderr
+    names = ("smoke", "smoke.yaml", "scenarios/smoke.yaml", "004/dro")
+    proc = run_cli("validate", *names, cwd=tmp_path)  # one process for the four: each says which file it took
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.count("the shipped scenario") == 4
+    assert proc.stdout.strip().splitlines() == [f"ok: {name}" for name in names]
+    for command in (["run", "smoke", "--runs", "1", "--jobs", "1", "--quiet"], ["errors", "smoke", "--quiet"]):
+        ran = _in_process_here(tmp_path, *command)  # the same parsing and files, without a new interpreter
+        assert ran.exit_code == 0, ran.output
     assert (tmp_path / "results" / "smoke" / "summary.parquet").is_file()
-    errors = run_cli("errors", "smoke", "--quiet", cwd=tmp_path)
-    assert errors.returncode == 0, errors.stderr
+    assert (tmp_path / "results" / "smoke-errors").is_dir()
     own = tmp_path / "smoke.yaml"  # a file of the user's wins, and no note is said
     own.write_text((SCENARIOS / "smoke.yaml").read_text().replace("name: smoke", "name: mine"))
     proc = run_cli("validate", "smoke.yaml", cwd=tmp_path)
     assert proc.returncode == 0 and "shipped" not in proc.stderr, proc.stderr
     missing = run_cli("validate", "no_such_scenario", cwd=tmp_path)
     assert missing.returncode == 2 and "no such scenario file" in missing.stderr
+
+
+def _in_process_here(folder, *args):
+    """The CLI in this process with `folder` as the working folder (CliRunner; conftest's run_cli_in_process
+    works from the repository)."""
+    import contextlib
+
+    from typer.testing import CliRunner
+
+    from liaison_cli.cli import app
+
+    with contextlib.chdir(folder):
+        return CliRunner().invoke(app, [str(a) for a in args])

@@ -12,12 +12,26 @@ HALO_LUNAR = ("eml2_lunar", "eml1_lunar")
 
 @pytest.fixture(scope="module")
 def default_sweep(tmp_path_factory):
-    """`liaison sweep --sigma 50:700` exactly as a user types it (3 formations x 14 sigma x 10 runs)."""
+    """`liaison sweep` of the paper's three formations at its Table 3 sigmas and the ends of Fig. 15's range (3
+    formations x 4 sigma x 10 runs; the whole figure's 14 sigma: test_the_whole_figure_sweep_as_a_user_types_it)."""
     out = tmp_path_factory.mktemp("fig15") / "sweep"
-    proc = run_cli_in_process("sweep", "--sigma", "50:700", "--quiet", "--output", out)
+    proc = run_cli_in_process("sweep", "--sigma", "50,150,300,700", "--quiet", "--output", out)
+    assert proc.returncode == 0, proc.stderr
+    assert "12 grid points x 10 runs = 120 tasks: 120 computed" in proc.stdout
+    return out
+
+
+@pytest.mark.slow
+def test_the_whole_figure_sweep_as_a_user_types_it(tmp_path):
+    """`liaison sweep --sigma 50:700` exactly as the README's figure was made (3 formations x 14 sigma x 10 runs):
+    the default grid, and every spacecraft's error at 700 m above its error at 50 m."""
+    proc = run_cli_in_process("sweep", "--sigma", "50:700", "--quiet", "--output", tmp_path / "sweep")
     assert proc.returncode == 0, proc.stderr
     assert "42 grid points x 10 runs = 420 tasks: 420 computed" in proc.stdout
-    return out
+    curve = pd.read_parquet(tmp_path / "sweep" / "curve.parquet")
+    for _, rows in curve.groupby(["scenario", "spacecraft"]):
+        mean = rows.sort_values("sigma_m").rms_position_m_mean.to_numpy()
+        assert len(mean) == 14 and mean[-1] > mean[0]
 
 
 def _paired_z(runs: pd.DataFrame, metric: str) -> pd.Series:

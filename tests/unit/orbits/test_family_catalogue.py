@@ -23,14 +23,28 @@ from liaison_cli.orbits.family_catalogue import (
 STATE_TOLERANCE_LU = 1e-11
 
 
+# Regenerated in the default run: the family with the largest spread across BLAS kernels (the DRO), a halo and the
+# NRHO (8 s of CPU); all six (20 s) with -m slow. A change to the corrector or the propagation moves every family.
+REGENERATED_BY_DEFAULT = ("dro", "l1_halo_south", "l2_nrho_south")
+
+
 @pytest.fixture(scope="module")
 def regenerated():
-    return build_catalogue()
+    return build_catalogue(REGENERATED_BY_DEFAULT)
 
 
 def test_regenerated_families_equal_the_shipped_catalogue(regenerated):
+    _equal_to_the_shipped(regenerated, REGENERATED_BY_DEFAULT)
+
+
+@pytest.mark.slow
+def test_every_regenerated_family_equals_the_shipped_catalogue():
+    _equal_to_the_shipped(build_catalogue(), generated_families())
+
+
+def _equal_to_the_shipped(regenerated, names):
     changes = largest_change(regenerated)
-    assert set(changes) == set(generated_families())
+    assert set(changes) == set(names) and set(names) <= set(generated_families())
     for name, change in changes.items():
         assert change < STATE_TOLERANCE_LU, (name, change)
         shipped = read_catalogue()["families"][name]["columns"]
@@ -68,7 +82,7 @@ def test_a_family_member_is_the_same_from_the_catalogue_and_from_a_fresh_table(r
     from liaison_cli.orbits.family_store import from_table
     from liaison_cli.orbits.families import member_by_period
 
-    for name, days in (("l1_halo_north", 11.94), ("l2_nrho_south", 6.5624), ("l2_lyapunov", 15.5)):
+    for name, days in (("l1_halo_north", 11.94), ("l2_nrho_south", 6.5624), ("dro", 14.0)):
         shipped = member_by_period(name, from_table(shipped_table(name)), days)
         fresh = member_by_period(name, from_table(table_from_catalogue(regenerated, name)), days)
         assert np.max(np.abs(np.subtract(shipped.state, fresh.state))) < 1e-12, name
