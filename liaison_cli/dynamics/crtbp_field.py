@@ -182,3 +182,15 @@ def field_derivative(state, params):
         for i in range(3):
             out[3 + i] += acc[i]
     return out
+
+
+@njit(cache=True)
+def field_accelerations(states, params):
+    """(m, 6) states -> (m, 3) rotating-frame accelerations: field_derivative's, sample by sample (one compiled call
+    for a trajectory; a Python loop over field_derivative cost a design candidate 30 ms)."""
+    out = np.empty((states.shape[0], 3))
+    for k in range(states.shape[0]):
+        rate = field_derivative(states[k], params)
+        for i in range(3):
+            out[k, i] = rate[3 + i]
+    return out

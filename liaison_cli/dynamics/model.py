@@ -16,7 +16,7 @@ from numba import njit
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
-from liaison_cli.dynamics.crtbp_field import (added_terms_into, crtbp_params, field_derivative, harmonics_term,
+from liaison_cli.dynamics.crtbp_field import (added_terms_into, crtbp_params, field_accelerations, harmonics_term,
                                               has_added_terms, j2_term)
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm_into, rk4_states_forced
 from liaison_cli.dynamics.integrators.rk8 import rk8_advance, rk8_states_forced, step_counts
@@ -142,8 +142,7 @@ class DynamicsModel:
     def field_accelerations(self, params, states, times_tu) -> np.ndarray:
         """The model's field with parameters `params` at states (m, 6): accelerations (m, 3), LU/TU^2 (the CRTBP's
         rotating-frame terms included; the truth's unmodelled acceleration not)."""
-        params = np.asarray(params, dtype=float)
-        return np.array([field_derivative(np.asarray(state, dtype=float), params)[3:6] for state in states])
+        return field_accelerations(np.ascontiguousarray(states, dtype=float), np.asarray(params, dtype=float))
 
     def moon_field_difference(self, states) -> np.ndarray:
         """(m, 3) LU/TU^2: the truth's added terms (crtbp_field: the lunar harmonics, or J2) minus the filter's at

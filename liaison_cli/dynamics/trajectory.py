@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from liaison_cli.dynamics.crtbp_field import field_derivative
+from liaison_cli.dynamics.crtbp_field import field_accelerations
 
 
 def states_with_accelerations(trajectory) -> np.ndarray:
@@ -36,7 +36,7 @@ class CrtbpTrajectory:
     def accelerations(self) -> np.ndarray:
         """(m, 3) rotating-frame accelerations (Eq. 6-8, Coriolis and centrifugal terms included, and the lunar
         field when the parameters carry it)."""
-        return np.array([field_derivative(s, self.params)[3:6] for s in self.states]).reshape(-1, 3)
+        return field_accelerations(np.ascontiguousarray(self.states), self.params)
 
     def inertial_position_before(self, dt_back_tu):
         states, acc = self.states, self.accelerations  # computed once per trajectory: light-time iterations reuse it
