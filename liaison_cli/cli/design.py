@@ -21,7 +21,9 @@ def design(
                                 "from LOW to HIGH days"),
     phases: int = typer.Option(1, "--phases", min=1, help="phases along each orbit: 0, 1/N, ..."),
     objective: str = typer.Option("worst", "--objective", metavar="NAME", help="the spacecraft whose position "
-                                  "error RMS after the settle time is minimised, or worst (the largest of them)"),
+                                  "error RMS after the settle time is minimised, worst (the largest of them), or "
+                                  "condition (the range information matrix's condition number; implies "
+                                  "--condition)"),
     top: int = typer.Option(3, "--verify", min=0, help="verify the best N by Monte Carlo (0: none)"),
     condition: bool = typer.Option(False, "--condition", help="also each candidate's range information condition "
                                    "number (liaison observability's; about 0.5 s per spacecraft of a 10-day "
@@ -43,7 +45,7 @@ def design(
     from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
                                                      verify)
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
-    from liaison_cli.report.design import draw_score_plane, format_ranking
+    from liaison_cli.report.design import draw_pareto, draw_score_plane, format_ranking
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
 
     where = common.fan_out(backend, scheduler, scheduler_timeout)
@@ -53,8 +55,11 @@ def design(
     plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition)
     out_dir = output or Path("results") / f"{base.name}-design"
     if not as_json:
-        typer.echo(f"{base.name}: {len(plan.candidates)} candidates for {open_spacecraft} ({family}), scored by "
-                   f"LinCov on {objective}'s position error RMS after {base.settle_days():g} d")
+        ranked_by = ("the range information condition number (LinCov's worst position error RMS beside it)"
+                     if objective == "condition" else
+                     f"LinCov on {objective}'s position error RMS after {base.settle_days():g} d")
+        typer.echo(f"{base.name}: {len(plan.candidates)} candidates for {open_spacecraft} ({family}), ranked by "
+                   f"{ranked_by}")
 
     def make():
         table = verify(plan, score_all(plan, jobs, where), top, runs, jobs, where)
@@ -69,8 +74,9 @@ def design(
         title = f"{base.name}: {open_spacecraft} on {family}, objective {objective}"
         return StudyOutput({"candidates": table}, {**provenance(base.name, text), "method": (
             "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo")},
-            {"ranking.md": ranking + agreement}, lambda folder: [draw_score_plane(table, folder / "design.png",
-                                                                                  title)],
+            {"ranking.md": ranking + agreement},
+            lambda folder: [path for path in (draw_score_plane(table, folder / "design.png", title),
+                                              draw_pareto(table, folder / "pareto.png", title)) if path is not None],
             result=(ranking + agreement, table, rho, by_condition))
 
     text, table, rho, by_condition = write_folder(out_dir, overwrite, make).result

@@ -1,5 +1,6 @@
-"""`liaison design`'s results (campaign.studies.design) as a ranked text table and the score over the family's
-period x phase plane. Formats and draws only."""
+"""`liaison design`'s results (campaign.studies.design) as a ranked text table, the score over the family's
+period x phase plane and, with condition numbers, the Pareto front of score and condition number. Formats and
+draws only."""
 
 import math
 from pathlib import Path
@@ -8,22 +9,34 @@ import numpy as np
 
 
 def format_ranking(table, objective: str, shown: int = 10) -> str:
-    """Markdown: the best `shown` candidates by LinCov score, with their Monte Carlo check where it was run;
-    then the candidates that could not be scored, with their reason."""
-    lines = [f"| rank | family | period d | phase | LinCov {objective} RMS m | range condition number | "
-             "Monte Carlo RMS m | MC / LinCov | runs ok | consistent |", "|---|---|---|---|---|---|---|---|---|---|"]
-    scored = table[table.score_m.notna()]
+    """Markdown: the best `shown` candidates in rank order (by the LinCov score, or by the range condition number
+    with objective `condition`: then the score is the worst spacecraft's), with their Monte Carlo check where it
+    was run, `pareto` marking the Pareto front of score and condition number; then that front in full, and the
+    candidates that could not be scored, with their reason."""
+    position = "worst" if objective == "condition" else objective
+    lines = [f"| rank | family | period d | phase | LinCov {position} RMS m | range condition number | Pareto | "
+             "Monte Carlo RMS m | MC / LinCov | runs ok | consistent |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    scored = table[table["rank"] > 0]
     for row in scored.head(shown).to_dict("records"):
         checked = "mc_score_m" in row and isinstance(row["mc_score_m"], float) and math.isfinite(row["mc_score_m"])
         condition = row.get("range_condition_number", math.nan)
         head = (f"| {row['rank']} | {row['family']} | {row['period_days']:g} | {row['phase']:g} | "
-                f"{row['score_m']:.4g} | {f'{condition:.3g}' if condition == condition else '–'} |")
+                f"{row['score_m']:.4g} | {f'{condition:.3g}' if condition == condition else '–'} | "
+                f"{'yes' if row.get('pareto') else ''} |")
         lines.append(f"{head} {row['mc_score_m']:.4g} | {row['mc_over_lincov']:.2f} | {row['mc_runs_ok']} | "
                      f"{row['mc_consistent']} |" if checked else f"{head} | | | |")
-    failed = table[table.score_m.isna()]
+    front = table[table.pareto] if "pareto" in table else table.iloc[:0]
+    if len(front):
+        lines.append(f"\nPareto front of the LinCov {position} RMS and the range condition number ({len(front)} of "
+                     f"{int(table.score_m.notna().sum())} scored; by error):")
+        lines += [f"- {row['family']} {row['period_days']:g} d, phase {row['phase']:g}: {row['score_m']:.4g} m, "
+                  f"condition {row['range_condition_number']:.3g}"
+                  for row in front.sort_values("score_m").to_dict("records")]
+    failed = table[table["rank"] == 0]
     if len(failed):
         lines.append(f"\nNot scored ({len(failed)} of {len(table)}):")
-        lines += [f"- period {row['period_days']:g} d, phase {row['phase']:g}: {row['error']}"
+        lines += [f"- period {row['period_days']:g} d, phase {row['phase']:g}: "
+                  f"{row['error'] or 'no range condition number (liaison observability refuses this scenario)'}"
                   for row in failed.to_dict("records")]
     return "\n".join(lines) + "\n"
 
@@ -53,6 +66,37 @@ def draw_score_plane(table, path: Path, title: str) -> Path | None:
         ax.legend(loc="upper right", fontsize=9)
     ax.set_xlabel("period (days)")
     ax.set_ylabel("phase (fraction of the period)")
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    tmp.replace(path)
+    plt.close(fig)
+    return path
+
+
+def draw_pareto(table, path: Path, title: str) -> Path | None:
+    """The LinCov position error against the range condition number, log-log, every scored candidate, the Pareto
+    front joined and marked; None without condition numbers."""
+    known = table[np.isfinite(table.score_m.astype(float)) & np.isfinite(table.range_condition_number.astype(float))]
+    if len(known) < 2:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    front = known[known.pareto].sort_values("range_condition_number")
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.scatter(known.range_condition_number, known.score_m, s=14, color="0.5", label="candidate")
+    ax.plot(front.range_condition_number, front.score_m, "o-", color="tab:red", markersize=5,
+            label=f"Pareto front ({len(front)})")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("range information condition number")
+    ax.set_ylabel("LinCov position error RMS after settle (m)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=9)
     ax.set_title(title, fontsize=10)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")

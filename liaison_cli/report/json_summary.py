@@ -161,7 +161,7 @@ def observability_document(summary: dict, out_dir) -> dict:
 
 # The candidates' columns `liaison design --json` lists (campaign.studies.design; NaN / empty: not verified).
 DESIGN_COLUMNS = ("rank", "candidate", "family", "period_days", "phase", "score_m", "range_condition_number",
-                  "mc_score_m", "mc_over_lincov", "mc_runs_ok", "mc_consistent")
+                  "pareto", "mc_score_m", "mc_over_lincov", "mc_runs_ok", "mc_consistent")
 
 
 def design_document(scenario_name: str, open_spacecraft: str, family: str, objective: str, table, out_dir,

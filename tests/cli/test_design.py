@@ -52,6 +52,13 @@ def test_design_ranks_every_candidate_verifies_the_best_and_is_the_same_on_two_c
         row = table[(table.period_days == candidate.period_days) & (table.phase == candidate.phase)].iloc[0]
         assert row.range_condition_number == pytest.approx(
             study.summary["observables"]["range"]["condition_number"], rel=1e-6)
+    # The Pareto front of score and condition number, checked by brute force; drawn and listed.
+    for row in table.itertuples():
+        beaten = table[(table.score_m <= row.score_m) & (table.range_condition_number <= row.range_condition_number)
+                       & ((table.score_m < row.score_m) | (table.range_condition_number < row.range_condition_number))]
+        assert row.pareto == beaten.empty, row
+    assert table.pareto.any() and (tmp_path / "one" / "pareto.png").stat().st_size > 0
+    assert f"Pareto front of the LinCov User RMS and the range condition number ({table.pareto.sum()} of 6" in ranking
     two = _design(base, tmp_path / "two", 2, "--verify", "0")  # no --condition: no condition numbers
     assert two.returncode == 0, two.stderr
     again = pd.read_parquet(tmp_path / "two" / "candidates.parquet")
@@ -59,13 +66,27 @@ def test_design_ranks_every_candidate_verifies_the_best_and_is_the_same_on_two_c
     pd.testing.assert_series_equal(table.candidate, again.candidate)
     assert again.range_condition_number.isna().all() and "range condition number against" not in \
         (tmp_path / "two" / "ranking.md").read_text()
+    assert not again.pareto.any() and not (tmp_path / "two" / "pareto.png").exists()
+
+
+def test_the_condition_number_as_the_objective_ranks_by_it(base, tmp_path):
+    """--objective condition: ranked by the range condition number, smallest first, with the worst spacecraft's
+    LinCov error as the score beside it; the condition numbers are computed without --condition."""
+    proc = run_cli_in_process("design", base, "--open", "Relay", "--family", "dro", "--periods", "5:11:3",
+                              "--objective", "condition", "--verify", "0", "--jobs", "1", "--output", tmp_path / "c")
+    assert proc.returncode == 0, proc.stderr
+    table = pd.read_parquet(tmp_path / "c" / "candidates.parquet")
+    assert list(table["rank"]) == [1, 2, 3] and table.range_condition_number.is_monotonic_increasing
+    worst = table[["Relay_rms_position_m", "User_rms_position_m"]].max(axis=1)
+    pd.testing.assert_series_equal(table.score_m, worst, check_names=False)
+    assert "ranked by the range information condition number" in proc.stdout and "LinCov worst RMS m" in proc.stdout
 
 
 @pytest.mark.parametrize("option, value, fragment", [
     ("--open", "Nobody", "--open 'Nobody': not a spacecraft"),
     ("--family", "moon_hole", "--family 'moon_hole': allowed: dro"),
     ("--periods", "8-14", "--periods '8-14': allowed LOW:HIGH:COUNT"),
-    ("--objective", "Nobody", "--objective 'Nobody': allowed: Relay, User or worst"),
+    ("--objective", "Nobody", "--objective 'Nobody': allowed: Relay, User, worst or condition"),
 ])
 def test_bad_design_options_are_one_line(base, tmp_path, option, value, fragment):
     args = {"--open": "Relay", "--family": "dro", "--periods": "5:11:3", "--objective": "User", option: value}

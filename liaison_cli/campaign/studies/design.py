@@ -5,7 +5,10 @@ A design is a base scenario with one spacecraft left open, its candidates and an
   evenly spaced phases along its orbit (0, 1/phases, ...); everything else the spacecraft says (its name, process
   noise, a priori, clock) is kept;
 - objective: one spacecraft's position error RMS after the settle time, the statistic a Monte Carlo run reports
-  as rms_position_settled_m, or the worst over every estimated spacecraft.
+  as rms_position_settled_m, or the worst over every estimated spacecraft; or `condition`, the condition number
+  of the formation's range information matrix (liaison observability's), smallest first, with the worst position
+  error RMS beside it. Whenever both are known, the candidates that no other beats on both (the Pareto front of
+  position error and condition number) are marked (pareto_front).
 
 Each candidate is scored by covariance analysis, not Monte Carlo: studies.error_budget's LinCov along the truth
 with every error source on (initial error, noise, process noise, biases, model mismatches), so the score is the
@@ -29,6 +32,7 @@ from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
 
 WORST = "worst"  # the objective over every estimated spacecraft
+CONDITION = "condition"  # the objective on the range information matrix's condition number
 # A worker's truths of the spacecraft that do not change between candidates (scenario.truth.SPACECRAFT_CACHE):
 # computed once per worker, not once per candidate; bounded.
 _FLOWN: dict = {}
@@ -56,6 +60,11 @@ class Design:
     objective: str
     candidates: tuple
     condition: bool = False  # also each candidate's range_condition_number (about 0.5 s per spacecraft)
+
+    @property
+    def rank_column(self) -> str:
+        """The table column the candidates are ranked by, smallest first."""
+        return "range_condition_number" if self.objective == CONDITION else "score_m"
 
 
 def parse_periods(text: str) -> tuple[float, float, int]:
@@ -87,14 +96,15 @@ def make_design(base: dict, open_spacecraft: str, objective: str, family: str, p
     names = [sc.get("name") for sc in base.get("spacecraft", []) if isinstance(sc, dict)]
     if open_spacecraft not in names:
         raise LiaisonError(f"--open {open_spacecraft!r}: not a spacecraft of the scenario; allowed: {', '.join(names)}")
-    if objective != WORST and objective not in names:
-        raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)} or {WORST}")
+    if objective not in (WORST, CONDITION) and objective not in names:
+        raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)}, {WORST} or {CONDITION}")
     if family not in family_names():
         raise LiaisonError(f"--family {family!r}: allowed: {', '.join(family_names())}")
     if phases < 1:
         raise LiaisonError(f"--phases {phases}: allowed: 1 or more")
     low, high, count = parse_periods(periods)
-    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases), condition)
+    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases),
+                  condition or objective == CONDITION)
 
 
 def candidate_mapping(design: Design, candidate: Candidate) -> dict:
@@ -112,7 +122,7 @@ def candidate_mapping(design: Design, candidate: Candidate) -> dict:
 
 
 def _objective(design: Design, rms_by_spacecraft: dict) -> float:
-    if design.objective == WORST:
+    if design.objective in (WORST, CONDITION):  # ranked by the condition number: the worst error beside it
         return max(rms_by_spacecraft.values())
     return rms_by_spacecraft[design.objective]
 
@@ -197,10 +207,29 @@ def score_all(design: Design, jobs: int, where) -> pd.DataFrame:
     batches = ((0, tuple(range(start, min(start + chunk, n)))) for start in range(0, n, chunk))
     rows = [row for batch in map_batches(score_batch, {0: design}, batches, where, jobs, ordered=True)
             for row in batch]
-    table = pd.DataFrame(rows).sort_values(["score_m", "candidate"], na_position="last", kind="stable")
+    table = pd.DataFrame(rows)
+    if "range_condition_number" not in table:
+        table["range_condition_number"] = math.nan
+    table["pareto"] = pareto_front(table)
+    table = table.sort_values([design.rank_column, "candidate"], na_position="last", kind="stable")
     table.insert(0, "rank", np.arange(1, len(table) + 1))
-    table.loc[table.score_m.isna(), "rank"] = 0
+    table.loc[table[design.rank_column].isna() | table.score_m.isna(), "rank"] = 0
     return table.reset_index(drop=True)
+
+
+def pareto_front(table: pd.DataFrame) -> pd.Series:
+    """True for the candidates on the Pareto front of the LinCov position error (score_m) and the range condition
+    number, both minimised: no other candidate is as good in both and better in one. False where either is not
+    finite (no --condition: every row)."""
+    score, condition = table.score_m.to_numpy(float), table.range_condition_number.to_numpy(float)
+    known = np.isfinite(score) & np.isfinite(condition)
+    front = np.zeros(len(table), dtype=bool)
+    for i in np.flatnonzero(known):
+        others = known & (np.arange(len(table)) != i)
+        dominated = others & (score <= score[i]) & (condition <= condition[i]) & (
+            (score < score[i]) | (condition < condition[i]))
+        front[i] = not dominated.any()
+    return pd.Series(front, index=table.index)
 
 
 def verify(design: Design, table: pd.DataFrame, top: int, runs: int, jobs: int, where) -> pd.DataFrame:
@@ -216,7 +245,7 @@ def verify(design: Design, table: pd.DataFrame, top: int, runs: int, jobs: int, 
     for column, value in (("mc_score_m", math.nan), ("mc_runs_ok", ""), ("mc_consistent", ""),
                           ("mc_over_lincov", math.nan)):
         out[column] = value
-    for position in out.index[out.score_m.notna()][:top]:
+    for position in out.index[out["rank"] > 0][:top]:
         candidate = design.candidates[int(out.at[position, "candidate"])]
         mapping = candidate_mapping(design, candidate)
         mapping["monte_carlo"] = {**mapping.get("monte_carlo", {}), "runs": runs}
