@@ -30,6 +30,8 @@ def design(
                                    "formation, several times the LinCov score)"),
     runs: int = typer.Option(30, "--runs", min=2, help="Monte Carlo runs per verified candidate"),
     output: Path = typer.Option(None, "--output", help="result folder (default: results/<name>-design)"),
+    work: Path = typer.Option(None, "--work", help="folder of the finished candidates, so that an interrupted "
+                              "search resumes (default: the output folder's name + .work, beside it)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace an earlier design there"),
     jobs: common.JobsOption = 2,
     backend: common.BackendOption = "joblib",
@@ -62,7 +64,8 @@ def design(
                    f"{ranked_by}")
 
     def make():
-        table = verify(plan, score_all(plan, jobs, where), top, runs, jobs, where)
+        table = verify(plan, score_all(plan, jobs, where, work or out_dir.parent / f"{out_dir.name}.work"), top,
+                       runs, jobs, where)
         rho = rank_agreement(table)
         ranking = format_ranking(table, objective)
         agreement = (f"\nSpearman rank correlation, LinCov score against Monte Carlo RMS over the {top} verified: "

@@ -107,3 +107,41 @@ def test_a_candidate_keeps_what_the_spacecraft_says_besides_its_orbit():
     for text in ("8:6:3", "6:8:0", "6:6:3", "6:8"):
         with pytest.raises(LiaisonError):
             parse_periods(text)
+
+
+def test_an_interrupted_search_resumes_its_missing_candidates_and_writes_the_same_table(base, tmp_path, monkeypatch,
+                                                                                      sigint_kept):
+    """Six candidates in six batches on one core, Ctrl-C after the second: exit 130 naming the work folder; the same
+    command again scores only the four missing, and its table equals an uninterrupted search's (the stored rows read
+    back with their types); a damaged batch file is noted and scored again."""
+    from liaison_cli.campaign.studies import design
+
+    whole = _design(base, tmp_path / "whole", 1, "--verify", "0")
+    assert whole.returncode == 0, whole.stderr
+    original, scored = design.score_batch, []
+
+    def interrupted_after_two(plan, tasks):
+        if len(scored) == 2:
+            raise KeyboardInterrupt
+        scored.append(tasks)
+        return original(plan, tasks)
+
+    monkeypatch.setattr(design, "score_batch", interrupted_after_two)
+    cut = _design(base, tmp_path / "cut", 1, "--verify", "0")
+    assert cut.returncode == 130 and f"2 of 6 candidate batches saved in {tmp_path / 'cut.work'}" in cut.stderr
+    assert not (tmp_path / "cut").exists()
+    saved = sorted((tmp_path / "cut.work").glob("design-*.json"))
+    assert len(saved) == 2
+    saved[0].write_text("{not json")  # damaged: scored again, with a note
+
+    def counted(plan, tasks):
+        scored.append(tasks)
+        return original(plan, tasks)
+
+    scored.clear()
+    monkeypatch.setattr(design, "score_batch", counted)
+    again = _design(base, tmp_path / "cut", 1, "--verify", "0")
+    assert again.returncode == 0, again.stderr
+    assert len(scored) == 5 and "damaged; its candidates are scored again" in again.stderr
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "cut" / "candidates.parquet"),
+                                  pd.read_parquet(tmp_path / "whole" / "candidates.parquet"))

@@ -23,7 +23,9 @@ them says whether the covariance analysis ranked them as the filter does.
 
 import copy
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -198,16 +200,24 @@ def score_batch(design: Design, tasks) -> list[dict]:
     return [score_candidate(design, design.candidates[i]) for i in tasks]
 
 
-def score_all(design: Design, jobs: int, where) -> pd.DataFrame:
-    """Every candidate's row, through the one fan-out, ranked (best first; unscored last)."""
+def score_all(design: Design, jobs: int, where, work=None) -> pd.DataFrame:
+    """Every candidate's row, through the one fan-out, ranked (best first; unscored last). With a `work` folder,
+    each finished batch of candidates is kept there (DesignStore) and a rerun of the same design scores only the
+    batches that are not: an interrupted search resumes, and Ctrl-C ends it with one line saying what is saved."""
     from liaison_cli.campaign.engine.backends import map_batches
 
     n = len(design.candidates)
     chunk = max(1, min(8, n // (4 * max(jobs, 1))))
-    batches = ((0, tuple(range(start, min(start + chunk, n)))) for start in range(0, n, chunk))
-    rows = [row for batch in map_batches(score_batch, {0: design}, batches, where, jobs, ordered=True)
-            for row in batch]
-    table = pd.DataFrame(rows)
+    batches = [tuple(range(start, min(start + chunk, n))) for start in range(0, n, chunk)]
+    store = DesignStore(work, design, chunk)
+    finished = {b: rows for b in range(len(batches)) if (rows := store.read(b)) is not None}
+    pending = [b for b in range(len(batches)) if b not in finished]
+    with store.saving_on_interrupt(len(batches), finished):
+        for b, rows in zip(pending, map_batches(score_batch, {0: design}, ((0, batches[b]) for b in pending), where,
+                                                jobs, ordered=True)):
+            store.write(b, rows)
+            finished[b] = rows
+    table = pd.DataFrame([row for b in range(len(batches)) for row in finished[b]])
     if "range_condition_number" not in table:
         table["range_condition_number"] = math.nan
     table["pareto"] = pareto_front(table)
@@ -215,6 +225,78 @@ def score_all(design: Design, jobs: int, where) -> pd.DataFrame:
     table.insert(0, "rank", np.arange(1, len(table) + 1))
     table.loc[table[design.rank_column].isna() | table.score_m.isna(), "rank"] = 0
     return table.reset_index(drop=True)
+
+
+class DesignStore:
+    """A design's finished batches of candidates in a work folder (None: nothing kept), one JSON file each,
+    `design-<key>-b<batch>.json`, written atomically. The key is a digest of everything a row depends on: the base
+    scenario, the open spacecraft, the objective, the condition flag, the candidates and their batching, liaison's
+    version and the code of every package that makes the numbers (study_cells.PACKAGE_CODE) and of this module;
+    so a changed design or code never reuses a stale row. A damaged file is noted and computed again."""
+
+    def __init__(self, folder, design: Design, chunk: int):
+        import hashlib
+        import json
+
+        from liaison_cli import __version__, core_source_hash
+        from liaison_cli.campaign.studies.study_cells import PACKAGE_CODE, source_digest
+
+        self.folder = None if folder is None else Path(folder)
+        self.computed = self.reused = 0
+        if self.folder is None:
+            return
+        inputs = {"base": design.base, "open": design.open_spacecraft, "objective": design.objective,
+                  "condition": design.condition, "chunk": chunk, "version": __version__,
+                  "candidates": [[c.index, c.family, c.period_days, c.phase] for c in design.candidates],
+                  "core": core_source_hash(PACKAGE_CODE), "code": source_digest(__file__)}
+        self.key = hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+    def _path(self, batch: int) -> Path:
+        return self.folder / f"design-{self.key}-b{batch}.json"
+
+    def read(self, batch: int):
+        """The batch's stored rows, or None (not stored, or damaged: then said in one note)."""
+        import json
+        import logging
+
+        if self.folder is None or not self._path(batch).is_file():
+            return None
+        try:
+            rows = json.loads(self._path(batch).read_text())
+            assert isinstance(rows, list) and all(isinstance(row, dict) for row in rows)
+        except (OSError, ValueError, AssertionError):
+            logging.getLogger("liaison").warning(f"{self._path(batch)}: damaged; its candidates are scored again")
+            return None
+        self.reused += 1
+        return rows
+
+    def write(self, batch: int, rows: list) -> None:
+        import json
+
+        from liaison_cli.storage import write_text_atomic
+
+        self.computed += 1
+        if self.folder is not None:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            write_text_atomic(json.dumps(rows, default=float) + "\n", self._path(batch))
+
+    @contextmanager
+    def saving_on_interrupt(self, total: int, finished: dict):
+        """Ctrl-C in the block (or numba's error made of it) ends the search in one line: how many of the `total`
+        batches are saved, and how to resume."""
+        from liaison_cli import interrupts
+        from liaison_cli.campaign.studies.study_cells import StudyInterrupted
+
+        try:
+            yield
+        except (KeyboardInterrupt, Exception) as exc:
+            if not interrupts.caused_by_interrupt(exc):
+                raise
+            if self.folder is None:
+                raise StudyInterrupted(f"interrupted after {len(finished)} of {total} candidate batches; nothing "
+                                       "was written") from None
+            raise StudyInterrupted(f"interrupted: {len(finished)} of {total} candidate batches saved in "
+                                   f"{self.folder}; rerun the same command to resume") from None
 
 
 def pareto_front(table: pd.DataFrame) -> pd.Series:
