@@ -79,11 +79,58 @@ def throughput(count: int, jobs: int = 2) -> str:
             f"{len(table) / seconds:.2f} candidates / s, {int(np.sum(table.error != ''))} not scored")
 
 
+THROUGHPUT = REPO / "results" / "reference" / "design_throughput.md"
+
+
+def throughput_table(count: int, jobs: int = 2) -> list[str]:
+    """The N-candidate search of formation A, same session: local processes with every truth flown
+    (LIAISON_TRUTH_CACHE=off), once more with the disk truth cache filling, then warm (every truth read back),
+    then on a dask LocalCluster of `jobs` separate worker processes (warm), and whether its table equals the
+    local one. The compiled code is cached throughout (compile once first)."""
+    import os
+
+    import pandas as pd
+
+    from liaison_cli.campaign.engine.backends import Backend
+
+    spacecraft, open_name, family, _, objective = FORMATIONS["A: lunar user, relay on a DRO"]
+    design = make_design(base_mapping(spacecraft, 2), open_name, objective, family, f"4:20:{max(1, count // 4)}", 4)
+    score_all(make_design(base_mapping(spacecraft, 2), open_name, objective, family, "10:10:1", 1), 1, LOCAL)
+    rows, tables = [], {}
+    for label, truths, where in (("local, every truth flown", "off", LOCAL), ("local, truth cache filling", "on", LOCAL),
+                                 ("local, truths from the cache", "on", LOCAL),
+                                 ("dask LocalCluster, truths from the cache", "on", Backend("dask"))):
+        os.environ["LIAISON_TRUTH_CACHE"] = truths
+        start = time.perf_counter()
+        tables[label] = score_all(design, jobs, where)
+        seconds = time.perf_counter() - start
+        rows.append(f"| {label} | {len(tables[label])} | {seconds:.1f} | {len(tables[label]) / seconds:.2f} |")
+        print(rows[-1], flush=True)
+    local, dask = tables["local, truths from the cache"], tables["dask LocalCluster, truths from the cache"]
+    same = local.drop(columns=["error"]).equals(dask.drop(columns=["error"])) and list(local.error) == list(dask.error)
+    first = tables["local, every truth flown"]
+    flown_same = first.score_m.equals(local.score_m)
+    return [f"Written by `python -m benchmarks.design_search --throughput {count}`; do not edit by hand. Formation A "
+            f"(lunar user, relay on a DRO; 10 d of range every 187.5 s), {len(design.candidates)} candidates "
+            f"({max(1, count // 4)} periods x 4 phases) on {jobs} cores, LinCov scores only; {os.cpu_count()} cores "
+            "on this machine.", "",
+            "| run | candidates | wall s | candidates / s |", "|---|---|---|---|", *rows, "",
+            f"The dask table equals the local one, every column: **{'yes' if same else 'no'}**. Scores with every "
+            f"truth flown equal those from the truth cache: **{'yes' if flown_same else 'no'}**."]
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=30)
     parser.add_argument("--candidates", type=int, default=0)
+    parser.add_argument("--throughput", type=int, default=0, metavar="N",
+                        help="the N-candidate search cold, warm and on dask, into results/reference/design_throughput.md")
     args = parser.parse_args(argv)
+    if args.throughput:
+        text = "\n".join(throughput_table(args.throughput))
+        THROUGHPUT.write_text(text + "\n")
+        print(text)
+        return
     if args.candidates:
         print(throughput(args.candidates))
         return
