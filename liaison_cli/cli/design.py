@@ -14,11 +14,14 @@ from liaison_cli.cli.root import app
 @user_errors
 def design(
     scenario_path: Path = typer.Argument(..., metavar="SCENARIO", help="the base scenario YAML (estimator: ekf)"),
-    open_spacecraft: str = typer.Option(..., "--open", metavar="NAME", help="the spacecraft whose orbit is open"),
-    family: str = typer.Option(..., "--family", metavar="FAMILY", help="its candidates' orbit family "
+    open_spacecraft: str = typer.Option(None, "--open", metavar="NAME", help="the spacecraft whose orbit is open"),
+    family: str = typer.Option(None, "--family", metavar="FAMILY", help="its candidates' orbit family "
                                "(`liaison orbits list`)"),
-    periods: str = typer.Option(..., "--periods", metavar="LOW:HIGH:COUNT", help="COUNT periods evenly spaced "
+    periods: str = typer.Option(None, "--periods", metavar="LOW:HIGH:COUNT", help="COUNT periods evenly spaced "
                                 "from LOW to HIGH days"),
+    vary: list[str] = typer.Option(None, "--vary", metavar="KEY=V1,V2,...", help="another factor of the "
+                                   "candidates: any scenario value by dotted path (may repeat; full factorial with "
+                                   "the family's members), e.g. spacecraft.1.elements.altitude_km=50,100,200"),
     phases: int = typer.Option(1, "--phases", min=1, help="phases along each orbit: 0, 1/N, ..."),
     objective: str = typer.Option("worst", "--objective", metavar="NAME", help="the spacecraft whose position "
                                   "error RMS after the settle time is minimised, worst (the largest of them), or "
@@ -41,8 +44,9 @@ def design(
 ):
     """Which orbit should a spacecraft fly? Score every candidate by LinCov, rank, verify the best by Monte Carlo.
 
-    Example: liaison design eml2_lunar --open EML2 --family l2_halo_south --periods 9:14:6 --phases 4
-    --objective Lunar --verify 3 --runs 30"""
+    Examples: liaison design eml2_lunar --open EML2 --family l2_halo_south --periods 9:14:6 --phases 4
+    --objective Lunar --verify 3 --runs 30; liaison design eml2_lunar --vary spacecraft.1.elements.a_km=6000,9000,12000
+    --vary spacecraft.1.elements.i_deg=30,60,90 --objective Lunar"""
     from liaison_cli.campaign.studies.budget_tables import provenance
     from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
                                                      verify)
@@ -54,27 +58,30 @@ def design(
     scenario_path = scenario_file(scenario_path)
     data, text = read_scenario_text(scenario_path)
     base = validate_scenario(data, str(scenario_path))  # the base itself must be a valid scenario
-    plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition)
+    from liaison_cli.campaign.sweep.grid import parse_grid
+
+    factors = [parse_grid(text) for text in vary or []]
+    plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition, factors)
     out_dir = output or Path("results") / f"{base.name}-design"
+    varied = ", ".join([f"{open_spacecraft} on {family}"] * bool(family) + [key for key, _ in factors])
     if not as_json:
         ranked_by = ("the range information condition number (LinCov's worst position error RMS beside it)"
                      if objective == "condition" else
                      f"LinCov on {objective}'s position error RMS after {base.settle_days():g} d")
-        typer.echo(f"{base.name}: {len(plan.candidates)} candidates for {open_spacecraft} ({family}), ranked by "
-                   f"{ranked_by}")
+        typer.echo(f"{base.name}: {len(plan.candidates)} candidates ({varied}), ranked by {ranked_by}")
 
     def make():
         table = verify(plan, score_all(plan, jobs, where, work or out_dir.parent / f"{out_dir.name}.work"), top,
                        runs, jobs, where)
         rho = rank_agreement(table)
-        ranking = format_ranking(table, objective)
+        ranking = format_ranking(table, objective, factors=[key for key, _ in factors])
         agreement = (f"\nSpearman rank correlation, LinCov score against Monte Carlo RMS over the {top} verified: "
                      f"{rho:.2f}\n" if rho == rho else "")
         by_condition = condition_agreement(table)
         if by_condition == by_condition:
             agreement += (f"Spearman rank correlation, range condition number against LinCov score over every scored "
                           f"candidate: {by_condition:.2f}\n")
-        title = f"{base.name}: {open_spacecraft} on {family}, objective {objective}"
+        title = f"{base.name}: {varied}, objective {objective}"
         return StudyOutput({"candidates": table}, {**provenance(base.name, text), "method": (
             "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo")},
             {"ranking.md": ranking + agreement},

@@ -8,19 +8,23 @@ from pathlib import Path
 import numpy as np
 
 
-def format_ranking(table, objective: str, shown: int = 10) -> str:
+def format_ranking(table, objective: str, shown: int = 10, factors=()) -> str:
     """Markdown: the best `shown` candidates in rank order (by the LinCov score, or by the range condition number
     with objective `condition`: then the score is the worst spacecraft's), with their Monte Carlo check where it
     was run, `pareto` marking the Pareto front of score and condition number; then that front in full, and the
     candidates that could not be scored, with their reason."""
     position = "worst" if objective == "condition" else objective
-    lines = [f"| rank | family | period d | phase | LinCov {position} RMS m | range condition number | Pareto | "
-             "Monte Carlo RMS m | MC / LinCov | runs ok | consistent |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    extra = "".join(f" {key} |" for key in factors)  # the --vary factors' values, a column each
+    lines = [f"| rank | family | period d | phase |{extra} LinCov {position} RMS m | range condition number | Pareto | "
+             "Monte Carlo RMS m | MC / LinCov | runs ok | consistent |",
+             "|---|---|---|---|" + "---|" * len(factors) + "---|---|---|---|---|---|---|"]
     scored = table[table["rank"] > 0]
     for row in scored.head(shown).to_dict("records"):
         checked = "mc_score_m" in row and isinstance(row["mc_score_m"], float) and math.isfinite(row["mc_score_m"])
         condition = row.get("range_condition_number", math.nan)
-        head = (f"| {row['rank']} | {row['family']} | {row['period_days']:g} | {row['phase']:g} | "
+        values = "".join(f" {row[key]} |" for key in factors)
+        orbit = (f"{row['family']} | {row['period_days']:g} | {row['phase']:g}" if row["family"] else "– | – | –")
+        head = (f"| {row['rank']} | {orbit} |{values} "
                 f"{row['score_m']:.4g} | {f'{condition:.3g}' if condition == condition else '–'} | "
                 f"{'yes' if row.get('pareto') else ''} |")
         lines.append(f"{head} {row['mc_score_m']:.4g} | {row['mc_over_lincov']:.2f} | {row['mc_runs_ok']} | "
@@ -29,20 +33,29 @@ def format_ranking(table, objective: str, shown: int = 10) -> str:
     if len(front):
         lines.append(f"\nPareto front of the LinCov {position} RMS and the range condition number ({len(front)} of "
                      f"{int(table.score_m.notna().sum())} scored; by error):")
-        lines += [f"- {row['family']} {row['period_days']:g} d, phase {row['phase']:g}: {row['score_m']:.4g} m, "
+        lines += [f"- candidate {row['candidate']} ({_described(row, factors)}): {row['score_m']:.4g} m, "
                   f"condition {row['range_condition_number']:.3g}"
                   for row in front.sort_values("score_m").to_dict("records")]
     failed = table[table["rank"] == 0]
     if len(failed):
         lines.append(f"\nNot scored ({len(failed)} of {len(table)}):")
-        lines += [f"- period {row['period_days']:g} d, phase {row['phase']:g}: "
+        lines += [f"- candidate {row['candidate']} ({_described(row, factors)}): "
                   f"{row['error'] or 'no range condition number (liaison observability refuses this scenario)'}"
                   for row in failed.to_dict("records")]
     return "\n".join(lines) + "\n"
 
 
+def _described(row, factors) -> str:
+    """A candidate in words: its family member and phase, and its factors' values."""
+    parts = [f"{row['family']} {row['period_days']:g} d, phase {row['phase']:g}"] if row["family"] else []
+    return ", ".join(parts + [f"{key} = {row[key]}" for key in factors])
+
+
 def draw_score_plane(table, path: Path, title: str) -> Path | None:
-    """The LinCov score (log colour) over period x phase; None with a single period and phase."""
+    """The LinCov score (log colour) over period x phase (the best over any other factors); None with a single
+    period and phase, or no orbit family."""
+    if not table.family.astype(bool).any():
+        return None
     periods, phases = np.unique(table.period_days), np.unique(table.phase)
     if len(periods) * len(phases) < 2:
         return None
@@ -53,8 +66,9 @@ def draw_score_plane(table, path: Path, title: str) -> Path | None:
     from matplotlib.colors import LogNorm
 
     grid = np.full((len(phases), len(periods)), np.nan)
-    for row in table.to_dict("records"):
-        grid[np.searchsorted(phases, row["phase"]), np.searchsorted(periods, row["period_days"])] = row["score_m"]
+    for row in table.to_dict("records"):  # with other factors (--vary): the best over them in each cell
+        cell = np.searchsorted(phases, row["phase"]), np.searchsorted(periods, row["period_days"])
+        grid[cell] = np.fmin(grid[cell], row["score_m"])
     fig, ax = plt.subplots(figsize=(7, 4.5))
     finite = grid[np.isfinite(grid) & (grid > 0)]
     norm = LogNorm(vmin=finite.min(), vmax=finite.max()) if finite.size and finite.max() > finite.min() else None

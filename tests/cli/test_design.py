@@ -145,3 +145,33 @@ def test_an_interrupted_search_resumes_its_missing_candidates_and_writes_the_sam
     assert len(scored) == 5 and "damaged; its candidates are scored again" in again.stderr
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "cut" / "candidates.parquet"),
                                   pd.read_parquet(tmp_path / "whole" / "candidates.parquet"))
+
+
+def test_other_factors_vary_alone_or_with_the_family(base, tmp_path):
+    """--vary: any scenario value by dotted path is a factor of the candidates (a lunar orbit's altitude and
+    inclination, a link's noise), full factorial, alone or times the family's members; each candidate's values are
+    columns and the scenario it scores has them (its LinCov error moves with them); a key the scenario lacks, or no
+    factor at all, is one line."""
+    lunar = ("--vary", "spacecraft.1.elements.a_km=2500,4000", "--vary", "spacecraft.1.elements.i_deg=30,90")
+    alone = run_cli_in_process("design", base, *lunar, "--objective", "User", "--verify", "0", "--jobs", "1",
+                               "--output", tmp_path / "alone")
+    assert alone.returncode == 0, alone.stderr
+    table = pd.read_parquet(tmp_path / "alone" / "candidates.parquet")
+    assert len(table) == 4 and (table.error == "").all() and (table.family == "").all()
+    assert sorted(zip(table["spacecraft.1.elements.a_km"], table["spacecraft.1.elements.i_deg"])) == [
+        (2500, 30), (2500, 90), (4000, 30), (4000, 90)]
+    assert table.score_m.nunique() == 4  # every candidate scored its own orbit
+    assert "spacecraft.1.elements.a_km | spacecraft.1.elements.i_deg |" in alone.stdout
+    both = _design(base, tmp_path / "both", 1, "--verify", "0", "--vary", "noise.sigma_m=5,20")
+    assert both.returncode == 0, both.stderr
+    grid = pd.read_parquet(tmp_path / "both" / "candidates.parquet")
+    assert len(grid) == 12 and set(grid["noise.sigma_m"]) == {5, 20}
+    for _, pair in grid.groupby(["period_days", "phase"]):  # more noise, more error, member by member
+        noisy = pair.set_index("noise.sigma_m").score_m
+        assert noisy[20] > noisy[5]
+    for args, fragment in ((["--vary", "noise.nothing.here=1,2"], "--vary noise.nothing.here: the scenario has no "
+                                                                  "'noise.nothing'"),
+                           ([], "design: nothing varies")):
+        refused = run_cli_in_process("design", base, *args, "--output", tmp_path / "refused")
+        assert refused.returncode == 2 and fragment in refused.stderr, refused.stderr
+        assert len([line for line in refused.stderr.splitlines() if line.strip()]) == 1

@@ -3,7 +3,9 @@
 A design is a base scenario with one spacecraft left open, its candidates and an objective:
 - candidates: members of an orbit family at `count` evenly spaced periods in [low, high] days, each at `phases`
   evenly spaced phases along its orbit (0, 1/phases, ...); everything else the spacecraft says (its name, process
-  noise, a priori, clock) is kept;
+  noise, a priori, clock) is kept; times every combination of the values of other factors, any scenario values
+  by dotted path (`--vary`: a lunar orbit's altitude or inclination, a link's noise, the measurement interval),
+  or those factors alone;
 - objective: one spacecraft's position error RMS after the settle time, the statistic a Monte Carlo run reports
   as rms_position_settled_m, or the worst over every estimated spacecraft; or `condition`, the condition number
   of the formation's range information matrix (liaison observability's), smallest first, with the worst position
@@ -46,10 +48,14 @@ ORBIT_KEYS = ("orbit", "elements", "period_days", "amplitude_km", "phase", "stat
 
 @dataclass(frozen=True)
 class Candidate:
+    """One candidate: the open spacecraft's family member and phase (family "" when the design varies no orbit
+    family) and the values of the design's other factors, ((dotted scenario key, value), ...) (`--vary`)."""
+
     index: int
     family: str
     period_days: float
     phase: float
+    settings: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -83,19 +89,44 @@ def parse_periods(text: str) -> tuple[float, float, int]:
     return low, high, count
 
 
-def candidate_grid(family: str, low: float, high: float, count: int, phases: int) -> tuple:
-    """Every (period, phase) pair, periods evenly spaced in [low, high] and rounded to 1e-6 d."""
-    periods = np.linspace(low, high, count) if count > 1 else np.array([low])
-    pairs = [(round(float(p), 6), k / phases) for p in periods for k in range(phases)]
-    return tuple(Candidate(i, family, p, phase) for i, (p, phase) in enumerate(pairs))
+def candidate_grid(family: str, low: float, high: float, count: int, phases: int, factors=()) -> tuple:
+    """Every (period, phase) pair, periods evenly spaced in [low, high] and rounded to 1e-6 d (family "": one
+    pair, no orbit varied), times every combination of the factors' values ([(dotted key, values)], full
+    factorial, the last key varying fastest)."""
+    import itertools
+
+    if family:
+        periods = np.linspace(low, high, count) if count > 1 else np.array([low])
+        pairs = [(round(float(p), 6), k / phases) for p in periods for k in range(phases)]
+    else:
+        pairs = [(math.nan, 0.0)]
+    keys = [key for key, _ in factors]
+    combinations = [tuple(zip(keys, values)) for values in itertools.product(*[values for _, values in factors])]
+    return tuple(Candidate(i, family, p, phase, settings) for i, ((p, phase), settings)
+                 in enumerate(itertools.product(pairs, combinations)))
 
 
-def make_design(base: dict, open_spacecraft: str, objective: str, family: str, periods: str, phases: int,
-                condition: bool = False) -> Design:
-    """The design, checked: the open spacecraft and the objective are the base's, the family is known."""
+MAX_CANDIDATES = 100_000  # a design's grid is bounded before anything is built
+
+
+def make_design(base: dict, open_spacecraft: str | None, objective: str, family: str | None, periods: str | None,
+                phases: int, condition: bool = False, factors=()) -> Design:
+    """The design, checked: the open spacecraft and the objective are the base's, the family is known; a family
+    needs an open spacecraft and periods, and a design varies a family, factors ([(dotted key, values)]), or both."""
     from liaison_cli.orbits.families import family_names
 
     names = [sc.get("name") for sc in base.get("spacecraft", []) if isinstance(sc, dict)]
+    if family is None and periods is None and open_spacecraft is None:
+        if not factors:
+            raise LiaisonError("design: nothing varies; give --family with --open and --periods, and/or --vary "
+                               "KEY=V1,V2")
+        if objective not in (WORST, CONDITION) and objective not in names:
+            raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)}, {WORST} or {CONDITION}")
+        _check_factors(base, factors)
+        return Design(base, "", objective, candidate_grid("", 0.0, 0.0, 1, 1, factors), objective == CONDITION)
+    if family is None or periods is None or open_spacecraft is None:
+        raise LiaisonError("design: --family, --open and --periods go together (the open spacecraft's orbit family "
+                           "and its periods); without them, --vary alone")
     if open_spacecraft not in names:
         raise LiaisonError(f"--open {open_spacecraft!r}: not a spacecraft of the scenario; allowed: {', '.join(names)}")
     if objective not in (WORST, CONDITION) and objective not in names:
@@ -105,8 +136,35 @@ def make_design(base: dict, open_spacecraft: str, objective: str, family: str, p
     if phases < 1:
         raise LiaisonError(f"--phases {phases}: allowed: 1 or more")
     low, high, count = parse_periods(periods)
-    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases),
+    _check_factors(base, factors, count * phases)
+    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases, factors),
                   condition or objective == CONDITION)
+
+
+def _check_factors(base: dict, factors, orbit_candidates: int = 1) -> None:
+    """Each factor's key names a value of the base scenario (it replaces it); the grid is bounded."""
+    size = orbit_candidates * math.prod(len(values) for _, values in factors)
+    if size > MAX_CANDIDATES:
+        raise LiaisonError(f"design: {size:,} candidates; allowed: at most {MAX_CANDIDATES:,}")
+    for key, values in factors:
+        _set_dotted(copy.deepcopy(base), key, values[0], f"--vary {key}")
+
+
+def _set_dotted(mapping: dict, key: str, value, source: str) -> None:
+    """mapping[a][b]... = value for key 'a.b...' (list items by index); the parent must exist, the last part may
+    be new (an optional key the base leaves out)."""
+    node = mapping
+    parts = [int(p) if p.isdigit() else p for p in key.split(".")]
+    for part in parts[:-1]:
+        try:
+            node = node[part]
+        except (KeyError, IndexError, TypeError):
+            raise LiaisonError(f"{source}: the scenario has no '{key.rsplit('.', 1)[0]}'; allowed: a dotted path to "
+                               "one of its values (e.g. noise.sigma_m, spacecraft.1.elements.altitude_km)") from None
+    if isinstance(node, list) and not (isinstance(parts[-1], int) and parts[-1] < len(node)) or not isinstance(
+            node, (dict, list)):
+        raise LiaisonError(f"{source}: '{key}' is not a value of the scenario")
+    node[parts[-1]] = value
 
 
 def candidate_mapping(design: Design, candidate: Candidate) -> dict:
@@ -114,12 +172,14 @@ def candidate_mapping(design: Design, candidate: Candidate) -> dict:
     mapping = copy.deepcopy(design.base)
     mapping["name"] = f"{design.base.get('name', 'design')}-c{candidate.index}"
     for spacecraft in mapping["spacecraft"]:
-        if spacecraft.get("name") == design.open_spacecraft:
+        if candidate.family and spacecraft.get("name") == design.open_spacecraft:
             for key in ORBIT_KEYS:
                 spacecraft.pop(key, None)
             spacecraft.update(orbit=candidate.family, period_days=candidate.period_days)
             if candidate.phase:
                 spacecraft["phase"] = candidate.phase
+    for key, value in candidate.settings:
+        _set_dotted(mapping, key, value, f"--vary {key}")
     return mapping
 
 
@@ -138,7 +198,7 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
     from liaison_cli.scenario.truth import SPACECRAFT_CACHE
 
     row = {"candidate": candidate.index, "family": candidate.family, "period_days": candidate.period_days,
-           "phase": candidate.phase, "score_m": math.nan, "error": ""}
+           "phase": candidate.phase, **dict(candidate.settings), "score_m": math.nan, "error": ""}
     try:
         scenario = validate_scenario(candidate_mapping(design, candidate), "design candidate")
         if len(_FLOWN) > FLOWN_MAX_ENTRIES:
