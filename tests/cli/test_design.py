@@ -154,13 +154,14 @@ def test_other_factors_vary_alone_or_with_the_family(base, tmp_path):
     factor at all, is one line."""
     lunar = ("--vary", "spacecraft.1.elements.a_km=2500,4000", "--vary", "spacecraft.1.elements.i_deg=30,90")
     alone = run_cli_in_process("design", base, *lunar, "--objective", "User", "--verify", "0", "--jobs", "1",
-                               "--output", tmp_path / "alone")
+                               "--condition", "--output", tmp_path / "alone")
     assert alone.returncode == 0, alone.stderr
     table = pd.read_parquet(tmp_path / "alone" / "candidates.parquet")
     assert len(table) == 4 and (table.error == "").all() and (table.family == "").all()
     assert sorted(zip(table["spacecraft.1.elements.a_km"], table["spacecraft.1.elements.i_deg"])) == [
         (2500, 30), (2500, 90), (4000, 30), (4000, 90)]
     assert table.score_m.nunique() == 4  # every candidate scored its own orbit
+    assert table.range_condition_number.notna().all()  # --condition holds without a family too
     assert "spacecraft.1.elements.a_km | spacecraft.1.elements.i_deg |" in alone.stdout
     both = _design(base, tmp_path / "both", 1, "--verify", "0", "--vary", "noise.sigma_m=5,20")
     assert both.returncode == 0, both.stderr

@@ -123,7 +123,8 @@ def make_design(base: dict, open_spacecraft: str | None, objective: str, family:
         if objective not in (WORST, CONDITION) and objective not in names:
             raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)}, {WORST} or {CONDITION}")
         _check_factors(base, factors)
-        return Design(base, "", objective, candidate_grid("", 0.0, 0.0, 1, 1, factors), objective == CONDITION)
+        return Design(base, "", objective, candidate_grid("", 0.0, 0.0, 1, 1, factors),
+                      condition or objective == CONDITION)
     if family is None or periods is None or open_spacecraft is None:
         raise LiaisonError("design: --family, --open and --periods go together (the open spacecraft's orbit family "
                            "and its periods); without them, --vary alone")
