@@ -220,8 +220,11 @@ def sweep(scenarios, grid: Mapping, output, runs: int = 10, jobs: int = 2, name:
         config = _scenario(given)
         source = str(given) if isinstance(given, (str, os.PathLike)) else f"<{config.name}>"
         bases.append((config, _scenario_text(given, config, yaml), source))
-    if name is not None and not isinstance(name, str):
-        raise ArgumentError(f"name: {_shown(name)}; allowed: a plain name (str) or None")
+    from liaison_cli.cli.common import plain_name
+
+    if name is not None and not (isinstance(name, str) and plain_name(name)):
+        raise ArgumentError(f"name: {_shown(name)}; allowed: a plain name (letters, digits, '_', '-', '+', '.'; no path "
+                            "separators, no '..') or None")
     plan = plan_sweep(bases, axes, runs, name or "+".join(base[0].name for base in bases))
     with sweep_lock(folder), resumable_output(folder, overwrite, plan.key()) as work_dir:
         result = run_sweep(plan, work_dir, jobs=jobs, progress=progress)
@@ -233,27 +236,27 @@ def export(result_folder, run: int = 0, output=None, formats: Sequence[str] = ("
     """`liaison export`: run `run` of a `liaison run` result folder as CCSDS OEMs (truth; estimate with covariance)
     and a TDM, into output (default RESULT_FOLDER/ccsds-run<run>); frame "icrf" with epoch (a TDB date) carries a
     CRTBP run into ICRF about the Earth or the Moon (docs/exchange.md). Returns the files written."""
-    from liaison_cli.campaign.exchange.export import FrameRequest, export_run
+    from liaison_cli.campaign.exchange.export import FrameRequest, check_export_request, export_run, parse_epoch
     from liaison_cli.campaign.studies.output import fill_folder
-    from liaison_cli.exchange.timetags import tags_to_seconds
+    from liaison_cli.errors import ExchangeFileError
 
     folder = _path_like("result_folder", result_folder)
     if isinstance(run, bool) or not isinstance(run, numbers.Integral) or run < 0:
         raise ArgumentError(f"run: {_shown(run)}; allowed: a whole number, 0 or more")
-    formats = (formats,) if isinstance(formats, str) else tuple(formats)
-    if not formats or any(f not in EXPORT_FORMATS for f in formats):
-        raise ArgumentError(f"formats: {_shown(formats)}; allowed: some of {', '.join(EXPORT_FORMATS)}")
+    if isinstance(formats, str) or not isinstance(formats, Sequence) or not formats or any(
+            f not in EXPORT_FORMATS for f in formats):
+        raise ArgumentError(f"formats: {_shown(formats)}; allowed: a list of some of {', '.join(EXPORT_FORMATS)}")
+    formats = tuple(formats)
     if frame not in (None, "rotating", "icrf") or centre not in ("earth", "moon"):
         raise ArgumentError(f"frame, centre: {frame!r}, {centre!r}; allowed: frame None, 'rotating' or 'icrf'; "
                             "centre 'earth' or 'moon'")
-    seconds = None
-    if epoch is not None:
-        try:
-            seconds = float(tags_to_seconds([epoch], "TDB")[0])
-        except (ValueError, TypeError, AttributeError):
-            raise ArgumentError(f"epoch: {_shown(epoch)}; allowed: a TDB date 'YYYY-MM-DDThh:mm:ss[.d]' or None") from None
+    try:
+        seconds, text = parse_epoch(epoch) if epoch is not None else (None, None)
+    except ExchangeFileError:
+        raise ArgumentError(f"epoch: {_shown(epoch)}; allowed: a TDB date 'YYYY-MM-DDThh:mm:ss[.d]' or None") from None
     out = folder / f"ccsds-run{run}" if output is None else _path_like("output", output)
-    request = FrameRequest(frame, seconds, None if epoch is None else epoch.strip(), centre.upper())
+    check_export_request(folder, out)  # a result folder, and not the export's own target: before anything is made
+    request = FrameRequest(frame, seconds, text, centre.upper())
     done = fill_folder(out, _flag("overwrite", overwrite),
                        lambda stage: export_run(folder, int(run), formats, stage, request))
     return [out / name for name in done["files"]]

@@ -140,9 +140,12 @@ def test_the_api_keeps_its_names_and_signatures_and_the_page_lists_them():
     (lambda api, s: api.sweep(s, {"noise.sigma_m": [1]}, output="x"), "scenarios: Scenario(name='smoke'"),
     (lambda api, s: api.sweep([s], {"noise.sigma_m": 100}, output="x"), "grid: {'noise.sigma_m': 100} (dict)"),
     (lambda api, s: api.export("x", run=True), "run: True (bool); allowed: a whole number, 0 or more"),
-    (lambda api, s: api.export("x", formats=("pdf",)), "formats: ('pdf',) (tuple); allowed: some of kvn, xml"),
+    (lambda api, s: api.export("x", formats=("pdf",)), "formats: ('pdf',) (tuple); allowed: a list of some of kvn, xml"),
     (lambda api, s: api.export("x", epoch="tomorrow", frame="icrf"), "epoch: 'tomorrow' (str); allowed: a TDB date"),
     (lambda api, s: api.summary([]), "result: list given; allowed: what api.run returns"),
+    (lambda api, s: api.export("x", formats=5), "formats: 5 (int); allowed: a list of some of kvn, xml"),
+    (lambda api, s: api.export("x", epoch="2030-01-01T25:00:00", frame="icrf"), "epoch: '2030-01-01T25:00:00'"),
+    (lambda api, s: api.sweep([s], {"noise.sigma_m": [1]}, output="x", name="../up"), "name: '../up' (str)"),
     (lambda api, s: api.read_table(".", "../x"), "table: '../x' (str); allowed: the stem of a Parquet file"),
 ])
 def test_a_wrong_argument_is_one_typed_line_before_any_work(call, fragment, tmp_path, monkeypatch):

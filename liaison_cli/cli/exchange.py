@@ -25,9 +25,9 @@ def export(
 ):
     """One run as CCSDS files: truth and estimate OEM (with covariance) per spacecraft, TDM of its measurements.
 
-    Examples: liaison export results/eml2_lunar --run 3 --format both;
+    Examples: liaison run eml2_lunar --runs 4; liaison export results/eml2_lunar --run 3 --format both;
     liaison export results/eml2_lunar --frame icrf --epoch 2030-01-01T00:00:00 --centre moon"""
-    from liaison_cli.campaign.exchange.export import export_run
+    from liaison_cli.campaign.exchange.export import check_export_request, export_run
     from liaison_cli.campaign.studies.output import fill_folder
 
     request = _frame_request(frame, epoch, centre)
@@ -36,9 +36,7 @@ def export(
     if formats is None:
         fail(f"--format {data_format!r}: allowed kvn, xml, both", 2)
     out_dir = output or result / f"ccsds-run{run_index}"
-    if Path(out_dir).resolve() in (Path(result).resolve(), *Path(result).resolve().parents):
-        fail(f"--output {out_dir}: the result folder being exported, or a folder holding it; allowed: a folder "
-             f"beside or inside it (default: {result / f'ccsds-run{run_index}'})", 2)
+    check_export_request(result, out_dir)  # before any folder is made or any run redone
     done = fill_folder(out_dir, overwrite, lambda stage: export_run(result, run_index, formats, stage, request))
     if as_json:
         from liaison_cli.report.json_summary import export_document
@@ -55,17 +53,11 @@ def export(
 
 def _frame_request(frame: str | None, epoch: str | None, centre: str):
     """The FrameRequest of --frame, --epoch and --centre (checked against the run by export_frame)."""
-    from liaison_cli.campaign.exchange.export import FrameRequest
-    from liaison_cli.exchange.timetags import tags_to_seconds
+    from liaison_cli.campaign.exchange.export import FrameRequest, parse_epoch
 
     if frame not in (None, "rotating", "icrf"):
         fail(f"--frame {frame!r}: allowed rotating, icrf", 2)
     if centre not in ("earth", "moon"):
         fail(f"--centre {centre!r}: allowed earth, moon", 2)
-    seconds = None
-    if epoch is not None:
-        try:
-            seconds = float(tags_to_seconds([epoch], "TDB")[0])
-        except ValueError:
-            fail(f"--epoch {epoch!r}: allowed a TDB date YYYY-MM-DDThh:mm:ss[.d]", 2)
-    return FrameRequest(frame, seconds, None if epoch is None else epoch.strip(), centre.upper())
+    seconds, text = parse_epoch(epoch) if epoch is not None else (None, None)
+    return FrameRequest(frame, seconds, text, centre.upper())

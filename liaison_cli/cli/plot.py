@@ -47,7 +47,7 @@ def plot_run(
 ):
     """A run result's errors against 3σ, NEES against its 95 % band, normalised innovations, clocks and biases.
 
-    Example: liaison plot run results/eml2_lunar"""
+    Example: liaison run eml2_lunar --runs 4; liaison plot run results/eml2_lunar"""
     from liaison_cli.report.run_plots import draw_run
     from liaison_cli.report.run_result import highlighted_run, load_run_result
 

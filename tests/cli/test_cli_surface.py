@@ -114,6 +114,7 @@ def _leaf_commands():
 
 
 SCENARIO_PARAMETERS = ("scenario", "scenarios", "scenario_args", "scenario_opts", "link_file", "files")
+RESULT_PARAMETERS = ("result", "sweep_dir", "folder", "result_dir")  # folders an earlier command must have written
 
 
 def test_every_command_has_an_example_that_parses_and_names_what_ships(tmp_path, monkeypatch):
@@ -145,4 +146,22 @@ def test_every_command_has_an_example_that_parses_and_names_what_ships(tmp_path,
                 values = parsed.get(name) or []
                 for value in [values] if not isinstance(values, (list, tuple)) else values:
                     assert str(value) in written or shipped_by_name(value) or shipped_link_by_name(value), (line, value)
+            for name in RESULT_PARAMETERS:
+                if parsed.get(name) is not None:
+                    assert str(parsed[name]) in written, (line, name, "no earlier command of the example writes it")
             written |= {str(v) for v in parsed.values() if isinstance(v, (str, type(tmp_path)))}
+            written |= _default_outputs(" ".join(words[1:len(words) - len(rest)]), parsed)
+
+
+def _default_outputs(name: str, parsed: dict) -> set:
+    """The result folder a command (`name`: its words, e.g. "run", "plot run") writes when no --output is given (the
+    docs' defaults)."""
+    from pathlib import Path
+
+    if parsed.get("output") is not None:
+        return set()
+    if name == "run":
+        return {f"results/{Path(str(parsed['scenario'])).stem}"}
+    if name == "sweep" and not (parsed.get("scenario_args") or parsed.get("scenario_opts")):
+        return {f"results/sweep-{parsed.get('name') or 'fig15'}"}
+    return set()

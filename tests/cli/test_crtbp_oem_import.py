@@ -250,3 +250,32 @@ def test_the_xml_names_its_schema_and_reads_back(exported, tmp_path):
     read_message(path, "OEM")
     (again,) = read_oem(path)
     np.testing.assert_array_equal(again.states_km, ephemeris.states_km)
+
+
+@pytest.mark.parametrize("epoch", ["2030-01-01T25:00:00", "2030-02-30T00:00:00", "2030-01-01T00:00:60",
+                                   "2030-01-01T00:00:00Z", "2030-01-01"])
+def test_an_impossible_epoch_is_one_line(epoch):
+    from liaison_cli.campaign.exchange.export import parse_epoch
+
+    with pytest.raises(ExchangeFileError, match="allowed a TDB date and time YYYY-MM-DDThh:mm:ss"):
+        parse_epoch(epoch)
+    assert parse_epoch(" 2030-01-01T06:30:00.5 ")[1] == "2030-01-01T06:30:00.500000"
+
+
+def test_an_export_is_checked_before_anything_is_made_or_recomputed(exported, tmp_path, monkeypatch):
+    """A folder that is no result is refused without being created; the result folder itself as the output is
+    refused (CLI and API alike); a frame the run cannot take is refused before the run is recomputed."""
+    from liaison_cli import api
+    from liaison_cli.campaign.exchange import export
+
+    _, folder = exported
+    result = folder.parent
+    missing = tmp_path / "nothere"
+    refused = run_cli_in_process("export", missing)
+    assert refused.returncode == 2 and not missing.exists(), refused.stderr
+    with pytest.raises(ExchangeFileError, match="the result folder being exported"):
+        api.export(result, output=result, overwrite=True)
+    assert (result / "summary.parquet").is_file()
+    monkeypatch.setattr(export, "recompute_run", lambda *args: pytest.fail("recomputed before the frame was checked"))
+    with pytest.raises(ExchangeFileError, match="a CRTBP run has no date"):
+        export.export_run(result, 0, ("kvn",), tmp_path, export.FrameRequest("icrf"))

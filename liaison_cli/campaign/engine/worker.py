@@ -473,11 +473,15 @@ def _fitted_clock(fit, times_s, true_s):
 
 def clock_record_names(problem: Problem) -> list[str]:
     """The clocks of a run's clock record, in its order: the estimated clocks' owners, else (clock_sync) the far
-    end of each clock-offset channel's link, whose clock is measured relative to the link's receiver."""
+    end of each clock-offset channel's link, whose clock is measured relative to the link's receiver ("FAR vs
+    RECEIVER" when that far end is measured from more than one receiver)."""
     estimated = [c.owner for c in problem.clocks if c.state_start >= 0]
     if estimated or problem.scenario.clock_sync is None:
         return estimated
-    return [problem.scenario.links[ch.link].transponder for ch in problem.channels if ch.measures_clock_offset]
+    links = [problem.scenario.links[ch.link] for ch in problem.channels if ch.measures_clock_offset]
+    far_ends = [link.transponder for link in links]
+    # A far end measured from two receivers (a mesh) is two clock offsets: each named with its receiver.
+    return [end if far_ends.count(end) == 1 else f"{end} vs {link.receiver}" for end, link in zip(far_ends, links)]
 
 
 def _clock_histories(problem: Problem, err, sigma):

@@ -13,6 +13,7 @@ date (`--frame icrf --epoch`), in ICRF about the Earth or the Moon with TDB tags
 stated in the files and in docs/exchange.md).
 """
 
+import re
 from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -26,7 +27,7 @@ from liaison_cli.exchange import library
 from liaison_cli.exchange.frames import CRTBP_CENTRE, CRTBP_FRAME, crtbp_anchor_axes, crtbp_icrf_jacobians
 from liaison_cli.exchange.oem import Ephemeris, oem_message
 from liaison_cli.exchange.tdm import Track, data_convention, tdm_message
-from liaison_cli.exchange.timetags import met_tags, tdb_tags
+from liaison_cli.exchange.timetags import met_tags, tags_to_seconds, tdb_tags
 from liaison_cli.scenario.observed import channel_track
 from liaison_cli.scenario.loading import validate_scenario
 from liaison_cli.scenario.scenario_model import Scenario
@@ -209,10 +210,11 @@ def moon_state_km(epoch_tdb_s: float) -> np.ndarray:
                             float(epoch_tdb_s))
 
 
-def ephemerides(recomputed: RecomputedRun, request: FrameRequest = FrameRequest()) -> dict[str, Ephemeris]:
-    """{file stem: Ephemeris}: '<spacecraft>_truth' and '<spacecraft>_estimate' (with covariance)."""
+def ephemerides(recomputed: RecomputedRun, frame: ExportFrame | None = None) -> dict[str, Ephemeris]:
+    """{file stem: Ephemeris}: '<spacecraft>_truth' and '<spacecraft>_estimate' (with covariance), in `frame`
+    (export_frame; None: the run's own)."""
     problem = recomputed.problem
-    frame = export_frame(problem, request)
+    frame = frame or export_frame(problem)
     meaning = problem.scenario.estimator_descriptor().record_meaning
     steps = recomputed.healthy_steps
     seconds = problem.times_s[:steps]
@@ -232,11 +234,11 @@ def ephemerides(recomputed: RecomputedRun, request: FrameRequest = FrameRequest(
     return out
 
 
-def tracks(recomputed: RecomputedRun, request: FrameRequest = FrameRequest()) -> tuple[list[Track], list[str]]:
-    """The run's observed measurements as TDM tracks (tagged as export_frame tags the run), and the channels that
-    have no TDM keyword."""
+def tracks(recomputed: RecomputedRun, frame: ExportFrame | None = None) -> tuple[list[Track], list[str]]:
+    """The run's observed measurements as TDM tracks (tagged as `frame` tags the run: export_frame; None: the run's
+    own), and the channels that have no TDM keyword."""
     problem = recomputed.problem
-    frame = export_frame(problem, request)
+    frame = frame or export_frame(problem)
     tags, time_system = frame.tags, frame.time_system
     out, skipped = [], []
     for c, channel in enumerate(problem.channels):
@@ -262,6 +264,7 @@ def export_run(result_dir, run: int, formats: tuple, out_dir, request: FrameRequ
     if scenario.measurements is not None:
         run = 0
     problem = prepare_problem(scenario)
+    frame = export_frame(problem, request)  # a request the run cannot take is refused before the run is redone
     recomputed = recompute_run(problem, run)
     difference_m, within = check_against_stored(result_dir, recomputed)
     if not within:
@@ -269,8 +272,8 @@ def export_run(result_dir, run: int, formats: tuple, out_dir, request: FrameRequ
                                 f"{difference_m:.3g} m in position error, more than 1 mm plus the stored values' "
                                 "rounding; the folder's scenario or its files changed")
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S")
-    messages = {f"{stem}.oem": oem_message(eph, created) for stem, eph in ephemerides(recomputed, request).items()}
-    track_list, skipped = tracks(recomputed, request)
+    messages = {f"{stem}.oem": oem_message(eph, created) for stem, eph in ephemerides(recomputed, frame).items()}
+    track_list, skipped = tracks(recomputed, frame)
     comments = [f"liaison scenario {scenario.name}, run {run}, seed {scenario.monte_carlo.seed}"]
     comments += [f"not written (no TDM keyword): {s}" for s in skipped]
     comments += sorted({line for track in track_list for line in data_convention(track.keyword, track.paths)})
@@ -282,7 +285,38 @@ def export_run(result_dir, run: int, formats: tuple, out_dir, request: FrameRequ
             path = Path(out_dir) / (name if data_format == "kvn" else f"{name}.xml")
             write_text_atomic(library.message_text(message, data_format), path)
             written.append(path.name)
-    frame = export_frame(problem, request)
     return {"scenario": scenario.name, "run": run, "files": written, "skipped": skipped,
             "stored_difference_m": difference_m, "epochs": recomputed.healthy_steps, "ref_frame": frame.frame,
             "center_name": frame.centre, "time_system": frame.time_system}
+
+
+def check_export_request(result_dir, out_dir) -> None:
+    """Before any work or any folder is made: `result_dir` is a `liaison run` result (result_scenario's one line
+    otherwise), and `out_dir` is neither it nor a folder holding it (a replaced export would take the result
+    with it)."""
+    result_scenario(result_dir)
+    if Path(out_dir).resolve() in (Path(result_dir).resolve(), *Path(result_dir).resolve().parents):
+        raise ExchangeFileError(f"output {out_dir}: the result folder being exported, or a folder holding it; allowed: "
+                                "a folder beside or inside it (default: RESULT/ccsds-run<K>)")
+
+
+_EPOCH = re.compile(r"^(\d{4})-(\d{2})-(\d{2})T(\d{2}):(\d{2}):(\d{2}(?:\.\d+)?)$")
+
+
+def parse_epoch(text) -> tuple[float, str]:
+    """A CRTBP run's t0 given as a TDB date 'YYYY-MM-DDThh:mm:ss[.d]' (no zone: TDB is not UTC): (seconds past J2000,
+    the date as the files will print it); one line for anything else, a 25th hour or a 61st second included."""
+    match = _EPOCH.match(text.strip()) if isinstance(text, str) else None
+    try:
+        if match is None:
+            raise ValueError
+        year, month, day, hour, minute = (int(g) for g in match.groups()[:5])
+        second = float(match.group(6))
+        datetime(year, month, day, hour, minute, int(second))  # a real calendar date and time of day
+        if second >= 60.0:
+            raise ValueError
+    except ValueError:
+        raise ExchangeFileError(f"epoch {text!r}: allowed a TDB date and time YYYY-MM-DDThh:mm:ss[.d] (hours 0-23, "
+                                "seconds below 60, no time zone)") from None
+    seconds = float(tags_to_seconds([text.strip()], "TDB")[0])
+    return seconds, tdb_tags(np.array([seconds]))[0]
