@@ -80,6 +80,13 @@ def draw_score_plane(table, path: Path, title: str) -> Path | None:
         ax.legend(loc="upper right", fontsize=9)
     ax.set_xlabel("period (days)")
     ax.set_ylabel("phase (fraction of the period)")
+    return _saved(fig, ax, title, path)
+
+
+def _saved(fig, ax, title: str, path: Path) -> Path:
+    """The figure titled and written to `path` (PNG, 120 dpi) through a temporary file, then closed."""
+    import matplotlib.pyplot as plt
+
     ax.set_title(title, fontsize=10)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
@@ -111,13 +118,7 @@ def draw_pareto(table, path: Path, title: str) -> Path | None:
     ax.set_ylabel("LinCov position error RMS after settle (m)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="best", fontsize=9)
-    ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=120)
-    tmp.replace(path)
-    plt.close(fig)
-    return path
+    return _saved(fig, ax, title, path)
 
 
 def _edges(values) -> np.ndarray:
