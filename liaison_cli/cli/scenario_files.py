@@ -1,5 +1,5 @@
-"""Commands on scenario files themselves: `liaison new` (from a template), `liaison schema`, `liaison validate`;
-and `liaison version`."""
+"""Commands on scenario files themselves: `liaison new` (from a template), `liaison schema`, `liaison validate`,
+`liaison scenarios` (what ships, by name); and `liaison version`."""
 
 from pathlib import Path
 
@@ -95,3 +95,28 @@ def new(
     typer.echo(f"wrote {path} (scenario {name}: {TEMPLATES[kind]}); run it with: liaison run {path}")
     if not (path.parent / SCHEMA_FILE_NAME).exists():
         typer.echo(f"editor help: liaison schema --output {path.parent / SCHEMA_FILE_NAME}")
+
+
+@app.command("scenarios")
+@user_errors
+def scenarios(as_json: bool = json_option()):
+    """The shipped scenarios and link files, each by the name `liaison run` (or `budget`) takes from any folder,
+    with its description; `liaison new --from KIND` writes a template to start your own.
+
+    Example: liaison scenarios; liaison run lunar/elfo_pair --runs 4"""
+    from liaison_cli.scenario.shipped import shipped_catalogue
+    from liaison_cli.scenario.templates import TEMPLATES
+
+    rows = shipped_catalogue()
+    if as_json:
+        from liaison_cli.report.json_summary import scenarios_document
+
+        echo_json(scenarios_document(rows, sorted(TEMPLATES)))
+        return
+    width = max(len(row["name"]) for row in rows)
+    for kind in ("scenario", "link file"):
+        chosen = [row for row in rows if row["kind"] == kind]
+        typer.echo(f"{len(chosen)} shipped {kind}s (liaison {'run' if kind == 'scenario' else 'budget'} NAME):")
+        for row in chosen:
+            typer.echo(f"  {row['name']:<{width}}  {row['description']}")
+    typer.echo(f"templates (liaison new NAME.yaml --from KIND): {', '.join(sorted(TEMPLATES))}")

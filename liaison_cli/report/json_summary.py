@@ -203,3 +203,9 @@ def export_document(done: dict, out_dir) -> dict:
             "files": list(done["files"]), "epochs": done["epochs"], "ref_frame": done["ref_frame"],
             "center_name": done["center_name"], "time_system": done["time_system"],
             "stored_difference_m": done["stored_difference_m"], "not_in_tdm": list(done["skipped"])}
+
+
+def scenarios_document(rows: list, templates: list) -> dict:
+    """`liaison scenarios --json`: every shipped scenario and link file (name, kind, description) and the
+    templates' names."""
+    return {**_header("scenarios"), "shipped": rows, "templates": list(templates)}

@@ -76,6 +76,30 @@ def shipped_link_by_name(given) -> Path | None:
     return None
 
 
+def shipped_catalogue() -> list[dict]:
+    """Every shipped scenario and link file: {"name": what `liaison run` (or `budget`) takes from any folder,
+    "kind": "scenario" or "link file", "description": its description (a link file's: its first comment line)},
+    scenarios first, by name."""
+    import yaml
+
+    root = shipped_dir()
+    rows = []
+    for path in sorted(root.rglob("*.yaml")):
+        relative = path.relative_to(root).as_posix()
+        link = relative.startswith("links/")
+        text = path.read_text()
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError:
+            data = None
+        description = data.get("description", "") if isinstance(data, dict) else ""
+        if link and not description:
+            description = next((line.lstrip("# ").strip() for line in text.splitlines() if line.startswith("#")), "")
+        rows.append({"name": relative.removesuffix(".yaml"), "kind": "link file" if link else "scenario",
+                     "description": str(description)})
+    return sorted(rows, key=lambda row: (row["kind"] != "scenario", row["name"]))
+
+
 def scenario_paths(given, defaults) -> list[Path]:
     """The paths the user gave (as given, relative to the working folder), or else the shipped `defaults`."""
     return [Path(p) for p in given] if given else [shipped_scenario(name) for name in defaults]

@@ -5,6 +5,7 @@ quickly, so the command modules import pandas, numba, matplotlib and the campaig
 not at the top (the reason cli/run.py and the others keep their imports lazy; the first CLI kept completion
 off). These tests hold both: the completion answers, and answering loads none of the heavy libraries."""
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -119,3 +120,25 @@ def _in_process_here(folder, *args):
 
     with contextlib.chdir(folder):
         return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def test_liaison_scenarios_lists_every_shipped_name_and_each_resolves(tmp_path):
+    """issue 47: `liaison scenarios` lists what ships, by the names `run` and `budget` take from any folder; every
+    listed name resolves from an empty folder, every shipped YAML is listed, and --json gives the same rows."""
+    import json
+
+    from liaison_cli.scenario.shipped import shipped_by_name, shipped_dir, shipped_link_by_name
+
+    text = _in_process_here(tmp_path, "scenarios")
+    assert text.exit_code == 0, text.output
+    listed = _in_process_here(tmp_path, "scenarios", "--json")
+    document = json.loads(listed.stdout)
+    names = [row["name"] for row in document["shipped"]]
+    assert len(names) == len(list(shipped_dir().rglob("*.yaml"))) and "lunar/elfo_pair" in names
+    with contextlib.chdir(tmp_path):
+        for row in document["shipped"]:
+            resolve = shipped_by_name if row["kind"] == "scenario" else shipped_link_by_name
+            assert resolve(row["name"]) is not None, row
+            assert f"  {row['name']}" in text.stdout
+    assert "crosslink-pair" in document["templates"] and set(document) == {"command", "liaison_version", "shipped",
+                                                                            "templates"}
