@@ -4,7 +4,7 @@ from pathlib import Path
 
 import typer
 
-from liaison_cli.cli.common import FamilyArgument, FamilyCountOption, user_errors
+from liaison_cli.cli.common import FamilyArgument, FamilyCountOption, echo_json, json_option, user_errors
 from liaison_cli.cli.root import app
 from liaison_cli.errors import LiaisonError
 
@@ -79,13 +79,19 @@ def orbits_catalogue(
 
 
 @orbits_app.command("list")
-def orbits_list():
+def orbits_list(as_json: bool = json_option()):
     """The known families and the tables already in the cache.
 
     Example: liaison orbits list"""
     from liaison_cli.orbits.family_store import cached_families
     from liaison_cli.orbits.families import FAMILIES
 
+    if as_json:
+        from liaison_cli.report.json_summary import orbit_families_document
+
+        echo_json(orbit_families_document({name: FAMILIES[name].description for name in sorted(FAMILIES)},
+                                          [str(path) for path in cached_families()]))
+        return
     for name in sorted(FAMILIES):
         typer.echo(f"{name:<16}{FAMILIES[name].description}")
     tables = cached_families()
@@ -99,11 +105,17 @@ def orbits_list():
 def orbits_show(
     family: FamilyArgument,
     count: FamilyCountOption = 30,
+    as_json: bool = json_option(),
 ):
     """Print a family table (generating it first if needed).
 
     Example: liaison orbits show dro --count 10"""
     frame, _ = _family_table(family, count)
+    if as_json:
+        from liaison_cli.report.json_summary import orbit_family_document
+
+        echo_json(orbit_family_document(family, frame))
+        return
     typer.echo(_format_family(frame))
 
 

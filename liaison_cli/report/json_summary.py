@@ -209,3 +209,15 @@ def scenarios_document(rows: list, templates: list) -> dict:
     """`liaison scenarios --json`: every shipped scenario and link file (name, kind, description) and the
     templates' names."""
     return {**_header("scenarios"), "shipped": rows, "templates": list(templates)}
+
+
+def orbit_families_document(families: dict, cached: list) -> dict:
+    """`liaison orbits list --json`: each family's name and description, and the cached tables' paths."""
+    return {**_header("orbits list"), "families": families, "cached_tables": cached}
+
+
+def orbit_family_document(family: str, frame) -> dict:
+    """`liaison orbits show --json`: the family table's rows (orbits.family_table: the initial state in LU and LU/TU,
+    period, Jacobi constant, stability index, amplitudes, perilune, closure)."""
+    return {**_computed_header("orbits show"), "family": family,
+            "members": [row._asdict() for row in frame.itertuples()]}

@@ -242,3 +242,15 @@ def test_export_json_names_the_frame_and_files(smoke_run, tmp_path):
     assert sorted(summary["files"]) == sorted(p.name for p in (tmp_path / "x").iterdir() if not p.name.startswith("."))
     refused = invoke("export", result, "--frame", "icrf", "--output", tmp_path / "y")
     assert refused.exit_code == 2 and "--epoch" in refused.stderr and not (tmp_path / "y").exists()
+
+
+def test_orbits_list_and_show_json():
+    from liaison_cli.orbits.families import FAMILIES
+
+    listed = parsed(invoke("orbits", "list", "--json"))
+    (top,) = documented_tables("orbits list")
+    assert set(listed) == top and set(listed["families"]) == set(FAMILIES)
+    shown = parsed(invoke("orbits", "show", "dro", "--json"))
+    (top,) = documented_tables("orbits show")
+    assert set(shown) == top and len(shown["members"]) == 30
+    assert [row["member"] for row in shown["members"]] == list(range(len(shown["members"])))
