@@ -46,7 +46,7 @@ def design(
 
     Examples: liaison design eml2_lunar --open EML2 --family l2_halo_south --periods 9:14:6 --phases 4
     --objective Lunar --verify 3 --runs 30; liaison design eml2_lunar --vary spacecraft.1.elements.a_km=6000,9000,12000
-    --vary spacecraft.1.elements.i_deg=30,60,90 --objective Lunar"""
+    --vary spacecraft.1.elements.i_deg=30,60,90 --objective Lunar --output results/eml2_lunar-orbiter-design"""
     from liaison_cli.campaign.studies.budget_tables import provenance
     from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
                                                      verify)
