@@ -31,7 +31,8 @@ def warm_up(
     of estimator, dynamics and observables; their first runs then load it from the cache. Writes nothing else.
 
     Examples: liaison warm-up --jobs 2; liaison warm-up --list (what it would compile, for which scenarios);
-    liaison warm-up --cache-dir /shared/liaison-cache (then LIAISON_CACHE_DIR=/shared/liaison-cache liaison run ...)"""
+    liaison warm-up --cache-dir liaison-cache (then LIAISON_CACHE_DIR=$PWD/liaison-cache liaison run ..., on a
+    shared disk for a team)"""
     n_jobs = _whole_number(jobs, "--jobs")
     if not list_only:  # a folder it cannot write: its path and the cause (exit 4), before minutes of compiling
         _writable(cache_dir if cache_dir is not None else os.environ["NUMBA_CACHE_DIR"])
