@@ -317,7 +317,8 @@ def inline_mention(command: str, heading: bool) -> str | None:
     """Why an inline span is a mention, not a step: it names a section (a Markdown heading: `## \`liaison sweep
     --json\``), or the page names the command in prose with a word after it that says so (\`liaison sweep\` still
     opens ...)."""
-    return "skipped: mention (a section's name)" if heading else None
+    return "skipped: mention (a section's name, or a command named in prose and shown with its arguments elsewhere)" \
+        if heading else None
 
 
 def page_file_missing(command: str, tree: dict, written: set) -> str | None:
@@ -335,6 +336,9 @@ def group_c(tree: dict, work: Path) -> list[Case]:
     """Every distinct docs command (at its first occurrence), one empty folder per page, in the page's order."""
     found, seen, cases, written = docs_commands(ROOT / "docs"), set(), [], set()
     floor = run_floor(c.removeprefix(INLINE) for _, _, c in found)
+    # A command the docs also show with arguments: its bare name in prose (`liaison sweep`) is a mention.
+    with_arguments = {tuple(info["path"]) for _, _, c in found
+                      for info, rest in liaison_pieces(c.removeprefix(INLINE), tree) if rest}
     for page, number, command in found:
         inline = command.startswith(INLINE)
         key = " ".join(command.removeprefix(INLINE).split())
@@ -344,6 +348,9 @@ def group_c(tree: dict, work: Path) -> list[Case]:
         written |= {tok for tok in tokens_of(key) if tok.endswith(".yaml") and " new " in f" {key} "}
         stem = page.removesuffix(".md")
         case = Case("c", f"{page}:{number}", key, work / f"c-empty-{stem}", f"c {stem}")
+        bare = [tuple(info["path"]) for info, rest in liaison_pieces(key, tree) if not rest]
+        if len(pieces(key)) == 1 and bare and bare[0] in with_arguments:
+            inline = True  # named in prose; shown in full elsewhere
         case.skip = (inline_mention(key, inline) or not_run_because(key, tree, work)
                      or page_file_missing(key, tree, written))
         if case.skip is None:
