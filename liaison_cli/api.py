@@ -98,8 +98,6 @@ def run_to_folder(scenario, output, runs: int | None = None, jobs: int = 2, over
     """Run the campaign and write the folder `liaison run --output OUTPUT` writes, as the runs finish (memory does
     not grow with the run count), built beside it and moved into place whole; an existing liaison result there is
     replaced only with overwrite. Returns the folder."""
-    import yaml
-
     from liaison_cli.campaign.engine.results import stream_campaign
     from liaison_cli.campaign.studies.output import fill_folder
 
@@ -107,32 +105,33 @@ def run_to_folder(scenario, output, runs: int | None = None, jobs: int = 2, over
     folder = _path_like("output", output)
     runs, jobs = _count("runs", runs, optional=True), _count("jobs", jobs)
     overwrite, progress = _flag("overwrite", overwrite), _flag("progress", progress)
-    text = _scenario_text(scenario, config, yaml)
+    text = _scenario_text(scenario, config)
     fill_folder(folder, overwrite, lambda stage: stream_campaign(config, stage, text, runs=runs, jobs=jobs,
                                                                   progress=progress))
     return folder
 
 
-def _scenario_text(given, config, yaml) -> str:
+def _scenario_text(given, config) -> str:
     """The YAML text a result folder keeps as scenario.yaml: the file's own when a path was given, else the
     validated scenario written out."""
     if isinstance(given, (str, os.PathLike)):
         from liaison_cli.scenario.loading import read_scenario_text, scenario_file
 
         return read_scenario_text(scenario_file(given))[1]
+    import yaml
+
     return yaml.safe_dump(config.model_dump(mode="json", exclude_none=True, exclude={"topology"}), sort_keys=False)
 
 
 def write(result, folder, overwrite: bool = False) -> Path:
     """The folder `liaison run` writes, from a run() result held in memory (its scenario.yaml: the scenario run,
     written out), built beside `folder` and moved into place whole. Returns the folder."""
-    import yaml
 
     from liaison_cli.campaign.engine.results import write_campaign
     from liaison_cli.campaign.studies.output import fill_folder
 
     campaign, folder = _result(result), _path_like("folder", folder)
-    text = _scenario_text(campaign.scenario, campaign.scenario, yaml)
+    text = _scenario_text(campaign.scenario, campaign.scenario)
     fill_folder(folder, _flag("overwrite", overwrite), lambda stage: write_campaign(campaign, stage, text))
     return folder
 
@@ -213,13 +212,12 @@ def sweep(scenarios, grid: Mapping, output, runs: int = 10, jobs: int = 2, name:
     overwrite, progress = _flag("overwrite", overwrite), _flag("progress", progress)
     axes = [(key, list(values)) for key, values in grid.items()]
     check_grid_size(axes, len(scenarios), runs)
-    import yaml
 
     bases = []
     for given in scenarios:
         config = _scenario(given)
         source = str(given) if isinstance(given, (str, os.PathLike)) else f"<{config.name}>"
-        bases.append((config, _scenario_text(given, config, yaml), source))
+        bases.append((config, _scenario_text(given, config), source))
     from liaison_cli.cli.common import plain_name
 
     if name is not None and not (isinstance(name, str) and plain_name(name)):

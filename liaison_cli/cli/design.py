@@ -51,36 +51,28 @@ def design(
     from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
                                                      verify)
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
-    from liaison_cli.report.design import draw_pareto, draw_score_plane, format_ranking
+    from liaison_cli.campaign.sweep.grid import parse_grid
+    from liaison_cli.report.design import draw_pareto, draw_score_plane, format_agreement, format_ranking
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
 
     where = common.fan_out(backend, scheduler, scheduler_timeout)
     scenario_path = scenario_file(scenario_path)
     data, text = read_scenario_text(scenario_path)
     base = validate_scenario(data, str(scenario_path))  # the base itself must be a valid scenario
-    from liaison_cli.campaign.sweep.grid import parse_grid
-
-    factors = [parse_grid(text) for text in vary or []]
+    factors = [parse_grid(given) for given in vary or []]
     plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition, factors)
     out_dir = output or Path("results") / f"{base.name}-design"
     varied = ", ".join([f"{open_spacecraft} on {family}"] * bool(family) + [key for key, _ in factors])
     if not as_json:
-        ranked_by = ("the range information condition number (LinCov's worst position error RMS beside it)"
-                     if objective == "condition" else
-                     f"LinCov on {objective}'s position error RMS after {base.settle_days():g} d")
-        typer.echo(f"{base.name}: {len(plan.candidates)} candidates ({varied}), ranked by {ranked_by}")
+        typer.echo(f"{base.name}: {len(plan.candidates)} candidates ({varied}), ranked by "
+                   f"{_ranked_by(objective, base.settle_days())}")
 
     def make():
         table = verify(plan, score_all(plan, jobs, where, work or out_dir.parent / f"{out_dir.name}.work"), top,
                        runs, jobs, where)
-        rho = rank_agreement(table)
+        rho, by_condition = rank_agreement(table), condition_agreement(table)
         ranking = format_ranking(table, objective, factors=[key for key, _ in factors])
-        agreement = (f"\nSpearman rank correlation, LinCov score against Monte Carlo RMS over the {top} verified: "
-                     f"{rho:.2f}\n" if rho == rho else "")
-        by_condition = condition_agreement(table)
-        if by_condition == by_condition:
-            agreement += (f"Spearman rank correlation, range condition number against LinCov score over every scored "
-                          f"candidate: {by_condition:.2f}\n")
+        agreement = format_agreement(rho, top, by_condition)
         title = f"{base.name}: {varied}, objective {objective}"
         return StudyOutput({"candidates": table}, {**provenance(base.name, text), "method": (
             "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo")},
@@ -98,3 +90,10 @@ def design(
         return
     typer.echo(text, nl=False)
     typer.echo(f"results: {out_dir}")
+
+
+def _ranked_by(objective: str, settle_days: float) -> str:
+    """What the candidates are ranked by, in words (the command's first line)."""
+    if objective == "condition":
+        return "the range information condition number (LinCov's worst position error RMS beside it)"
+    return f"LinCov on {objective}'s position error RMS after {settle_days:g} d"

@@ -45,6 +45,17 @@ def format_ranking(table, objective: str, shown: int = 10, factors=()) -> str:
     return "\n".join(lines) + "\n"
 
 
+def format_agreement(rho: float, verified: int, by_condition: float) -> str:
+    """The ranking's closing lines: Spearman's rho of the LinCov score against the Monte Carlo RMS over the verified
+    candidates, and of the condition number against the score over every scored one (each only when known)."""
+    text = (f"\nSpearman rank correlation, LinCov score against Monte Carlo RMS over the {verified} verified: "
+            f"{rho:.2f}\n" if rho == rho else "")
+    if by_condition == by_condition:
+        text += (f"Spearman rank correlation, range condition number against LinCov score over every scored "
+                 f"candidate: {by_condition:.2f}\n")
+    return text
+
+
 def _described(row, factors) -> str:
     """A candidate in words: its family member and phase, and its factors' values."""
     parts = [f"{row['family']} {row['period_days']:g} d, phase {row['phase']:g}"] if row["family"] else []

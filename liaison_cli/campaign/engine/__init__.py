@@ -1,6 +1,7 @@
 """The Monte Carlo engine: what runs a scenario's runs, wherever they run.
 
 - worker: one run as a work unit (draws, estimator, metrics); it never raises, a failure is an outcome;
+- clock_record: a run's clock record (the estimated clocks, or clock_sync's fitted clocks) and its clocks' names;
 - seeding: a run's random generators (its draws, and a drawn truth force's own stream), from the scenario seed
   and the run index only;
 - backends: the one fan-out (map_batches: joblib's process pool, forked workers, or dask), with a bounded

@@ -17,7 +17,8 @@ from liaison_cli import __version__
 from liaison_cli.analysis.metrics import chi2_quantile, nees_band
 from liaison_cli.campaign.engine.backends import LOCAL, Backend
 from liaison_cli.campaign.engine.runner import CampaignResult, iter_outcomes
-from liaison_cli.campaign.engine.worker import RunOutcome, clock_record_names
+from liaison_cli.campaign.engine.clock_record import clock_record_names
+from liaison_cli.campaign.engine.worker import RunOutcome
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.scenario_model import Scenario

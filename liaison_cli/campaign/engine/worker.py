@@ -14,17 +14,17 @@ from liaison_cli.analysis.metrics import (
     summary_rows,
     sustained_excess_step,
 )
+from liaison_cli.campaign.engine.clock_record import add_clock_sync, estimated_clock_histories
 from liaison_cli.campaign.engine.seeding import run_rng, truth_force_rng
 from liaison_cli.dynamics.clock import simulate_clock
 from liaison_cli.dynamics.constants import M_PER_LU, M_S2_PER_AU, M_S_PER_VU, SECONDS_PER_DAY
 from liaison_cli.dynamics.random_forcing import gauss_markov_samples
 from liaison_cli.estimation.blocks import BLOCK_EMPIRICAL, BLOCK_PARAMETER, FORMATION
-from liaison_cli.estimation.clock_sync import sync_errors
 from liaison_cli.estimation.estimators import estimate
 from liaison_cli.estimation.kernel_args import MAX_DIRECTION_SAMPLES
 from liaison_cli.interrupts import caused_by_interrupt
 from liaison_cli.scenario.filter_arrays import biased_filter_params
-from liaison_cli.scenario.setup import SPEED_OF_LIGHT_M_S, Problem
+from liaison_cli.scenario.setup import Problem
 from liaison_cli.scenario.truth import forced_truth_and_measurements
 
 
@@ -211,7 +211,8 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
         _add_ric(problem, inputs, history, summary, n_dyn)
         _add_estimator_extras(summary, history.extras, problem.scenario.measurement.interval_s)
         _add_smoothed(problem, history, summary, norms, n_dyn)
-        sync_error, sync_sigma = _add_clock_sync(problem, inputs, history.data_end_step, summary)
+        sync_error, sync_sigma = add_clock_sync(problem, inputs.clock_phase_s, inputs.y_obs, history.data_end_step,
+                                                summary)
         states = _epoch_states(problem, inputs, history, n_dyn) if run < problem.scenario.output.epoch_states_runs else None
         last = history.fail_step - 1 if not history.ok else -1
         bias = inputs.bias_lu
@@ -223,8 +224,8 @@ def execute_run(problem: Problem, task: RunTask) -> RunOutcome:
             bias_estimate = np.zeros_like(bias)
             bias_sigma = np.full_like(bias, np.nan)
         scale = problem.channel_scale_si
-        clock_error, clock_sigma = _clock_histories(problem, err, sigma)
-        if clock_error is None:  # no clock states: clock_sync's fitted clocks, if any (clock_record_names)
+        clock_error, clock_sigma = estimated_clock_histories(problem, err, sigma)
+        if clock_error is None:  # no clock states: clock_sync's fitted clocks, if any (clock_record)
             clock_error, clock_sigma = sync_error, sync_sigma
         rejected = np.zeros(history.innovation.shape, dtype=bool) if history.rejected is None else history.rejected
         summary = summary if history.ok else _nan_summary(summary, norms, history.fail_step)
@@ -425,77 +426,6 @@ def _add_rejections(problem: Problem, innovation, rejected, summary) -> None:
         row["rejected_share"] = count / processed if processed else float("nan")
 
 
-def _add_clock_sync(problem: Problem, inputs: RunInputs, data_end_step: int, summary):
-    """clock_sync (002 §4): fit each clock-offset channel over the window that ends where the estimator's data
-    end, and put the RMS against the true offset (ns) over the window and over the prediction after it into
-    the row of the link's far end (its clock relative to the link's receiver, the main spacecraft). Returns the
-    fits' histories as the clocks table takes them, (m, L, 2) errors and 1-sigmas in s and s/s, one clock per
-    clock-offset channel (clock_record_names), over the window and the prediction (NaN elsewhere): the phase
-    against the true offset, the frequency (the fit's rate) against the true offset's central difference over
-    the neighbouring epochs; (None, None) without clock_sync."""
-    spec = problem.scenario.clock_sync
-    if spec is None:
-        return None, None
-    times_s = problem.times_s
-    end_s = float(times_s[data_end_step])
-    rows = {row["spacecraft"]: row for row in summary}
-    to_s = M_PER_LU / SPEED_OF_LIGHT_M_S
-    channels = [c for c, ch in enumerate(problem.channels) if ch.measures_clock_offset]
-    error, spread = np.full((len(times_s), len(channels), 2), np.nan), np.full((len(times_s), len(channels), 2), np.nan)
-    for j, c in enumerate(channels):
-        link = problem.scenario.links[problem.channels[c].link]
-        true_s = inputs.clock_phase_s[link.receiver] - inputs.clock_phase_s[link.transponder]
-        window_s, prediction_s = spec.window_hours * 3600.0, spec.prediction_hours * 3600.0
-        result = sync_errors(times_s, inputs.y_obs[:, c] * to_s, true_s, problem.sigma_lu[c] * to_s, end_s,
-                             window_s, prediction_s, spec.degree)
-        row = rows.get(link.transponder)
-        if row is not None and "clock_rms_window_ns" not in row:
-            row["clock_rms_window_ns"] = 1e9 * result["rms_window_s"]
-            row["clock_rms_prediction_ns"] = 1e9 * result["rms_prediction_s"]
-        shown = (times_s > end_s - window_s - 1e-9) & (times_s <= end_s + prediction_s + 1e-9)
-        fitted_error, fitted_sigma = _fitted_clock(result["fit"], times_s, true_s)
-        error[shown, j], spread[shown, j] = fitted_error[shown], fitted_sigma[shown]
-    return error, spread
-
-
-def _fitted_clock(fit, times_s, true_s):
-    """(m, 2) phase and frequency errors of a clock fit (estimation.clock_sync.ClockFit) and their 1-sigmas."""
-    dt = np.asarray(times_s, dtype=float) - fit.t_ref_s
-    degree = len(fit.coefficients) - 1
-    value = np.vander(dt, degree + 1, increasing=True)
-    rate = np.zeros_like(value)
-    rate[:, 1:] = value[:, :-1] * np.arange(1, degree + 1)
-    errors = np.column_stack([value @ fit.coefficients - true_s, rate @ fit.coefficients - np.gradient(true_s, times_s)])
-    sigmas = np.column_stack([np.sqrt(np.einsum("ki,ij,kj->k", value, fit.covariance, value)),
-                              np.sqrt(np.einsum("ki,ij,kj->k", rate, fit.covariance, rate))])
-    return errors, sigmas
-
-
-def clock_record_names(problem: Problem) -> list[str]:
-    """The clocks of a run's clock record, in its order: the estimated clocks' owners, else (clock_sync) the far
-    end of each clock-offset channel's link, whose clock is measured relative to the link's receiver ("FAR vs
-    RECEIVER" when that far end is measured from more than one receiver)."""
-    estimated = [c.owner for c in problem.clocks if c.state_start >= 0]
-    if estimated or problem.scenario.clock_sync is None:
-        return estimated
-    links = [problem.scenario.links[ch.link] for ch in problem.channels if ch.measures_clock_offset]
-    far_ends = [link.transponder for link in links]
-    # A far end measured from two receivers (a mesh) is two clock offsets: each named with its receiver.
-    return [end if far_ends.count(end) == 1 else f"{end} vs {link.receiver}" for end, link in zip(far_ends, links)]
-
-
-def _clock_histories(problem: Problem, err, sigma):
-    """Each estimated clock's phase / frequency error and 1-sigma in seconds and s/s: (m, n_clocks, 2) x2."""
-    if not problem.clocks:
-        return None, None
-    columns = [(c.state_start, np.array(c.scale)) for c in problem.clocks if c.state_start >= 0]
-    if not columns:
-        return None, None
-    error = np.stack([err[:, a : a + 2] / scale for a, scale in columns], axis=1)
-    spread = np.stack([sigma[:, a : a + 2] / scale for a, scale in columns], axis=1)
-    return error, spread
-
-
 def _nan_summary(rows, norms, fail_step: int):
     """A diverged run keeps its rows (with status) but no metrics, so it cannot be averaged in; each row keeps
     how far off its spacecraft was when the run was stopped (fail_position_error_m: the last finite position
@@ -509,4 +439,4 @@ def _nan_summary(rows, norms, fail_step: int):
     return out
 
 
-__all__ = ["RunTask", "RunOutcome", "RunInputs", "clock_record_names", "execute_run", "draw_run_inputs"]
+__all__ = ["RunTask", "RunOutcome", "RunInputs", "execute_run", "draw_run_inputs"]
