@@ -22,11 +22,18 @@ def design(
     vary: list[str] = typer.Option(None, "--vary", metavar="KEY=V1,V2,...", help="another factor of the "
                                    "candidates: any scenario value by dotted path (may repeat; full factorial with "
                                    "the family's members), e.g. spacecraft.1.elements.altitude_km=50,100,200"),
+    choices_file: Path = typer.Option(None, "--choices", metavar="FILE", help="labelled options, each setting "
+                                      "several scenario values at once (a whole spacecraft, a topology, a link), "
+                                      "as YAML: {factor: {label: {dotted.key: value, ...}, ...}, ...}; full "
+                                      "factorial with the other factors"),
     phases: int = typer.Option(1, "--phases", min=1, help="phases along each orbit: 0, 1/N, ..."),
     objective: str = typer.Option("worst", "--objective", metavar="NAME", help="the spacecraft whose position "
-                                  "error RMS after the settle time is minimised, worst (the largest of them), or "
-                                  "condition (the range information matrix's condition number; implies "
+                                  "error RMS after the settle time is minimised, worst (the largest of them), "
+                                  "mean (their mean), or condition (the range information matrix's condition number; implies "
                                   "--condition)"),
+    converge_below: float = typer.Option(None, "--converge-below", metavar="METRES", help="rank by the day the "
+                                         "objective's LinCov position error falls below METRES and stays there "
+                                         "(ties by the RMS)"),
     top: int = typer.Option(3, "--verify", min=0, help="verify the best N by Monte Carlo (0: none)"),
     condition: bool = typer.Option(False, "--condition", help="also each candidate's range information condition "
                                    "number (liaison observability's; about 0.5 s per spacecraft of a 10-day "
@@ -48,8 +55,8 @@ def design(
     --objective Lunar --verify 3 --runs 30; liaison design eml2_lunar --vary spacecraft.1.elements.a_km=6000,9000,12000
     --vary spacecraft.1.elements.i_deg=30,60,90 --objective Lunar --output results/eml2_lunar-orbiter-design"""
     from liaison_cli.campaign.studies.budget_tables import provenance
-    from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, score_all,
-                                                     verify)
+    from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, read_choices,
+                                                     score_all, verify)
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.campaign.sweep.grid import parse_grid
     from liaison_cli.report.design import draw_pareto, draw_score_plane, format_agreement, format_ranking
@@ -60,18 +67,21 @@ def design(
     data, text = read_scenario_text(scenario_path)
     base = validate_scenario(data, str(scenario_path))  # the base itself must be a valid scenario
     factors = [parse_grid(given) for given in vary or []]
-    plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition, factors)
+    choices = read_choices(choices_file) if choices_file is not None else []
+    plan = make_design(data, open_spacecraft, objective, family, periods, phases, condition, factors, choices,
+                       converge_below)
     out_dir = output or Path("results") / f"{base.name}-design"
-    varied = ", ".join([f"{open_spacecraft} on {family}"] * bool(family) + [key for key, _ in factors])
+    columns = [factor for factor, _ in choices] + [key for key, _ in factors]
+    varied = ", ".join([f"{open_spacecraft} on {family}"] * bool(family) + columns)
     if not as_json:
         typer.echo(f"{base.name}: {len(plan.candidates)} candidates ({varied}), ranked by "
-                   f"{_ranked_by(objective, base.settle_days())}")
+                   f"{_ranked_by(objective, base.settle_days(), converge_below)}")
 
     def make():
         table = verify(plan, score_all(plan, jobs, where, work or out_dir.parent / f"{out_dir.name}.work"), top,
                        runs, jobs, where)
         rho, by_condition = rank_agreement(table), condition_agreement(table)
-        ranking = format_ranking(table, objective, factors=[key for key, _ in factors])
+        ranking = format_ranking(table, objective, factors=columns, converge_below_m=converge_below)
         agreement = format_agreement(rho, top, by_condition)
         title = f"{base.name}: {varied}, objective {objective}"
         return StudyOutput({"candidates": table}, {**provenance(base.name, text), "method": (
@@ -86,14 +96,17 @@ def design(
         from liaison_cli.report.json_summary import design_document
 
         common.echo_json(design_document(base.name, open_spacecraft, family, objective, table, out_dir, rho,
-                                         by_condition))
+                                         by_condition, factors=columns, converge_below_m=converge_below))
         return
     typer.echo(text, nl=False)
     typer.echo(f"results: {out_dir}")
 
 
-def _ranked_by(objective: str, settle_days: float) -> str:
+def _ranked_by(objective: str, settle_days: float, converge_below_m: float | None) -> str:
     """What the candidates are ranked by, in words (the command's first line)."""
+    if converge_below_m is not None:
+        return (f"the day LinCov's {objective} position error falls below {converge_below_m:g} m and stays (ties by "
+                f"its RMS after {settle_days:g} d)")
     if objective == "condition":
         return "the range information condition number (LinCov's worst position error RMS beside it)"
     return f"LinCov on {objective}'s position error RMS after {settle_days:g} d"

@@ -8,21 +8,25 @@ from pathlib import Path
 import numpy as np
 
 
-def format_ranking(table, objective: str, shown: int = 10, factors=()) -> str:
+def format_ranking(table, objective: str, shown: int = 10, factors=(), converge_below_m=None) -> str:
     """Markdown: the best `shown` candidates in rank order (by the LinCov score, or by the range condition number
     with objective `condition`: then the score is the worst spacecraft's), with their Monte Carlo check where it
     was run, `pareto` marking the Pareto front of score and condition number; then that front in full, and the
-    candidates that could not be scored, with their reason."""
+    candidates that could not be scored, with their reason. With a threshold, the day the error falls below it
+    (ranked by) comes first."""
     position = "worst" if objective == "condition" else objective
-    extra = "".join(f" {key} |" for key in factors)  # the --vary factors' values, a column each
+    converging = converge_below_m is not None
+    extra = "".join(f" {key} |" for key in factors)  # the --choices and --vary factors' values, a column each
+    extra += f" below {converge_below_m:g} m from (d) |" if converging else ""
     lines = [f"| rank | family | period d | phase |{extra} LinCov {position} RMS m | range condition number | Pareto | "
              "Monte Carlo RMS m | MC / LinCov | runs ok | consistent |",
-             "|---|---|---|---|" + "---|" * len(factors) + "---|---|---|---|---|---|---|"]
+             "|---|---|---|---|" + "---|" * (len(factors) + converging) + "---|---|---|---|---|---|---|"]
     scored = table[table["rank"] > 0]
     for row in scored.head(shown).to_dict("records"):
         checked = "mc_score_m" in row and isinstance(row["mc_score_m"], float) and math.isfinite(row["mc_score_m"])
         condition = row.get("range_condition_number", math.nan)
         values = "".join(f" {row[key]} |" for key in factors)
+        values += f" {_day(row['converge_days'])} |" if converging else ""
         orbit = (f"{row['family']} | {row['period_days']:g} | {row['phase']:g}" if row["family"] else "– | – | –")
         head = (f"| {row['rank']} | {orbit} |{values} "
                 f"{row['score_m']:.4g} | {f'{condition:.3g}' if condition == condition else '–'} | "
@@ -43,6 +47,10 @@ def format_ranking(table, objective: str, shown: int = 10, factors=()) -> str:
                   f"{row['error'] or 'no range condition number (liaison observability refuses this scenario)'}"
                   for row in failed.to_dict("records")]
     return "\n".join(lines) + "\n"
+
+
+def _day(days: float) -> str:
+    return "never" if days == math.inf else f"{days:.2f}"
 
 
 def format_agreement(rho: float, verified: int, by_condition: float) -> str:

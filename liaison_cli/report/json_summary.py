@@ -160,24 +160,27 @@ def observability_document(summary: dict, out_dir) -> dict:
 
 
 # The candidates' columns `liaison design --json` lists (campaign.studies.design; NaN / empty: not verified).
-DESIGN_COLUMNS = ("rank", "candidate", "family", "period_days", "phase", "score_m", "range_condition_number",
-                  "pareto", "mc_score_m", "mc_over_lincov", "mc_runs_ok", "mc_consistent")
+DESIGN_COLUMNS = ("rank", "candidate", "family", "period_days", "phase", "score_m", "converge_days",
+                  "range_condition_number", "pareto", "mc_score_m", "mc_over_lincov", "mc_runs_ok", "mc_consistent")
 
 
 def design_document(scenario_name: str, open_spacecraft: str, family: str, objective: str, table, out_dir,
-                    rank_rho: float, condition_rho: float) -> dict:
-    """`liaison design --json`: every scored candidate in rank order (DESIGN_COLUMNS), the ones not scored with
-    their reason, and the two rank correlations."""
+                    rank_rho: float, condition_rho: float, factors=(), converge_below_m=None) -> dict:
+    """`liaison design --json`: every scored candidate in rank order (DESIGN_COLUMNS, its `factors`' values under
+    `factors`), the ones not scored with their reason, and the two rank correlations."""
     scored = table[table.score_m.notna()]
     failed = table[table.score_m.isna()]
-    candidates = [{column: row.get(column) for column in DESIGN_COLUMNS} for row in scored.to_dict("records")]
+    candidates = [{**{column: row.get(column) for column in DESIGN_COLUMNS},
+                   "factors": {factor: row.get(factor) for factor in factors}} for row in scored.to_dict("records")]
     for row in candidates:  # not verified: null, not an empty string
         for column in ("mc_runs_ok", "mc_consistent"):
             row[column] = row[column] or None
     return {**_computed_header("design"), "scenario": scenario_name, "open": open_spacecraft, "family": family,
-            "objective": objective, "output": str(out_dir), "candidates": candidates,
+            "objective": objective, "converge_below_m": converge_below_m, "output": str(out_dir),
+            "candidates": candidates,
             "not_scored": [{"candidate": int(row["candidate"]), "period_days": row["period_days"],
-                            "phase": row["phase"], "error": row["error"]} for row in failed.to_dict("records")],
+                            "phase": row["phase"], "factors": {factor: row.get(factor) for factor in factors},
+                            "error": row["error"]} for row in failed.to_dict("records")],
             "spearman_lincov_monte_carlo": rank_rho, "spearman_condition_lincov": condition_rho}
 
 

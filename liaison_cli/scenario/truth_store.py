@@ -7,8 +7,11 @@ the sha256 of what fixes it: the spacecraft's orbit fields, its initial state, t
 parameters and truth acceleration (scenario.truth._spacecraft_truth_key), and the code of the packages that
 compute it (core_source_hash of dynamics, orbits and scenario: an edited integrator or step rule is a new key).
 The key is stored in the file and checked on reading. A damaged entry is noted on stderr and computed again
-(orbits.npz_cache); a cache that cannot be written is skipped (the truth is derived data). At most MAX_ENTRIES
-files: the oldest go first. `LIAISON_TRUTH_CACHE=off` turns it off.
+(orbits.npz_cache); a cache that cannot be written is skipped (the truth is derived data). The folder is bounded by
+bytes, not by entries (a design search of thousands of candidates keeps every candidate's truth: a 10-day truth
+every 187.5 s is 221 kB): `LIAISON_TRUTH_CACHE_MB` (default MAX_MEGABYTES), the oldest files going first,
+checked every EVICT_EVERY stores of a process (so a store does not list the folder each time; a folder may
+overshoot by that many entries per process). `LIAISON_TRUTH_CACHE=off` turns it off.
 """
 
 import hashlib
@@ -20,7 +23,9 @@ import numpy as np
 from liaison_cli.orbits.npz_cache import cache_folder, read_intact, write_npz
 
 FOLDER = "truths"
-MAX_ENTRIES = 256
+MAX_MEGABYTES = 1024
+EVICT_EVERY = 16
+_stores = 0  # this process's stores since its last eviction check
 
 
 def enabled() -> bool:
@@ -65,15 +70,38 @@ def store_truth(key: str, states) -> None:
         return
     try:
         write_npz({"states": np.ascontiguousarray(states, dtype=np.float64), "key": np.array(key)}, _path(key))
-        _evict()
+        global _stores
+        if _stores % EVICT_EVERY == 0:
+            _evict(budget_bytes())
+        _stores += 1
     except OSError:
         pass  # derived data: the run has its truth either way
 
 
-def _evict() -> None:
-    entries = sorted(cache_folder(FOLDER).glob("*.npz"), key=lambda p: p.stat().st_mtime)
-    for old in entries[: max(0, len(entries) - MAX_ENTRIES)]:
+def budget_bytes() -> int:
+    """The folder's bound: LIAISON_TRUTH_CACHE_MB megabytes (a positive number), else MAX_MEGABYTES."""
+    try:
+        megabytes = float(os.environ.get("LIAISON_TRUTH_CACHE_MB", MAX_MEGABYTES))
+    except ValueError:
+        megabytes = MAX_MEGABYTES
+    return int((megabytes if megabytes > 0 else MAX_MEGABYTES) * 1e6)
+
+
+def _evict(budget: int) -> None:
+    """Delete the oldest entries until the folder's files total at most `budget` bytes."""
+    entries = []
+    for path in cache_folder(FOLDER).glob("*.npz"):
+        try:
+            stat = path.stat()
+        except OSError:
+            continue  # another process evicted it meanwhile
+        entries.append((stat.st_mtime, stat.st_size, path))
+    total = sum(size for _, size, _ in entries)
+    for _, size, old in sorted(entries, key=lambda entry: entry[0]):
+        if total <= budget:
+            break
         try:
             old.unlink()
+            total -= size
         except OSError:
             pass

@@ -86,7 +86,7 @@ def test_the_condition_number_as_the_objective_ranks_by_it(base, tmp_path):
     ("--open", "Nobody", "--open 'Nobody': not a spacecraft"),
     ("--family", "moon_hole", "--family 'moon_hole': allowed: dro"),
     ("--periods", "8-14", "--periods '8-14': allowed LOW:HIGH:COUNT"),
-    ("--objective", "Nobody", "--objective 'Nobody': allowed: Relay, User, worst or condition"),
+    ("--objective", "Nobody", "--objective 'Nobody': allowed: Relay, User, worst, mean, condition"),
 ])
 def test_bad_design_options_are_one_line(base, tmp_path, option, value, fragment):
     args = {"--open": "Relay", "--family": "dro", "--periods": "5:11:3", "--objective": "User", option: value}
@@ -176,3 +176,93 @@ def test_other_factors_vary_alone_or_with_the_family(base, tmp_path):
         refused = run_cli_in_process("design", base, *args, "--output", tmp_path / "refused")
         assert refused.returncode == 2 and fragment in refused.stderr, refused.stderr
         assert len([line for line in refused.stderr.splitlines() if line.strip()]) == 1
+
+
+CHOICES = {"user": {"near": {"spacecraft.1.elements": {"a_km": 2500, "e": 0.1, "i_deg": 60, "raan_deg": 0,
+                                                       "argp_deg": 0, "ta_deg": 0}},
+                    "far": {"spacecraft.1": {"name": "User", "orbit": "lunar_keplerian",
+                                             "elements": {"a_km": 4000, "e": 0.1, "i_deg": 90, "raan_deg": 0,
+                                                          "argp_deg": 0, "ta_deg": 0}}}},
+           "link": {"range": {"links": [{"receiver": "Relay", "transponder": "User", "observables": ["range"]}]},
+                    "range_rate": {"links": [{"receiver": "Relay", "transponder": "User",
+                                              "observables": ["range_rate"]}],
+                                   "noise.range_rate_sigma_m_s": 0.001}}}
+
+
+def test_choices_set_several_values_at_once_and_score_as_the_same_scenario_would(base, tmp_path):
+    """--choices: each option sets several values together (a whole spacecraft, a link list and its noise); the
+    options' labels are columns, every combination is a candidate, and each candidate's score equals the score of
+    the same scenario reached another way (--vary); the mean objective is the mean of the spacecraft's RMS."""
+    choices = tmp_path / "choices.yaml"
+    choices.write_text(yaml.safe_dump(CHOICES, sort_keys=False))
+    picked = run_cli_in_process("design", base, "--choices", choices, "--objective", "mean", "--verify", "1",
+                                "--runs", "3", "--jobs", "1", "--output", tmp_path / "picked")
+    assert picked.returncode == 0, picked.stderr
+    table = pd.read_parquet(tmp_path / "picked" / "candidates.parquet")
+    assert len(table) == 4 and (table.error == "").all(), table.error
+    assert sorted(zip(table.user, table.link)) == [("far", "range"), ("far", "range_rate"), ("near", "range"),
+                                                   ("near", "range_rate")]
+    assert "| user | link |" in picked.stdout
+    assert list(table.score_m) == pytest.approx(list((table.Relay_rms_position_m + table.User_rms_position_m) / 2),
+                                                rel=1e-12)
+    verified = table[table.mc_score_m.notna()].iloc[0]
+    assert verified.mc_score_m == pytest.approx((verified.mc_Relay_rms_position_m + verified.mc_User_rms_position_m)
+                                                / 2, rel=1e-12)
+    same = run_cli_in_process("design", base, "--vary", "spacecraft.1.elements.a_km=4000", "--vary",
+                              "spacecraft.1.elements.i_deg=90", "--objective", "mean", "--verify", "0", "--jobs", "1",
+                              "--output", tmp_path / "same")
+    assert same.returncode == 0, same.stderr
+    far_range = table[(table.user == "far") & (table.link == "range")].score_m.iloc[0]
+    assert pd.read_parquet(tmp_path / "same" / "candidates.parquet").score_m.iloc[0] == far_range
+    assert table[table.link == "range_rate"].score_m.min() != table[table.link == "range"].score_m.min()
+
+
+@pytest.mark.parametrize("content, fragment", [
+    ("[1, 2]", "not a choices file; allowed: a mapping of factor names"),
+    ("user: {near: 5}", "user.near: allowed: a mapping"),
+    ("user: {near: {noise.nothing.here: 1}}", "choice user.near: noise.nothing.here: the scenario has no "
+                                               "'noise.nothing'"),
+    ("score_m: {a: {noise.sigma_m: 1}}", "design factor 'score_m': a column of the table already has that name"),
+])
+def test_a_bad_choices_file_is_one_line(base, tmp_path, content, fragment):
+    choices = tmp_path / "choices.yaml"
+    choices.write_text(content)
+    proc = run_cli_in_process("design", base, "--choices", choices, "--output", tmp_path / "out")
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert fragment in proc.stderr and len([l for l in proc.stderr.splitlines() if l.strip()]) == 1, proc.stderr
+    missing = run_cli_in_process("design", base, "--choices", tmp_path / "none.yaml", "--output", tmp_path / "out")
+    assert missing.returncode != 0 and "none.yaml" in missing.stderr and "Traceback" not in missing.stderr
+
+
+def test_ranked_by_the_day_the_error_falls_below_a_threshold(base, tmp_path):
+    """--converge-below M: the day from which the objective's LinCov position error stays below M, ranked by it
+    (the RMS breaking ties), never = inf and last; the day is where the per-epoch error last crosses M."""
+    import math
+
+    import numpy as np
+
+    from liaison_cli.campaign.studies.design import converge_day
+
+    times = np.arange(5) * 86400.0
+    assert converge_day(times, np.array([9, 4, 9, 1, 1.0]), 2.5) == 3.0
+    assert converge_day(times, np.array([1, 1, 1, 1, 1.0]), 2.5) == 0.0
+    assert converge_day(times, np.array([1, 1, 1, 1, 9.0]), 2.5) == math.inf
+    proc = _design(base, tmp_path / "day", 1, "--verify", "0", "--converge-below", "2000")
+    assert proc.returncode == 0, proc.stderr
+    table = pd.read_parquet(tmp_path / "day" / "candidates.parquet")
+    days = table.converge_days.to_numpy()
+    assert (np.diff(days[np.isfinite(days)]) >= 0).all() and np.isfinite(days[0])
+    assert "below 2000 m from (d)" in proc.stdout
+    refused = _design(base, tmp_path / "no", 1, "--converge-below", "-3")
+    assert refused.returncode == 2 and "--converge-below -3.0: allowed" in refused.stderr, refused.stderr
+
+
+def test_a_changed_factor_never_reuses_stored_rows():
+    """The work folder's key covers each candidate's --vary values and choices, not only its orbit."""
+    from liaison_cli.campaign.studies.design import DesignStore, make_design
+
+    keys = {DesignStore("w", make_design(BASE, None, "User", None, None, 1, factors=[("noise.sigma_m", values)]),
+                        1).key for values in ([5, 20], [6, 20])}
+    keys |= {DesignStore("w", make_design(BASE, None, "User", None, None, 1, choices=[("f", [("a", (key,))])]),
+                         1).key for key in (("noise.sigma_m", 5), ("noise.sigma_m", 6))}
+    assert len(keys) == 4

@@ -1,15 +1,17 @@
 """`liaison design`: which orbit should a spacecraft fly so that the formation navigates itself best?
 
-A design is a base scenario with one spacecraft left open, its candidates and an objective:
+A design is a base scenario, its candidates and an objective:
 - candidates: members of an orbit family at `count` evenly spaced periods in [low, high] days, each at `phases`
   evenly spaced phases along its orbit (0, 1/phases, ...); everything else the spacecraft says (its name, process
   noise, a priori, clock) is kept; times every combination of the values of other factors, any scenario values
   by dotted path (`--vary`: a lunar orbit's altitude or inclination, a link's noise, the measurement interval),
-  or those factors alone;
+  and every combination of labelled choices, each setting several values at once (`--choices FILE`: whole
+  spacecraft, a topology, a receiver pair's link), or those factors alone;
 - objective: one spacecraft's position error RMS after the settle time, the statistic a Monte Carlo run reports
-  as rms_position_settled_m, or the worst over every estimated spacecraft; or `condition`, the condition number
+  as rms_position_settled_m, the worst or the mean over every estimated spacecraft; or `condition`, the condition number
   of the formation's range information matrix (liaison observability's), smallest first, with the worst position
-  error RMS beside it. Whenever both are known, the candidates that no other beats on both (the Pareto front of
+  error RMS beside it; or, with a threshold (`converge_below_m`), the day the objective's LinCov position error
+  falls below it and stays there (ties by the RMS). Whenever both are known, the candidates that no other beats on both (the Pareto front of
   position error and condition number) are marked (pareto_front).
 
 Each candidate is scored by covariance analysis, not Monte Carlo: studies.error_budget's LinCov along the truth
@@ -36,6 +38,7 @@ from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
 
 WORST = "worst"  # the objective over every estimated spacecraft
+MEAN = "mean"  # the objective averaged over every estimated spacecraft
 CONDITION = "condition"  # the objective on the range information matrix's condition number
 # A worker's truths of the spacecraft that do not change between candidates (scenario.truth.SPACECRAFT_CACHE):
 # computed once per worker, not once per candidate; bounded.
@@ -49,13 +52,15 @@ ORBIT_KEYS = ("orbit", "elements", "period_days", "amplitude_km", "phase", "stat
 @dataclass(frozen=True)
 class Candidate:
     """One candidate: the open spacecraft's family member and phase (family "" when the design varies no orbit
-    family) and the values of the design's other factors, ((dotted scenario key, value), ...) (`--vary`)."""
+    family), the values of the design's other factors, ((dotted scenario key, value), ...) (`--vary`), and its
+    labelled choices, ((factor, label, ((dotted scenario key, value), ...)), ...) (`--choices`)."""
 
     index: int
     family: str
     period_days: float
     phase: float
     settings: tuple = ()
+    choices: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -68,11 +73,15 @@ class Design:
     objective: str
     candidates: tuple
     condition: bool = False  # also each candidate's range_condition_number (about 0.5 s per spacecraft)
+    converge_below_m: float | None = None  # rank by the day the objective's error falls below this and stays
 
     @property
-    def rank_column(self) -> str:
-        """The table column the candidates are ranked by, smallest first."""
-        return "range_condition_number" if self.objective == CONDITION else "score_m"
+    def rank_columns(self) -> list[str]:
+        """The table columns the candidates are ranked by, smallest first (the first decides, the next breaks
+        ties)."""
+        if self.converge_below_m is not None:
+            return ["converge_days", "score_m"]
+        return ["range_condition_number"] if self.objective == CONDITION else ["score_m"]
 
 
 def parse_periods(text: str) -> tuple[float, float, int]:
@@ -89,10 +98,10 @@ def parse_periods(text: str) -> tuple[float, float, int]:
     return low, high, count
 
 
-def candidate_grid(family: str, low: float, high: float, count: int, phases: int, factors=()) -> tuple:
+def candidate_grid(family: str, low: float, high: float, count: int, phases: int, factors=(), choices=()) -> tuple:
     """Every (period, phase) pair, periods evenly spaced in [low, high] and rounded to 1e-6 d (family "": one
-    pair, no orbit varied), times every combination of the factors' values ([(dotted key, values)], full
-    factorial, the last key varying fastest)."""
+    pair, no orbit varied), times every combination of the choices' options ([(factor, [(label, settings)])]) and
+    of the factors' values ([(dotted key, values)]): full factorial, the last key varying fastest."""
     import itertools
 
     if family:
@@ -102,53 +111,110 @@ def candidate_grid(family: str, low: float, high: float, count: int, phases: int
         pairs = [(math.nan, 0.0)]
     keys = [key for key, _ in factors]
     combinations = [tuple(zip(keys, values)) for values in itertools.product(*[values for _, values in factors])]
-    return tuple(Candidate(i, family, p, phase, settings) for i, ((p, phase), settings)
-                 in enumerate(itertools.product(pairs, combinations)))
+    picks = [tuple((factor, label, settings) for factor, (label, settings) in zip([f for f, _ in choices], options))
+             for options in itertools.product(*[options for _, options in choices])]
+    return tuple(Candidate(i, family, p, phase, settings, picked) for i, ((p, phase), picked, settings)
+                 in enumerate(itertools.product(pairs, picks, combinations)))
 
 
 MAX_CANDIDATES = 100_000  # a design's grid is bounded before anything is built
 
 
 def make_design(base: dict, open_spacecraft: str | None, objective: str, family: str | None, periods: str | None,
-                phases: int, condition: bool = False, factors=()) -> Design:
+                phases: int, condition: bool = False, factors=(), choices=(),
+                converge_below_m: float | None = None) -> Design:
     """The design, checked: the open spacecraft and the objective are the base's, the family is known; a family
-    needs an open spacecraft and periods, and a design varies a family, factors ([(dotted key, values)]), or both."""
+    needs an open spacecraft and periods, and a design varies a family, factors ([(dotted key, values)]), choices
+    ([(factor, [(label, ((dotted key, value), ...))])], read_choices), or any of them together."""
     from liaison_cli.orbits.families import family_names
 
     names = [sc.get("name") for sc in base.get("spacecraft", []) if isinstance(sc, dict)]
+    allowed = [*names, WORST, MEAN, CONDITION]
+    if objective not in allowed:
+        raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(allowed)}")
+    if converge_below_m is not None and not (math.isfinite(converge_below_m) and converge_below_m > 0):
+        raise LiaisonError(f"--converge-below {converge_below_m!r}: allowed: a position error in metres above 0")
+    if converge_below_m is not None and objective == CONDITION:
+        raise LiaisonError("--converge-below: not with --objective condition (give a spacecraft, worst or mean)")
+    settings = dict(condition=condition or objective == CONDITION, converge_below_m=converge_below_m)
     if family is None and periods is None and open_spacecraft is None:
-        if not factors:
+        if not factors and not choices:
             raise LiaisonError("design: nothing varies; give --family with --open and --periods, and/or --vary "
-                               "KEY=V1,V2")
-        if objective not in (WORST, CONDITION) and objective not in names:
-            raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)}, {WORST} or {CONDITION}")
-        _check_factors(base, factors)
-        return Design(base, "", objective, candidate_grid("", 0.0, 0.0, 1, 1, factors),
-                      condition or objective == CONDITION)
+                               "KEY=V1,V2, and/or --choices FILE")
+        _check_factors(base, factors, choices)
+        return Design(base, "", objective, candidate_grid("", 0.0, 0.0, 1, 1, factors, choices), **settings)
     if family is None or periods is None or open_spacecraft is None:
         raise LiaisonError("design: --family, --open and --periods go together (the open spacecraft's orbit family "
-                           "and its periods); without them, --vary alone")
+                           "and its periods); without them, --vary or --choices alone")
     if open_spacecraft not in names:
         raise LiaisonError(f"--open {open_spacecraft!r}: not a spacecraft of the scenario; allowed: {', '.join(names)}")
-    if objective not in (WORST, CONDITION) and objective not in names:
-        raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(names)}, {WORST} or {CONDITION}")
     if family not in family_names():
         raise LiaisonError(f"--family {family!r}: allowed: {', '.join(family_names())}")
     if phases < 1:
         raise LiaisonError(f"--phases {phases}: allowed: 1 or more")
     low, high, count = parse_periods(periods)
-    _check_factors(base, factors, count * phases)
-    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases, factors),
-                  condition or objective == CONDITION)
+    _check_factors(base, factors, choices, count * phases)
+    return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases, factors, choices),
+                  **settings)
 
 
-def _check_factors(base: dict, factors, orbit_candidates: int = 1) -> None:
-    """Each factor's key names a value of the base scenario (it replaces it); the grid is bounded."""
-    size = orbit_candidates * math.prod(len(values) for _, values in factors)
+# Columns of a candidate's row: a --choices factor or a --vary key may not take one of these names.
+ROW_COLUMNS = ("rank", "candidate", "family", "period_days", "phase", "score_m", "converge_days", "error",
+               "range_condition_number", "pareto", "mc_score_m", "mc_runs_ok", "mc_consistent", "mc_over_lincov")
+
+
+def _check_factors(base: dict, factors, choices=(), orbit_candidates: int = 1) -> None:
+    """Each factor's key and each choice's keys name values of the base scenario (they replace them), no two
+    factors share a column, and the grid is bounded."""
+    size = orbit_candidates * math.prod(len(values) for _, values in factors) * math.prod(
+        len(options) for _, options in choices)
     if size > MAX_CANDIDATES:
         raise LiaisonError(f"design: {size:,} candidates; allowed: at most {MAX_CANDIDATES:,}")
     for key, values in factors:
         _set_dotted(copy.deepcopy(base), key, values[0], f"--vary {key}")
+    columns = [key for key, _ in factors] + [factor for factor, _ in choices]
+    for column in columns:
+        if column in ROW_COLUMNS or column.endswith(("_rms_position_m", "_sigma_position_m")):
+            raise LiaisonError(f"design factor {column!r}: a column of the table already has that name; allowed: any "
+                               f"other name (not {', '.join(ROW_COLUMNS)})")
+        if columns.count(column) > 1:
+            raise LiaisonError(f"design factor {column!r}: given twice (by --vary or --choices); allowed: once")
+    for factor, options in choices:
+        for label, option in options:
+            mapping = copy.deepcopy(base)
+            for key, value in option:
+                _set_dotted(mapping, key, value, f"choice {factor}.{label}: {key}")
+
+
+def read_choices(path) -> list:
+    """A choices file: each top-level key a factor (a column of the table), its value a mapping of labels to
+    options, each option a mapping of dotted scenario keys to the values it sets together, e.g.
+
+        transmitter:
+          dro: {spacecraft.0: {name: TX, orbit: dro, period_days: 15.91}}
+          halo: {spacecraft.0: {name: TX, orbit: l2_halo_north, period_days: 14.75}}
+
+    -> [(factor, [(label, ((key, value), ...)), ...]), ...], file order kept; one line naming the file and the
+    entry on anything else."""
+    from liaison_cli.errors import ScenarioError
+    from liaison_cli.scenario.loading import read_scenario_text
+
+    data, _ = read_scenario_text(path)
+    shape = ("allowed: a mapping of factor names, each a mapping of labels, each a mapping of dotted scenario keys "
+             "to values (e.g. transmitter: {dro: {spacecraft.0: {name: TX, orbit: dro}}})")
+    if not isinstance(data, dict) or not data:
+        raise ScenarioError(f"{path}: not a choices file; {shape}")
+    choices = []
+    for factor, options in data.items():
+        if not isinstance(factor, str) or not factor or not isinstance(options, dict) or not options:
+            raise ScenarioError(f"{path}: {factor!r}: {shape}")
+        parsed = []
+        for label, option in options.items():
+            if not isinstance(option, dict) or not option or not all(isinstance(k, str) and k for k in option):
+                raise ScenarioError(f"{path}: {factor}.{label}: {shape}")
+            parsed.append((str(label), tuple(option.items())))
+        choices.append((factor, parsed))
+    return choices
 
 
 def _set_dotted(mapping: dict, key: str, value, source: str) -> None:
@@ -172,6 +238,9 @@ def candidate_mapping(design: Design, candidate: Candidate) -> dict:
     """The base scenario with the open spacecraft on the candidate's orbit, named after the candidate."""
     mapping = copy.deepcopy(design.base)
     mapping["name"] = f"{design.base.get('name', 'design')}-c{candidate.index}"
+    for factor, label, settings in candidate.choices:  # first: the family and --vary refine the chosen scenario
+        for key, value in settings:
+            _set_dotted(mapping, key, copy.deepcopy(value), f"choice {factor}.{label}: {key}")
     for spacecraft in mapping["spacecraft"]:
         if candidate.family and spacecraft.get("name") == design.open_spacecraft:
             for key in ORBIT_KEYS:
@@ -184,10 +253,24 @@ def candidate_mapping(design: Design, candidate: Candidate) -> dict:
     return mapping
 
 
-def _objective(design: Design, rms_by_spacecraft: dict) -> float:
+def _objective(design: Design, by_spacecraft: dict) -> float:
+    """The objective over the spacecraft's values (RMS or days): the largest, the mean, or the named one's."""
     if design.objective in (WORST, CONDITION):  # ranked by the condition number: the worst error beside it
-        return max(rms_by_spacecraft.values())
-    return rms_by_spacecraft[design.objective]
+        return max(by_spacecraft.values())
+    if design.objective == MEAN:
+        return float(np.mean(list(by_spacecraft.values())))
+    return by_spacecraft[design.objective]
+
+
+def converge_day(times_s, position_variance_m2, below_m: float) -> float:
+    """The first epoch (days) from which the position error's 1-sigma stays below `below_m` to the end; inf
+    when it ends above."""
+    above = np.flatnonzero(~(np.sqrt(position_variance_m2) < below_m))
+    if not len(above):
+        return float(times_s[0]) / SECONDS_PER_DAY
+    if above[-1] == len(times_s) - 1:
+        return math.inf
+    return float(times_s[above[-1] + 1]) / SECONDS_PER_DAY
 
 
 def score_candidate(design: Design, candidate: Candidate) -> dict:
@@ -199,7 +282,8 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
     from liaison_cli.scenario.truth import SPACECRAFT_CACHE
 
     row = {"candidate": candidate.index, "family": candidate.family, "period_days": candidate.period_days,
-           "phase": candidate.phase, **dict(candidate.settings), "score_m": math.nan, "error": ""}
+           "phase": candidate.phase, **{factor: label for factor, label, _ in candidate.choices},
+           **dict(candidate.settings), "score_m": math.nan, "error": ""}
     try:
         scenario = validate_scenario(candidate_mapping(design, candidate), "design candidate")
         if len(_FLOWN) > FLOWN_MAX_ENTRIES:
@@ -216,6 +300,10 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
         if not math.isfinite(score):
             raise ValueError("the covariance analysis diverged (a non-finite error)")
         row["score_m"] = score
+        if design.converge_below_m is not None:
+            row["converge_days"] = _objective(design, {name: converge_day(
+                budget.times_s, budget.total[:, s, 0], design.converge_below_m) for s, name in enumerate(
+                budget.spacecraft)})
         row["range_condition_number"] = range_condition_number(scenario) if design.condition else math.nan
     except Exception as exc:  # a worker never raises: the reason goes into the table
         row["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
@@ -281,17 +369,20 @@ def score_all(design: Design, jobs: int, where, work=None) -> pd.DataFrame:
     table = pd.DataFrame([row for b in range(len(batches)) for row in finished[b]])
     if "range_condition_number" not in table:
         table["range_condition_number"] = math.nan
+    if design.converge_below_m is not None and "converge_days" not in table:
+        table["converge_days"] = math.nan
     table["pareto"] = pareto_front(table)
-    table = table.sort_values([design.rank_column, "candidate"], na_position="last", kind="stable")
+    table = table.sort_values([*design.rank_columns, "candidate"], na_position="last", kind="stable")
     table.insert(0, "rank", np.arange(1, len(table) + 1))
-    table.loc[table[design.rank_column].isna() | table.score_m.isna(), "rank"] = 0
+    table.loc[table[design.rank_columns[0]].isna() | table.score_m.isna(), "rank"] = 0
     return table.reset_index(drop=True)
 
 
 class DesignStore:
     """A design's finished batches of candidates in a work folder (None: nothing kept), one JSON file each,
     `design-<key>-b<batch>.json`, written atomically. The key is a digest of everything a row depends on: the base
-    scenario, the open spacecraft, the objective, the condition flag, the candidates and their batching, liaison's
+    scenario, the open spacecraft, the objective, the condition flag and threshold, the candidates (their orbits,
+    factors and choices) and their batching, liaison's
     version and the code of every package that makes the numbers (study_cells.PACKAGE_CODE) and of this module;
     so a changed design or code never reuses a stale row. A damaged file is noted and computed again."""
 
@@ -307,8 +398,9 @@ class DesignStore:
         if self.folder is None:
             return
         inputs = {"base": design.base, "open": design.open_spacecraft, "objective": design.objective,
-                  "condition": design.condition, "chunk": chunk, "version": __version__,
-                  "candidates": [[c.index, c.family, c.period_days, c.phase] for c in design.candidates],
+                  "condition": design.condition, "converge_below_m": design.converge_below_m, "chunk": chunk,
+                  "version": __version__, "candidates": [[c.index, c.family, c.period_days, c.phase, c.settings,
+                                                          c.choices] for c in design.candidates],
                   "core": core_source_hash(PACKAGE_CODE), "code": source_digest(__file__)}
         self.key = hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -377,8 +469,8 @@ def pareto_front(table: pd.DataFrame) -> pd.Series:
 
 def verify(design: Design, table: pd.DataFrame, top: int, runs: int, jobs: int, where) -> pd.DataFrame:
     """The best `top` scored candidates by Monte Carlo (`runs` runs each): the objective's Monte Carlo position
-    error RMS after the settle time (RMS over the runs), its ratio to the LinCov score, and the verdict of every
-    estimated spacecraft. Adds their columns to a copy of the table."""
+    error RMS after the settle time (RMS over the runs), each estimated spacecraft's (`mc_<name>_rms_position_m`),
+    the objective's ratio to the LinCov score, and the verdict of every estimated spacecraft. Adds their columns to a copy of the table."""
     from liaison_cli.analysis.consistency import campaign_verdict
     from liaison_cli.campaign.engine.results import summary_table
     from liaison_cli.campaign.engine.runner import run_campaign
@@ -399,6 +491,7 @@ def verify(design: Design, table: pd.DataFrame, top: int, runs: int, jobs: int, 
             ok = group[group.status == "ok"]
             ok_counts.append(f"{len(ok)}/{len(group)}")
             rms[name] = float(np.sqrt(np.mean(ok.rms_position_settled_m**2))) if len(ok) else math.inf
+            out.loc[position, f"mc_{name}_rms_position_m"] = rms[name]
             verdicts.append(f"{name} {'yes' if len(ok) and campaign_verdict(ok)['consistent_settled'] else 'no'}")
         score = _objective(design, rms)
         out.at[position, "mc_score_m"] = score

@@ -55,3 +55,25 @@ def test_another_orbit_is_another_entry_and_off_is_off(scenario, cache, monkeypa
     monkeypatch.setenv("LIAISON_TRUTH_CACHE", "off")
     prepare_problem(apply_overrides(scenario, {"spacecraft.1.elements.ta_deg": 20.0}))
     assert len(list(cache.glob("*.npz"))) == 3
+
+
+def test_the_folder_is_bounded_by_bytes_oldest_first(cache, monkeypatch):
+    """LIAISON_TRUTH_CACHE_MB bounds the folder: an eviction check (every EVICT_EVERY stores of a process) deletes
+    the oldest entries until the rest fit; a bad value falls back to the default."""
+    import os
+
+    from liaison_cli.scenario import truth_store
+
+    monkeypatch.setattr(truth_store, "_stores", 0)
+    states = np.zeros((2000, 6))  # 96 kB of floats
+    for i in range(6):
+        truth_store.store_truth(f"k{i}", states)
+        path = truth_store._path(f"k{i}")
+        os.utime(path, (1000.0 + i, 1000.0 + i))  # k0 oldest
+    size = truth_store._path("k0").stat().st_size
+    monkeypatch.setenv("LIAISON_TRUTH_CACHE_MB", str(3.5 * size / 1e6))
+    truth_store._evict(truth_store.budget_bytes())
+    assert sorted(p.name for p in cache.glob("*.npz")) == sorted(truth_store._path(f"k{i}").name for i in (3, 4, 5))
+    assert truth_store.load_truth("k5", 2000) is not None and truth_store.load_truth("k0", 2000) is None
+    monkeypatch.setenv("LIAISON_TRUTH_CACHE_MB", "lots")
+    assert truth_store.budget_bytes() == truth_store.MAX_MEGABYTES * 1_000_000
