@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.constants import LU_KM
-from liaison_cli.dynamics.crtbp import derivative, derivative_into, state_stm_rhs
+from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs, truth_derivative_into
 from liaison_cli.dynamics.spherical_harmonics import acceleration_gradient_into, packed_index
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
@@ -175,13 +175,17 @@ def _add_terms_to_state_stm_rhs(y, params, out):
 def field_derivative(state, params):
     """(6,) -> (6,): the truth's derivative (crtbp.derivative's arithmetic, so a point-mass truth is the recorded
     one bit for bit) plus the added terms when params has them."""
-    out = derivative(state, params[0])
-    if params.shape[0] > 1:
-        acc, grad = np.empty(3), np.empty(6)
-        added_terms_into(params, state[0], state[1], state[2], False, acc, grad)
-        for i in range(3):
-            out[3 + i] += acc[i]
+    out = np.empty(6)
+    field_truth_derivative_into(state, params, out)
     return out
+
+
+@njit(cache=True, inline="always")
+def field_truth_derivative_into(state, params, out):
+    """field_derivative into out[0:6], no allocation (the truth's RK4 stages)."""
+    truth_derivative_into(state, params[0], out)
+    if params.shape[0] > 1:
+        _add_terms_to_derivative(state, params, out)
 
 
 @njit(cache=True)

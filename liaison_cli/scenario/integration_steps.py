@@ -23,7 +23,7 @@ def step_choices(scenario: Scenario, model: DynamicsModel, dt_tu: float, traject
     order = model.descriptor.integrator_order
     tolerance_lu = flt.integration_tolerance_m / M_PER_LU
     if flt.rk4_substeps is None:
-        return {name: choose_substeps(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu)
+        return {name: _chosen(model.code, params, trajectories[name].states, dt_tu, order, tolerance_lu)
                 for name in names}
     out = {}
     for name in names:  # the fixed count's own error and, where it misses, what the tolerance would take
@@ -37,6 +37,25 @@ def step_choices(scenario: Scenario, model: DynamicsModel, dt_tu: float, traject
             accurate = search.substeps if search.met else UNREACHABLE
         out[name] = StepChoice(fixed, error_lu, error_lu <= tolerance_lu, SUBSTEPS_KEY, accurate)
     return out
+
+
+_CHOSEN: dict = {}  # this process's step choices by what fixes them (a design's unchanged spacecraft: once)
+CHOSEN_MAX_ENTRIES = 256
+
+
+def _chosen(model: int, params, states, dt_tu: float, order: int, tolerance_lu: float) -> StepChoice:
+    """choose_substeps, remembered in this process under a digest of its inputs (the trajectory's bytes among
+    them: 0.3 ms to hash against 10-25 ms to choose); a pure function, so a remembered choice is the same."""
+    import hashlib
+
+    digest = hashlib.blake2b(np.ascontiguousarray(states, dtype=np.float64).tobytes(), digest_size=16)
+    digest.update(np.ascontiguousarray(params, dtype=np.float64).tobytes())
+    key = (int(model), digest.hexdigest(), float(dt_tu), int(order), float(tolerance_lu))
+    if key not in _CHOSEN:
+        if len(_CHOSEN) >= CHOSEN_MAX_ENTRIES:
+            _CHOSEN.clear()
+        _CHOSEN[key] = choose_substeps(model, params, states, dt_tu, order, tolerance_lu)
+    return _CHOSEN[key]
 
 
 def substeps_per_block(layout: StateLayout, choices: dict[str, StepChoice]) -> np.ndarray:
