@@ -266,3 +266,19 @@ def test_a_changed_factor_never_reuses_stored_rows():
     keys |= {DesignStore("w", make_design(BASE, None, "User", None, None, 1, choices=[("f", [("a", (key,))])]),
                          1).key for key in (("noise.sigma_m", 5), ("noise.sigma_m", 6))}
     assert len(keys) == 4
+
+
+def test_a_candidate_row_has_each_direction_and_each_links_visibility():
+    """Per spacecraft, the LinCov error and the filter sigma RMS per axis (their squares sum to the position's);
+    per link, the share of epochs it measures (a crosslink occulted by the Moon part of the time)."""
+    from liaison_cli.campaign.studies.design import make_design, score_candidate
+
+    design = make_design(BASE, None, "User", None, None, 1, factors=[("noise.sigma_m", [10.0])])
+    row = score_candidate(design, design.candidates[0])
+    assert row["error"] == ""
+    for name in ("Relay", "User"):
+        for kind in ("rms", "sigma"):
+            axes = [row[f"{name}_{kind}_{axis}_m"] for axis in "xyz"]
+            assert sum(a * a for a in axes) == pytest.approx(row[f"{name}_{kind}_position_m"] ** 2, rel=1e-9)
+            assert min(axes) > 0
+    assert 0.0 < row["visible Relay->User"] <= 1.0

@@ -174,7 +174,8 @@ def _check_factors(base: dict, factors, choices=(), orbit_candidates: int = 1) -
         _set_dotted(copy.deepcopy(base), key, values[0], f"--vary {key}")
     columns = [key for key, _ in factors] + [factor for factor, _ in choices]
     for column in columns:
-        if column in ROW_COLUMNS or column.endswith(("_rms_position_m", "_sigma_position_m")):
+        if column in ROW_COLUMNS or column.startswith("visible ") or column.endswith(
+                ("_position_m", "_x_m", "_y_m", "_z_m")):
             raise LiaisonError(f"design factor {column!r}: a column of the table already has that name; allowed: any "
                                f"other name (not {', '.join(ROW_COLUMNS)})")
         if columns.count(column) > 1:
@@ -275,7 +276,8 @@ def converge_day(times_s, position_variance_m2, below_m: float) -> float:
 
 def score_candidate(design: Design, candidate: Candidate) -> dict:
     """The candidate's row: its orbit, each estimated spacecraft's LinCov position error RMS and filter σ RMS
-    after the settle time (m), the score (the objective's RMS), or `error` with the reason. Never raises."""
+    after the settle time (m), in all and per axis of the dynamics model's frame, each link's share of epochs
+    measured, the score (the objective's RMS), or `error` with the reason. Never raises."""
     from liaison_cli.campaign.studies.error_budget import error_budget
     from liaison_cli.scenario.loading import validate_scenario
     from liaison_cli.scenario.setup import prepare_problem
@@ -296,6 +298,10 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
             rms[name] = float(np.sqrt(np.mean(budget.total[settled, s, 0])))
             row[f"{name}_rms_position_m"] = rms[name]
             row[f"{name}_sigma_position_m"] = float(np.sqrt(np.mean(budget.filter_variance[settled, s, 0])))
+            for a, axis in enumerate("xyz"):  # by direction: the dynamics model's axes
+                row[f"{name}_rms_{axis}_m"] = float(np.sqrt(np.mean(budget.total_axes[settled, s, a])))
+                row[f"{name}_sigma_{axis}_m"] = float(np.sqrt(np.mean(budget.filter_axes[settled, s, a])))
+        row.update(visibility_shares(problem))
         score = _objective(design, rms)
         if not math.isfinite(score):
             raise ValueError("the covariance analysis diverged (a non-finite error)")
@@ -308,6 +314,14 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
     except Exception as exc:  # a worker never raises: the reason goes into the table
         row["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
     return row
+
+
+def visibility_shares(problem) -> dict:
+    """{f"visible {link label}": the share of the epochs after t0 at which the link measures anything}."""
+    measured = np.isfinite(problem.measurements_true[1:])
+    links = np.array([channel.link for channel in problem.channels], dtype=int)
+    return {f"visible {label}": float(measured[:, links == link].any(axis=1).mean()) if len(measured) else math.nan
+            for link, label in enumerate(problem.link_labels)}
 
 
 def range_condition_number(scenario) -> float:

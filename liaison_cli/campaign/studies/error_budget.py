@@ -60,13 +60,16 @@ class BudgetError(LiaisonError):
 class Budget:
     """times_s (m,); spacecraft names; parts {name: (m, n_sc, 2)} second-moment contributions (position m^2,
     velocity (m/s)^2); 'deterministic_cross' holds the cross terms of the deterministic means; total (m, n_sc,
-    2); filter_variance (m, n_sc, 2): the filter's own trace of P."""
+    2); filter_variance (m, n_sc, 2): the filter's own trace of P; total_axes and filter_axes (m, n_sc, 3): the
+    position's second moment and the filter's variance per axis of the dynamics model's frame (m^2)."""
 
     times_s: np.ndarray
     spacecraft: tuple
     parts: dict
     total: np.ndarray
     filter_variance: np.ndarray
+    total_axes: np.ndarray | None = None
+    filter_axes: np.ndarray | None = None
 
 
 def _filter_truth(problem: Problem) -> np.ndarray:
@@ -124,6 +127,11 @@ def _per_spacecraft(diag_lu, n_sc):
                     axis=2)
 
 
+def _position_axes(diag_lu, n_sc):
+    """(m, n) filter-state diagonal in LU units -> (m, n_sc, 3): each spacecraft's position variance per axis, m^2."""
+    return diag_lu[:, : 6 * n_sc].reshape(diag_lu.shape[0], n_sc, 6)[:, :, 0:3] * M_PER_LU**2
+
+
 def error_budget(problem: Problem) -> Budget:
     if problem.filter.ric_noise is not None:
         raise BudgetError(f"{problem.scenario.name}: process_noise_psd_ric_m2_s3: LinCov takes a fixed process "
@@ -143,12 +151,12 @@ def error_budget(problem: Problem) -> Budget:
     run_lincov = lincov_along_truth
     P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft
-    parts = {"initial": _per_spacecraft(D_diag[:, PART_INITIAL], n_sc),
-             "noise": _per_spacecraft(D_diag[:, PART_NOISE], n_sc),
-             "process": _per_spacecraft(D_diag[:, PART_PROCESS], n_sc)}
+    random_diag = {"initial": D_diag[:, PART_INITIAL], "noise": D_diag[:, PART_NOISE],
+                   "process": D_diag[:, PART_PROCESS]}  # each part's variance per filter state, LU
     bias_sigma = problem.bias_sigma_lu
     for link, label in enumerate(problem.link_labels):
-        parts[f"bias {label}"] = _per_spacecraft(S[:, :, link] ** 2 * bias_sigma**2, n_sc)
+        random_diag[f"bias {label}"] = S[:, :, link] ** 2 * bias_sigma**2
+    parts = {name: _per_spacecraft(diag, n_sc) for name, diag in random_diag.items()}
     bias_mean = S @ np.full(len(problem.link_labels), problem.bias_lu)
     means = {"measurement_model": mu_meas, "dynamics_model": mu_dyn, "bias_mean": bias_mean}
     for name, mean in means.items():
@@ -159,11 +167,14 @@ def error_budget(problem: Problem) -> Budget:
             off_by_sigma = list(args)
             scaled = biased_filter_params(problem.scenario, problem.dynamics, *draws)
             off_by_sigma[LINCOV_DYNAMICS_ARG] = f.dynamics()._replace(params=scaled)
-            parts[name] = _per_spacecraft((run_lincov(*off_by_sigma)[4] - mu_dyn) ** 2, n_sc)
+            random_diag[name] = (run_lincov(*off_by_sigma)[4] - mu_dyn) ** 2
+            parts[name] = _per_spacecraft(random_diag[name], n_sc)
     total_mean = mu_meas + mu_dyn + bias_mean
     parts["deterministic_cross"] = _per_spacecraft(total_mean**2, n_sc) - sum(parts[k] for k in DETERMINISTIC)
     total = sum(parts.values())
-    return Budget(problem.times_s, problem.spacecraft, parts, total, _per_spacecraft(P_diag, n_sc))
+    total_axes = _position_axes(sum(random_diag.values()) + total_mean**2, n_sc)
+    return Budget(problem.times_s, problem.spacecraft, parts, total, _per_spacecraft(P_diag, n_sc), total_axes,
+                  _position_axes(P_diag, n_sc))
 
 
 def select_sources(text: str | None) -> tuple[str, ...]:
