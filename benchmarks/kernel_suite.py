@@ -35,15 +35,17 @@ def _timed(command: list[str], env: dict, cwd: Path) -> tuple[int, float, str]:
     start = time.perf_counter()
     done = subprocess.run(command, env=env, cwd=cwd, capture_output=True, text=True)
     lines = [line for line in done.stdout.splitlines() if line.strip()]
-    return done.returncode, time.perf_counter() - start, (lines[-1] if lines else done.stderr.strip()[-200:])
+    failed = [line.split(" - ")[0].removeprefix("FAILED ").strip() for line in lines if line.startswith("FAILED ")]
+    outcome = lines[-1] if lines else done.stderr.strip()[-200:]
+    return done.returncode, time.perf_counter() - start, outcome + (f" (failed: {', '.join(failed)})" if failed else "")
 
 
 def one_kernel(kernel: str, jobs: int) -> str:
     load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as work:
         env = _environment(kernel, cache)
-        suite_rc, suite_s, suite_line = _timed([sys.executable, "-m", "pytest", "-q", "-n", str(jobs), "-p",
-                                                "no:cacheprovider"], env, REPO)
+        suite_rc, suite_s, suite_line = _timed([sys.executable, "-m", "pytest", "-q", "-rf", "-n", str(jobs),
+                                                "-p", "no:cacheprovider"], env, REPO)
         study_rc, study_s, _ = _timed([sys.executable, "-m", "liaison_cli", "study004", "--runs", "2", "--jobs",
                                        str(jobs), "--output", str(Path(work) / "s004")], env, REPO)
     print(f"{kernel}: suite {suite_line} ({suite_s:.0f} s); study004 exit {study_rc} ({study_s:.0f} s)", flush=True)
