@@ -28,9 +28,11 @@ def read_intact(path: Path, read, cache: str, remedy: str):
     """read(path) -> (value, None), or (anything, problem) for a file that loads but is malformed: the value,
     or None with one note on stderr (`damaged CACHE cache (problem); REMEDY`) when the file is damaged. A
     damaged zip fails in many ways (BadZipFile, EOFError, KeyError, ValueError): any error but a
-    PermissionError (which a rebuild would meet too) counts as damage."""
+    PermissionError (which a rebuild would meet too) counts as damage; a file gone meanwhile is None, silently."""
     try:
         value, problem = read(path)
+    except FileNotFoundError:  # gone since the caller looked (another process evicted it): a miss, not damage
+        return None
     except Exception as exc:  # noqa: BLE001 - see the docstring
         if isinstance(exc, PermissionError):
             raise

@@ -95,7 +95,7 @@ def draw_score_plane(table, path: Path, title: str) -> Path | None:
     fig.colorbar(mesh, ax=ax, label="LinCov position error RMS after settle (m)")
     best = table[table.score_m.notna()].head(1)
     if len(best):
-        ax.plot(best.period_days, best.phase, marker="*", color="red", markersize=14, label="best")
+        ax.plot(best.period_days, best.phase, marker="*", color="red", markersize=14, label="ranked first")
         ax.legend(loc="upper right", fontsize=9)
     ax.set_xlabel("period (days)")
     ax.set_ylabel("phase (fraction of the period)")

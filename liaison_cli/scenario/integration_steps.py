@@ -51,11 +51,12 @@ def _chosen(model: int, params, states, dt_tu: float, order: int, tolerance_lu: 
     digest = hashlib.blake2b(np.ascontiguousarray(states, dtype=np.float64).tobytes(), digest_size=16)
     digest.update(np.ascontiguousarray(params, dtype=np.float64).tobytes())
     key = (int(model), digest.hexdigest(), float(dt_tu), int(order), float(tolerance_lu))
-    if key not in _CHOSEN:
+    choice = _CHOSEN.get(key)
+    if choice is None:
         if len(_CHOSEN) >= CHOSEN_MAX_ENTRIES:
             _CHOSEN.clear()
-        _CHOSEN[key] = choose_substeps(model, params, states, dt_tu, order, tolerance_lu)
-    return _CHOSEN[key]
+        choice = _CHOSEN[key] = choose_substeps(model, params, states, dt_tu, order, tolerance_lu)
+    return choice  # the local, not a second look-up: another thread may clear the memo in between
 
 
 def substeps_per_block(layout: StateLayout, choices: dict[str, StepChoice]) -> np.ndarray:

@@ -15,6 +15,7 @@ overshoot by that many entries per process). `LIAISON_TRUTH_CACHE=off` turns it 
 """
 
 import hashlib
+import math
 import os
 from functools import lru_cache
 
@@ -79,12 +80,12 @@ def store_truth(key: str, states) -> None:
 
 
 def budget_bytes() -> int:
-    """The folder's bound: LIAISON_TRUTH_CACHE_MB megabytes (a positive number), else MAX_MEGABYTES."""
+    """The folder's bound: LIAISON_TRUTH_CACHE_MB megabytes (a positive finite number), else MAX_MEGABYTES."""
     try:
         megabytes = float(os.environ.get("LIAISON_TRUTH_CACHE_MB", MAX_MEGABYTES))
     except ValueError:
         megabytes = MAX_MEGABYTES
-    return int((megabytes if megabytes > 0 else MAX_MEGABYTES) * 1e6)
+    return int((megabytes if math.isfinite(megabytes) and megabytes > 0 else MAX_MEGABYTES) * 1e6)
 
 
 def _evict(budget: int) -> None:
@@ -102,6 +103,8 @@ def _evict(budget: int) -> None:
             break
         try:
             old.unlink()
-            total -= size
+        except FileNotFoundError:
+            pass  # another process evicted it: gone all the same
         except OSError:
-            pass
+            continue
+        total -= size

@@ -282,3 +282,29 @@ def test_a_candidate_row_has_each_direction_and_each_links_visibility():
             assert sum(a * a for a in axes) == pytest.approx(row[f"{name}_{kind}_position_m"] ** 2, rel=1e-9)
             assert min(axes) > 0
     assert 0.0 < row["visible Relay->User"] <= 1.0
+
+
+def test_a_choice_that_renames_a_spacecraft_is_checked_against_the_open_one_and_the_objective(tmp_path):
+    """The names --open and --objective take are the ones every candidate has: a choice renaming the open
+    spacecraft is refused in one line (never a family silently not applied), and a name every option gives is
+    allowed; a label or key the file cannot mean is one line too."""
+    from liaison_cli.campaign.studies.design import candidate_mapping, make_design, read_choices
+
+    renamed = [("relay", [("big", (("spacecraft.0", {"name": "TX", "orbit": "dro", "period_days": 15.0}),)),
+                          ("small", (("spacecraft.0", {"name": "TX", "orbit": "dro", "period_days": 9.0}),))])]
+    with pytest.raises(LiaisonError, match="--open 'Relay': not a spacecraft of the scenario .of every candidate."):
+        make_design(BASE, "Relay", "User", "dro", "5:11:3", 1, choices=renamed)
+    design = make_design(BASE, "TX", "TX", "dro", "5:11:3", 1, choices=renamed)  # every candidate has TX
+    mapping = candidate_mapping(design, design.candidates[0])
+    assert mapping["spacecraft"][0]["period_days"] == design.candidates[0].period_days == 5.0
+    one_renames = [("user", [("same", (("spacecraft.1.elements.a_km", 2500),)),
+                             ("renamed", (("spacecraft.1.name", "U2"),))])]
+    with pytest.raises(LiaisonError, match="--objective 'User': allowed: Relay, worst, mean, condition"):
+        make_design(BASE, None, "User", None, None, 1, choices=one_renames)
+    for text, fragment in (("f: {1: {noise.sigma_m: 5}, '1': {noise.sigma_m: 6}}", "two labels read the same"),
+                           ("f: {yes: {noise.sigma_m: 5}}", "label True: allowed: a text or a number"),
+                           ("f: {a: {noise: {1: 2, sigma_m: 3}}}", "f.a: key 1: allowed: text keys")):
+        path = tmp_path / "c.yaml"
+        path.write_text(text)
+        with pytest.raises(LiaisonError, match=fragment):
+            read_choices(path)

@@ -128,7 +128,7 @@ def make_design(base: dict, open_spacecraft: str | None, objective: str, family:
     ([(factor, [(label, ((dotted key, value), ...))])], read_choices), or any of them together."""
     from liaison_cli.orbits.families import family_names
 
-    names = [sc.get("name") for sc in base.get("spacecraft", []) if isinstance(sc, dict)]
+    names = spacecraft_of_every_candidate(base, choices)
     allowed = [*names, WORST, MEAN, CONDITION]
     if objective not in allowed:
         raise LiaisonError(f"--objective {objective!r}: allowed: {', '.join(allowed)}")
@@ -147,7 +147,8 @@ def make_design(base: dict, open_spacecraft: str | None, objective: str, family:
         raise LiaisonError("design: --family, --open and --periods go together (the open spacecraft's orbit family "
                            "and its periods); without them, --vary or --choices alone")
     if open_spacecraft not in names:
-        raise LiaisonError(f"--open {open_spacecraft!r}: not a spacecraft of the scenario; allowed: {', '.join(names)}")
+        raise LiaisonError(f"--open {open_spacecraft!r}: not a spacecraft of the scenario (of every candidate); "
+                           f"allowed: {', '.join(names)}")
     if family not in family_names():
         raise LiaisonError(f"--family {family!r}: allowed: {', '.join(family_names())}")
     if phases < 1:
@@ -156,6 +157,26 @@ def make_design(base: dict, open_spacecraft: str | None, objective: str, family:
     _check_factors(base, factors, choices, count * phases)
     return Design(base, open_spacecraft, objective, candidate_grid(family, low, high, count, phases, factors, choices),
                   **settings)
+
+
+def spacecraft_of_every_candidate(base: dict, choices=()) -> list[str]:
+    """The spacecraft names every candidate has: the base's, or with choices that set spacecraft (a whole one, or
+    its name), the names common to every combination of those choices' options (base order first)."""
+    import itertools
+
+    spacecraft = base.get("spacecraft", [])
+    naming = [[(factor, label, option) for label, option in options] for factor, options in choices
+              if any(str(key).split(".")[0] == "spacecraft" for _, option in options for key, _ in option)]
+    common = None
+    for combination in itertools.islice(itertools.product(*naming), MAX_CANDIDATES):
+        mapping = {"spacecraft": copy.deepcopy(spacecraft)}
+        for factor, label, option in combination:
+            for key, value in option:
+                if str(key).split(".")[0] == "spacecraft":
+                    _set_dotted(mapping, key, copy.deepcopy(value), f"choice {factor}.{label}: {key}")
+        found = [sc.get("name") for sc in mapping["spacecraft"] if isinstance(sc, dict)]
+        common = found if common is None else [name for name in common if name in found]
+    return [name for name in (common or []) if isinstance(name, str)]
 
 
 # Columns of a candidate's row: a --choices factor or a --vary key may not take one of these names.
@@ -211,11 +232,37 @@ def read_choices(path) -> list:
             raise ScenarioError(f"{path}: {factor!r}: {shape}")
         parsed = []
         for label, option in options.items():
+            if isinstance(label, bool) or not isinstance(label, (str, int, float)):
+                raise ScenarioError(f"{path}: {factor}: label {label!r}: allowed: a text or a number (quote yes, no "
+                                    "and null)")
             if not isinstance(option, dict) or not option or not all(isinstance(k, str) and k for k in option):
                 raise ScenarioError(f"{path}: {factor}.{label}: {shape}")
+            bad = _non_text_key(option)
+            if bad is not None:
+                raise ScenarioError(f"{path}: {factor}.{label}: key {bad!r}: allowed: text keys (a scenario's keys "
+                                    "are words)")
             parsed.append((str(label), tuple(option.items())))
+        labels = [label for label, _ in parsed]
+        if len(set(labels)) < len(labels):
+            raise ScenarioError(f"{path}: {factor}: two labels read the same ({', '.join(labels)}); allowed: "
+                                "distinct labels")
         choices.append((factor, parsed))
     return choices
+
+
+def _non_text_key(value):
+    """The first mapping key in `value` (at any depth) that is not text, or None."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            for key, inner in item.items():
+                if not isinstance(key, str):
+                    return key
+                stack.append(inner)
+        elif isinstance(item, list):
+            stack.extend(item)
+    return None
 
 
 def _set_dotted(mapping: dict, key: str, value, source: str) -> None:
@@ -242,13 +289,15 @@ def candidate_mapping(design: Design, candidate: Candidate) -> dict:
     for factor, label, settings in candidate.choices:  # first: the family and --vary refine the chosen scenario
         for key, value in settings:
             _set_dotted(mapping, key, copy.deepcopy(value), f"choice {factor}.{label}: {key}")
-    for spacecraft in mapping["spacecraft"]:
-        if candidate.family and spacecraft.get("name") == design.open_spacecraft:
-            for key in ORBIT_KEYS:
-                spacecraft.pop(key, None)
-            spacecraft.update(orbit=candidate.family, period_days=candidate.period_days)
-            if candidate.phase:
-                spacecraft["phase"] = candidate.phase
+    opened = [sc for sc in mapping["spacecraft"] if isinstance(sc, dict) and sc.get("name") == design.open_spacecraft]
+    if candidate.family and not opened:  # make_design checks every candidate has it: never a silent no-op
+        raise LiaisonError(f"the open spacecraft {design.open_spacecraft!r} is not in this candidate")
+    for spacecraft in opened if candidate.family else ():
+        for key in ORBIT_KEYS:
+            spacecraft.pop(key, None)
+        spacecraft.update(orbit=candidate.family, period_days=candidate.period_days)
+        if candidate.phase:
+            spacecraft["phase"] = candidate.phase
     for key, value in candidate.settings:
         _set_dotted(mapping, key, value, f"--vary {key}")
     return mapping

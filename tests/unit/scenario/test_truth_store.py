@@ -77,3 +77,27 @@ def test_the_folder_is_bounded_by_bytes_oldest_first(cache, monkeypatch):
     assert truth_store.load_truth("k5", 2000) is not None and truth_store.load_truth("k0", 2000) is None
     monkeypatch.setenv("LIAISON_TRUTH_CACHE_MB", "lots")
     assert truth_store.budget_bytes() == truth_store.MAX_MEGABYTES * 1_000_000
+
+
+def test_storing_evicts_every_few_stores_and_a_vanished_entry_is_a_quiet_miss(cache, monkeypatch, capsys):
+    """store_truth itself checks the bound (every EVICT_EVERY stores of a process); an infinite or bad budget is
+    the default; a file another process evicted between the look and the read is a miss without a note."""
+    from liaison_cli.scenario import truth_store
+
+    monkeypatch.setattr(truth_store, "_stores", 0)
+    monkeypatch.setattr(truth_store, "EVICT_EVERY", 2)
+    states = np.zeros((2000, 6))
+    truth_store.store_truth("probe", states)
+    size = truth_store._path("probe").stat().st_size
+    monkeypatch.setenv("LIAISON_TRUTH_CACHE_MB", str(2.5 * size / 1e6))
+    for i in range(6):
+        truth_store.store_truth(f"k{i}", states)
+    assert len(list(cache.glob("*.npz"))) <= 3  # bounded by the stores' own checks, one store of slack
+    monkeypatch.setenv("LIAISON_TRUTH_CACHE_MB", "inf")
+    assert truth_store.budget_bytes() == truth_store.MAX_MEGABYTES * 1_000_000
+    path = truth_store._path("k5")
+    real_is_file = type(path).is_file
+    monkeypatch.setattr(type(path), "is_file", lambda self: True if self == path else real_is_file(self))
+    path.unlink(missing_ok=True)
+    capsys.readouterr()
+    assert truth_store.load_truth("k5", 2000) is None and "damaged" not in capsys.readouterr().err
