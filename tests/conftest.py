@@ -81,13 +81,23 @@ def assert_one_line_error(proc, path, fragments, code: int = 2) -> None:
         assert fragment in lines[0], (fragment, lines[0])
 
 
-@pytest.fixture
-def sigint_kept():
-    """The CLI run in this process installs its SIGINT handler (and, once interrupted, ignores SIGINT):
-    the test runner's own handler is put back afterwards."""
-    previous = signal.getsignal(signal.SIGINT)
+@pytest.fixture(autouse=True)
+def signals_kept():
+    """A CLI run in this process installs its SIGINT and SIGTERM handlers and, once interrupted, ignores both:
+    the test process's own dispositions are put back after every test. Left ignored, they were inherited by
+    every process a later test starts (a disposition of SIG_IGN survives fork and exec), and that test's
+    `kill PID` reached a CLI that ignored it: exit 0 where 130 was right, depending on the order tests ran in."""
+    previous = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
     yield
-    signal.signal(signal.SIGINT, previous)
+    for number, handler in previous.items():
+        if handler is not None:
+            signal.signal(number, handler)
+
+
+@pytest.fixture
+def sigint_kept(signals_kept):
+    """Kept for the tests that name it: every test now has signals_kept."""
+    yield
 
 
 

@@ -51,10 +51,15 @@ def test_a_worker_re_raises_an_interrupt_from_compiled_code_instead_of_reporting
 
 
 def _start(args):
-    """The CLI in its own process group with SIGINT at its default, as a terminal starts it."""
+    """The CLI in its own process group with SIGINT and SIGTERM at their defaults, as a terminal starts it."""
     return subprocess.Popen([sys.executable, "-m", "liaison_cli", *map(str, args)], cwd=REPO,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                            preexec_fn=_default_signals)
+
+
+def _default_signals():
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, signal.SIG_DFL)
 
 
 def _wait_for(predicate, proc, limit_s=120.0):
