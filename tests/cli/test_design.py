@@ -308,3 +308,17 @@ def test_a_choice_that_renames_a_spacecraft_is_checked_against_the_open_one_and_
         path.write_text(text)
         with pytest.raises(LiaisonError, match=fragment):
             read_choices(path)
+
+
+def test_a_second_spacecraft_on_a_family_is_opened_by_its_period_and_phase():
+    """docs/design.md: besides --family, another spacecraft on a family is opened with --vary on its period_days
+    and phase (a key the base leaves out may be added); each candidate flies its own member at its own phase."""
+    from liaison_cli.campaign.studies.design import make_design, score_candidate
+
+    design = make_design(BASE, None, "worst", None, None, 1,
+                         factors=[("spacecraft.0.period_days", [10.0, 12.0]), ("spacecraft.0.phase", [0.0, 0.5])])
+    rows = [score_candidate(design, candidate) for candidate in design.candidates]
+    assert all(row["error"] == "" for row in rows), [row["error"] for row in rows]
+    assert sorted((row["spacecraft.0.period_days"], row["spacecraft.0.phase"]) for row in rows) == [
+        (10.0, 0.0), (10.0, 0.5), (12.0, 0.0), (12.0, 0.5)]
+    assert len({round(row["score_m"], 6) for row in rows}) == 4
