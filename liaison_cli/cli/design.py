@@ -55,11 +55,9 @@ def design(
     --objective Lunar --verify 3 --runs 30; liaison design eml2_lunar --vary spacecraft.1.elements.a_km=6000,9000,12000
     --vary spacecraft.1.elements.i_deg=30,60,90 --objective Lunar --output results/eml2_lunar-orbiter-design"""
     from liaison_cli.campaign.studies.budget_tables import provenance
-    from liaison_cli.campaign.studies.design import (condition_agreement, make_design, rank_agreement, read_choices,
-                                                     score_all, verify)
-    from liaison_cli.campaign.studies.output import StudyOutput, write_folder
+    from liaison_cli.campaign.studies.design import make_design, read_choices, score_all, verify
+    from liaison_cli.campaign.studies.output import write_folder
     from liaison_cli.campaign.sweep.grid import parse_grid
-    from liaison_cli.report.design import draw_pareto, draw_score_plane, format_agreement, format_ranking
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
 
     where = common.fan_out(backend, scheduler, scheduler_timeout)
@@ -77,19 +75,12 @@ def design(
         typer.echo(f"{base.name}: {len(plan.candidates)} candidates ({varied}), ranked by "
                    f"{_ranked_by(objective, base.settle_days(), converge_below)}")
 
+    title = f"{base.name}: {varied}, objective {objective}"
+
     def make():
         table = verify(plan, score_all(plan, jobs, where, work or out_dir.parent / f"{out_dir.name}.work"), top,
                        runs, jobs, where)
-        rho, by_condition = rank_agreement(table), condition_agreement(table)
-        ranking = format_ranking(table, objective, factors=columns, converge_below_m=converge_below)
-        agreement = format_agreement(rho, top, by_condition)
-        title = f"{base.name}: {varied}, objective {objective}"
-        return StudyOutput({"candidates": table}, {**provenance(base.name, text), "method": (
-            "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo")},
-            {"ranking.md": ranking + agreement},
-            lambda folder: [path for path in (draw_score_plane(table, folder / "design.png", title),
-                                              draw_pareto(table, folder / "pareto.png", title)) if path is not None],
-            result=(ranking + agreement, table, rho, by_condition))
+        return _design_output(table, objective, columns, top, converge_below, title, provenance(base.name, text))
 
     text, table, rho, by_condition = write_folder(out_dir, overwrite, make).result
     if as_json:
@@ -100,6 +91,24 @@ def design(
         return
     typer.echo(text, nl=False)
     typer.echo(f"results: {out_dir}")
+
+
+def _design_output(table, objective: str, columns, top: int, converge_below, title: str, provenance: dict):
+    """The result folder's contents (StudyOutput) for a scored and verified candidate table: the table, the
+    ranking with its agreement lines, the figures; and (text, table, rho, condition rho) for the command."""
+    from liaison_cli.campaign.studies.design import condition_agreement, rank_agreement
+    from liaison_cli.campaign.studies.output import StudyOutput
+    from liaison_cli.report.design import draw_pareto, draw_score_plane, format_agreement, format_ranking
+
+    rho, by_condition = rank_agreement(table), condition_agreement(table)
+    text = (format_ranking(table, objective, factors=columns, converge_below_m=converge_below)
+            + format_agreement(rho, top, by_condition))
+    method = "LinCov along the truth (every error source) per candidate; the best verified by Monte Carlo"
+    return StudyOutput({"candidates": table}, {**provenance, "method": method}, {"ranking.md": text},
+                       lambda folder: [path for path in (draw_score_plane(table, folder / "design.png", title),
+                                                         draw_pareto(table, folder / "pareto.png", title))
+                                       if path is not None],
+                       result=(text, table, rho, by_condition))
 
 
 def _ranked_by(objective: str, settle_days: float, converge_below_m: float | None) -> str:

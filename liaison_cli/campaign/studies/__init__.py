@@ -9,6 +9,9 @@ beside a sweep or a named table).
 - tables002: 002's tables from a sweep (DRMS and clock p90, consistency, the histograms' cell);
 - geometry: the formation-geometry grids; observability_study: a scenario's information matrix;
 - tuning: the process-noise ladder and its rule (`liaison tune`; its rungs are resumable sweeps in --work);
+- design: `liaison design`, candidates scored by LinCov, ranked and the best verified by Monte Carlo, with
+  design_choices (its --choices file read and checked) and design_store (finished batches kept, so a search
+  resumes);
 - error_budget: the EKF's error split by source, with its Monte Carlo check; budget_tables: its tables;
 - output: StudyOutput and the writers (write_folder, write_files, fill_folder), the one place results are
   written from.

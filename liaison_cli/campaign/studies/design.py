@@ -27,15 +27,17 @@ them says whether the covariance analysis ranked them as the filter does.
 
 import copy
 import math
-from contextlib import contextmanager
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from liaison_cli.campaign.studies.design_choices import read_choices
+from liaison_cli.campaign.studies.design_store import DesignStore
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.errors import LiaisonError
+
+__all__ = ["DesignStore", "read_choices"]  # kept in their own modules, named here for the design's callers
 
 WORST = "worst"  # the objective over every estimated spacecraft
 MEAN = "mean"  # the objective averaged over every estimated spacecraft
@@ -206,63 +208,6 @@ def _check_factors(base: dict, factors, choices=(), orbit_candidates: int = 1) -
             mapping = copy.deepcopy(base)
             for key, value in option:
                 _set_dotted(mapping, key, value, f"choice {factor}.{label}: {key}")
-
-
-def read_choices(path) -> list:
-    """A choices file: each top-level key a factor (a column of the table), its value a mapping of labels to
-    options, each option a mapping of dotted scenario keys to the values it sets together, e.g.
-
-        transmitter:
-          dro: {spacecraft.0: {name: TX, orbit: dro, period_days: 15.91}}
-          halo: {spacecraft.0: {name: TX, orbit: l2_halo_north, period_days: 14.75}}
-
-    -> [(factor, [(label, ((key, value), ...)), ...]), ...], file order kept; one line naming the file and the
-    entry on anything else."""
-    from liaison_cli.errors import ScenarioError
-    from liaison_cli.scenario.loading import read_scenario_text
-
-    data, _ = read_scenario_text(path)
-    shape = ("allowed: a mapping of factor names, each a mapping of labels, each a mapping of dotted scenario keys "
-             "to values (e.g. transmitter: {dro: {spacecraft.0: {name: TX, orbit: dro}}})")
-    if not isinstance(data, dict) or not data:
-        raise ScenarioError(f"{path}: not a choices file; {shape}")
-    choices = []
-    for factor, options in data.items():
-        if not isinstance(factor, str) or not factor or not isinstance(options, dict) or not options:
-            raise ScenarioError(f"{path}: {factor!r}: {shape}")
-        parsed = []
-        for label, option in options.items():
-            if isinstance(label, bool) or not isinstance(label, (str, int, float)):
-                raise ScenarioError(f"{path}: {factor}: label {label!r}: allowed: a text or a number (quote yes, no "
-                                    "and null)")
-            if not isinstance(option, dict) or not option or not all(isinstance(k, str) and k for k in option):
-                raise ScenarioError(f"{path}: {factor}.{label}: {shape}")
-            bad = _non_text_key(option)
-            if bad is not None:
-                raise ScenarioError(f"{path}: {factor}.{label}: key {bad!r}: allowed: text keys (a scenario's keys "
-                                    "are words)")
-            parsed.append((str(label), tuple(option.items())))
-        labels = [label for label, _ in parsed]
-        if len(set(labels)) < len(labels):
-            raise ScenarioError(f"{path}: {factor}: two labels read the same ({', '.join(labels)}); allowed: "
-                                "distinct labels")
-        choices.append((factor, parsed))
-    return choices
-
-
-def _non_text_key(value):
-    """The first mapping key in `value` (at any depth) that is not text, or None."""
-    stack = [value]
-    while stack:
-        item = stack.pop()
-        if isinstance(item, dict):
-            for key, inner in item.items():
-                if not isinstance(key, str):
-                    return key
-                stack.append(inner)
-        elif isinstance(item, list):
-            stack.extend(item)
-    return None
 
 
 def _set_dotted(mapping: dict, key: str, value, source: str) -> None:
@@ -439,80 +384,6 @@ def score_all(design: Design, jobs: int, where, work=None) -> pd.DataFrame:
     table.insert(0, "rank", np.arange(1, len(table) + 1))
     table.loc[table[design.rank_columns[0]].isna() | table.score_m.isna(), "rank"] = 0
     return table.reset_index(drop=True)
-
-
-class DesignStore:
-    """A design's finished batches of candidates in a work folder (None: nothing kept), one JSON file each,
-    `design-<key>-b<batch>.json`, written atomically. The key is a digest of everything a row depends on: the base
-    scenario, the open spacecraft, the objective, the condition flag and threshold, the candidates (their orbits,
-    factors and choices) and their batching, liaison's
-    version and the code of every package that makes the numbers (study_cells.PACKAGE_CODE) and of this module;
-    so a changed design or code never reuses a stale row. A damaged file is noted and computed again."""
-
-    def __init__(self, folder, design: Design, chunk: int):
-        import hashlib
-        import json
-
-        from liaison_cli import __version__, core_source_hash
-        from liaison_cli.campaign.studies.study_cells import PACKAGE_CODE, source_digest
-
-        self.folder = None if folder is None else Path(folder)
-        self.computed = self.reused = 0
-        if self.folder is None:
-            return
-        inputs = {"base": design.base, "open": design.open_spacecraft, "objective": design.objective,
-                  "condition": design.condition, "converge_below_m": design.converge_below_m, "chunk": chunk,
-                  "version": __version__, "candidates": [[c.index, c.family, c.period_days, c.phase, c.settings,
-                                                          c.choices] for c in design.candidates],
-                  "core": core_source_hash(PACKAGE_CODE), "code": source_digest(__file__)}
-        self.key = hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()[:16]
-
-    def _path(self, batch: int) -> Path:
-        return self.folder / f"design-{self.key}-b{batch}.json"
-
-    def read(self, batch: int):
-        """The batch's stored rows, or None (not stored, or damaged: then said in one note)."""
-        import json
-        import logging
-
-        if self.folder is None or not self._path(batch).is_file():
-            return None
-        try:
-            rows = json.loads(self._path(batch).read_text())
-            assert isinstance(rows, list) and all(isinstance(row, dict) for row in rows)
-        except (OSError, ValueError, AssertionError):
-            logging.getLogger("liaison").warning(f"{self._path(batch)}: damaged; its candidates are scored again")
-            return None
-        self.reused += 1
-        return rows
-
-    def write(self, batch: int, rows: list) -> None:
-        import json
-
-        from liaison_cli.storage import write_text_atomic
-
-        self.computed += 1
-        if self.folder is not None:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            write_text_atomic(json.dumps(rows, default=float) + "\n", self._path(batch))
-
-    @contextmanager
-    def saving_on_interrupt(self, total: int, finished: dict):
-        """Ctrl-C in the block (or numba's error made of it) ends the search in one line: how many of the `total`
-        batches are saved, and how to resume."""
-        from liaison_cli import interrupts
-        from liaison_cli.campaign.studies.study_cells import StudyInterrupted
-
-        try:
-            yield
-        except (KeyboardInterrupt, Exception) as exc:
-            if not interrupts.caused_by_interrupt(exc):
-                raise
-            if self.folder is None:
-                raise StudyInterrupted(f"interrupted after {len(finished)} of {total} candidate batches; nothing "
-                                       "was written") from None
-            raise StudyInterrupted(f"interrupted: {len(finished)} of {total} candidate batches saved in "
-                                   f"{self.folder}; rerun the same command to resume") from None
 
 
 def pareto_front(table: pd.DataFrame) -> pd.Series:
