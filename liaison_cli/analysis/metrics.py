@@ -97,22 +97,11 @@ class _Epochs:
     def of(self, row):
         return row[self.start:] if self.start is not None else row[self.mask]
 
-    def count(self) -> int:
-        return int(self.mask.sum())
-
-
-def consistency_columns(times_s, norms, nees, n_nees: int, settle_s: float, spacecraft_index: int) -> dict:
-    """After the settle time: the error RMS and the filter's sigma RMS (sigma of the 3-D norm,
-    sqrt(sigma_x^2 + sigma_y^2 + sigma_z^2)) of position and velocity, their ratio, the share of epochs whose
-    whole-state NEES lies in its two-sided 95 % chi-square band of n_nees degrees of freedom (and above it:
-    the filter optimistic there; below it, pessimistic). The verdict is analysis.consistency's."""
-    settled = _Epochs(times_s >= settle_s)
-    return {**_error_and_sigma(_Columns(norms), settled, spacecraft_index, "settled"),
-            **_nees_columns(nees, n_nees, settled)}
-
 
 def _nees_columns(nees, n_nees: int, settled) -> dict:
-    """The whole-state NEES's share in its band, above it, and its mean over the settled epochs."""
+    """Over the settled epochs: the share of epochs whose whole-state NEES lies in its two-sided 95 % chi-square
+    band of n_nees degrees of freedom, above it (the filter optimistic there; below it, pessimistic), and its
+    mean. The verdict is analysis.consistency's."""
     low, high = nees_run_band(n_nees)
     out = {}
     if nees is not None and n_nees > 0:
@@ -148,7 +137,8 @@ def summary_rows(times_s, err, sigma, spacecraft, to_m, to_m_s, after_s=SECONDS_
                  settle_s=SECONDS_PER_DAY, nees=None, n_nees: int = 0):
     """One dict per spacecraft: RMS of the 3-D errors (all epochs after t0, and after `after_s`) and the
     fraction of (epoch, axis) samples whose error lies within 2 and 3 sigma of that axis; the consistency
-    columns after `settle_s` (consistency_columns). When the estimator's data end before the last epoch (a
+    columns after `settle_s` (the error and sigma RMS and their ratio, _error_and_sigma; the NEES shares,
+    _nees_columns). When the estimator's data end before the last epoch (a
     batch span), also the RMS over the epochs after it: 002's DRMS of the prediction, sqrt(mean |e|^2)."""
     norms = error_norms(err, sigma, to_m, to_m_s)
     columns = _Columns(norms)
