@@ -78,5 +78,7 @@ class DesignStore:
             if self.folder is None:
                 raise StudyInterrupted(f"interrupted after {len(finished)} of {total} candidate batches; nothing "
                                        "was written") from None
-            raise StudyInterrupted(f"interrupted: {len(finished)} of {total} candidate batches saved in "
+            # counted on disk: a Ctrl-C between a batch's file and `finished` must still count that batch
+            saved = sum(self._path(batch).is_file() for batch in range(total))
+            raise StudyInterrupted(f"interrupted: {saved} of {total} candidate batches saved in "
                                    f"{self.folder}; rerun the same command to resume") from None

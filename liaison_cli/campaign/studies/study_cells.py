@@ -57,6 +57,7 @@ class CellStore:
     computed: int = 0
     reused: int = 0
     package_code: str = field(init=False)  # core_source_hash(PACKAGE_CODE), hashed once per study, not per cell
+    asked: set = field(init=False, default_factory=set)  # every cell's `.done` path asked for so far
 
     def __post_init__(self):
         self.package_code = core_source_hash(PACKAGE_CODE)
@@ -74,6 +75,7 @@ class CellStore:
             return compute()
         stem = self.folder / f"{label}-{self._key(scenario, runs)}"
         done = stem.with_suffix(".done")
+        self.asked.add(done)
         if done.exists():
             stored = _read_cell(stem, done)
             if stored is not None:
@@ -104,6 +106,8 @@ class CellStore:
 
     def _interrupted(self, total: int) -> StudyInterrupted:
         finished = self.computed + self.reused
+        if self.folder is not None:  # counted on disk: a Ctrl-C between a cell's `.done` and its count counts it
+            finished = sum(done.exists() for done in self.asked)
         if self.folder is None:
             return StudyInterrupted(f"interrupted after {finished} of {total} cells; nothing was written")
         return StudyInterrupted(f"interrupted: {finished} of {total} cells saved in {self.folder}; rerun the same "

@@ -98,7 +98,17 @@ class Manifest:
 
     def done(self) -> set[str]:
         """Tasks with a result: every recorded task but those whose last line is an 'error' (run again)."""
-        return {task for task, record in self.records.items() if record.get("status") != "error"}
+        return done_tasks(self.records)
+
+    def done_on_disk(self) -> set[str]:
+        """done() as the file holds it: a Ctrl-C that lands after a batch's bytes are written but before
+        `records` is updated must still count that batch (the count is what a resume will find)."""
+        return done_tasks(read_manifest(self.path)[1])
+
+
+def done_tasks(records: dict) -> set[str]:
+    """The tasks of {task_id: record} with a result (an 'error' record's task is run again)."""
+    return {task for task, record in records.items() if record.get("status") != "error"}
 
 
 def _check_header(path: Path, old, new: dict) -> None:

@@ -73,7 +73,7 @@ def run_sweep(plan: SweepPlan, out_dir: Path, backend: str = "joblib", jobs: int
         # while it compiles)
         if not interrupts.caused_by_interrupt(exc):  # a KeyboardInterrupt is one
             raise
-        saved = len(manifest.done() & {t.task_id for t in plan.tasks})
+        saved = len(manifest.done_on_disk() & {t.task_id for t in plan.tasks})
         raise SweepInterrupted(f"interrupted: {saved} of {len(plan.tasks)} tasks saved in {manifest.path}; rerun "
                                "the same command to resume") from None
     finally:

@@ -161,3 +161,47 @@ def test_local_workers_are_capped_at_the_cores_with_one_note(monkeypatch, caplog
     notes = [r.getMessage() for r in caplog.records if "--jobs" in r.getMessage()]
     assert notes == ["--jobs 16 on 2 cores: 2 worker processes (more cannot run at once; the numbers do not "
                      "depend on it)"]
+
+
+def _interrupt_after(write):
+    """`write` that finishes, then a Ctrl-C lands before the caller's next line (the window the counts missed)."""
+    def written_then_interrupted(*args, **kwargs):
+        write(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    return written_then_interrupted
+
+
+def test_a_ctrl_c_just_after_a_cell_is_written_counts_that_cell(tmp_path, monkeypatch):
+    """The count is what is on disk: a Ctrl-C after a cell's `.done` is written but before it was counted said
+    '0 of 2' for a saved cell (the CI failure of stop 56, seen on a sweep's manifest)."""
+    from liaison_cli.campaign.studies import study_cells
+    from liaison_cli.campaign.studies.study_cells import StudyInterrupted
+
+    scenario, _ = load_scenario(SCENARIOS / "smoke.yaml")
+    store = CellStore(tmp_path / "work", "test", "code")
+    monkeypatch.setattr(study_cells, "write_text_atomic", _interrupt_after(study_cells.write_text_atomic))
+    with pytest.raises(StudyInterrupted, match=r"interrupted: 1 of 2 cells saved in "):
+        with store.saving_on_interrupt(2):
+            store.cell("cell", scenario, 2, lambda: {"t": _frame(1)})
+
+
+def test_a_ctrl_c_just_after_a_sweep_batch_is_written_counts_that_batch(tmp_path, monkeypatch):
+    from liaison_cli.campaign.sweep.manifest import Manifest, read_manifest
+    from liaison_cli.campaign.sweep.plan import SweepInterrupted
+    from liaison_cli.campaign.sweep.run import run_sweep
+    from tests.unit.campaign.test_sweep import _smoke_plan
+
+    plan = _smoke_plan(runs=2, sigmas=(100,))
+    writes = []
+    real_write = Manifest._write
+
+    def write(self, entries):  # the header, then the first batch: interrupted just after it is on disk
+        writes.append(entries)
+        (_interrupt_after(real_write) if len(writes) == 2 else real_write)(self, entries)
+
+    monkeypatch.setattr(Manifest, "_write", write)
+    with pytest.raises(SweepInterrupted, match=r"interrupted: (\d) of 2 tasks saved in ") as raised:
+        run_sweep(plan, tmp_path / "sweep", jobs=1, progress=False, batch_runs=1)
+    saved = len(read_manifest(tmp_path / "sweep" / "manifest.jsonl")[1])
+    assert saved == 1 and raised.value.args[0].startswith(f"interrupted: {saved} of 2"), raised.value
