@@ -8,6 +8,10 @@ their radii, so nu = 0 in umbra, 1 in sunlight and continuous across the penumbr
 fractions multiply). Variational equations: the gravity gradients of every body and of the SRP term with
 nu held constant (its derivative is non-zero only in penumbra, minutes per eclipse).
 
+With a lunar field (the scenario's moon_gravity), the Moon's spherical harmonics beyond its point mass are added
+(`add_moon_field`: GRGM1200A in the Moon's principal axes, turned by dynamics.lunar_orientation), with their
+gradient in the variational equations.
+
 Here: the right-hand side (`ephemeris_derivative`), the shadow (`visible_fraction`, `shadow_edges`) and the
 truth (`dop853_ephemeris_states`: integrators.adaptive's DOP853, restarted at every shadow edge). The filter's
 fixed-step RK8 of this field is integrators.rk8.rk8_advance_ephemeris.
@@ -24,6 +28,8 @@ from liaison_cli.dynamics.constants import (
     AU_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM, SOLAR_FLUX_1AU_W_M2, SPEED_OF_LIGHT_M_S, SUN_RADIUS_KM)
 from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_state
 from liaison_cli.dynamics.integrators.adaptive import dop853_samples
+from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
+from liaison_cli.dynamics.spherical_harmonics import acceleration_gradient_into, packed_index
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
 # Lengths of the integrated vector: the state and its STM (6 + 36), and with the C_R sensitivity column (+ 6).
@@ -96,11 +102,52 @@ def _point_mass(out_a, grad, r, r_b, gm, indirect, with_grad):
                 grad[i, j] += c * d[i] * d[j] - (k if i == j else 0.0)
 
 
+NO_MOON_FIELD = np.zeros(0)  # the moon_field argument of a point-mass Moon
+
+
+def moon_field_payload(field) -> np.ndarray:
+    """The moon_field argument of ephemeris_derivative for a dynamics.lunar_gravity.LunarField: degree, reference
+    radius (km), C̄ and S̄ packed (spherical_harmonics.packed_index)."""
+    return np.concatenate([[float(field.degree), field.radius_km], field.c, field.s])
+
+
 @njit(cache=True)
-def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, with_stm, out):
+def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
+    """acc (3,) += the Moon's harmonics beyond its point mass (payload `field`, moon_field_payload) at the geocentric
+    ICRF position r (km), the Moon at r_moon, at TDB t_s; with with_grad, grad (3, 3) += their gradient. Evaluated
+    in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
+    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well)."""
+    degree = int(field[0])
+    size = packed_index(degree, degree) + 1
+    rot = np.empty((3, 3))
+    moon_pa_from_icrf_into(t_s, rot)
+    p = np.zeros(3)
+    for i in range(3):
+        for j in range(3):
+            p[i] += rot[i, j] * (r[j] - r_moon[j])
+    a_pa, g = np.empty(3), np.empty(6)
+    acceleration_gradient_into(field[2:2 + size], field[2 + size:2 + 2 * size], gm_moon, field[1], degree, p[0],
+                               p[1], p[2], with_grad, a_pa, g)
+    for j in range(3):
+        acc[j] += rot[0, j] * a_pa[0] + rot[1, j] * a_pa[1] + rot[2, j] * a_pa[2]
+    if not with_grad:
+        return
+    g_pa = np.array([[g[0], g[3], g[4]], [g[3], g[1], g[5]], [g[4], g[5], g[2]]])
+    turned = g_pa @ rot  # G_PA R, then R^T (G_PA R)
+    for i in range(3):
+        for j in range(3):
+            grad[i, j] += rot[0, i] * turned[0, j] + rot[1, i] * turned[1, j] + rot[2, i] * turned[2, j]
+
+
+@njit(cache=True)
+def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, moon_field,
+                         with_stm, out):
     """dy/dt for y = [r, v] (6,), [r, v, Phi row-major] (42,) or [r, v, Phi, s] (48,), geocentric ICRF km, km/s
     at TDB t_s. bodies / gms (B,): third bodies (codes of dynamics.ephemeris) and their GM; cr_am: C_R A/m
-    (m^2/kg), 0 for no SRP (the Sun must then still be in `bodies` for its gravity).
+    (m^2/kg), 0 for no SRP (the Sun must then still be in `bodies` for its gravity); moon_field: the Moon's
+    harmonics (moon_field_payload; NO_MOON_FIELD: a point mass), felt where the Moon is one of `bodies`. The
+    field's pull on the Earth (the indirect term) is left out: at the Earth it is about 1e-8 of the Moon's point
+    mass's pull there (4e-13 m/s^2).
 
     s (6,) = dx/dlambda, the state's sensitivity to a relative change of C_R (C_R -> C_R (1 + lambda) at
     lambda = 0): s' = A s + [0; a_srp], since the SRP acceleration is linear in C_R (Tapley, Schutz & Born
@@ -119,6 +166,8 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
             r_sun = r_b
         elif bodies[i] == BODY_MOON:
             r_moon = r_b
+            if moon_field.shape[0] > 0:
+                add_moon_field(t_s, r, r_b, gms[i], moon_field, with_stm, acc, grad)
     a_srp = np.zeros(3)
     if cr_am > 0.0:
         if r_moon[0] == 0.0 and r_moon[1] == 0.0 and r_moon[2] == 0.0:  # the Moon's shadow needs its position
@@ -168,8 +217,29 @@ def shadow_edges(r_sat, r_sun, r_body, radius_body):
     return c - (a + b), c - abs(a - b)
 
 
+# A lunar orbiter whose osculating apolune is below this is flown about the Moon (dop853_ephemeris_states).
+MOON_CENTRED_APOLUNE_KM = 20000.0
+MOON_ACCELERATION_STEP_S = 10.0  # central difference of DE421's lunar velocity for the Moon's acceleration
+# Its absolute tolerance (km and km/s): the geocentric 1e-9 let a 100 km orbit's velocity err by 1 um/s per step
+# (at rtol 1e-12 it was 0.15 m from itself at rtol and atol 1e-13 after a day at degree 100; at 1e-12, 4 mm).
+MOON_CENTRED_ATOL = 1e-12
+
+
+def bound_to_moon(state_km, moon_km, gm_moon: float) -> bool:
+    """The state (6,) flies an orbit about the Moon (state moon_km) whose osculating apolune is below
+    MOON_CENTRED_APOLUNE_KM: a low, frozen or elliptical lunar orbit, not an NRHO, a halo or a DRO."""
+    r, v = np.asarray(state_km[:3]) - moon_km[:3], np.asarray(state_km[3:]) - moon_km[3:]
+    energy = 0.5 * float(v @ v) - gm_moon / float(np.linalg.norm(r))
+    if energy >= 0.0:
+        return False
+    a = -gm_moon / (2.0 * energy)
+    e = float(np.linalg.norm(np.cross(v, np.cross(r, v)) / gm_moon - r / np.linalg.norm(r)))
+    return a * (1.0 + e) < MOON_CENTRED_APOLUNE_KM
+
+
 def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
-                            acceleration_km_s2=None, acceleration_table_km_s2=None):
+                            acceleration_km_s2=None, acceleration_table_km_s2=None, moon_field=NO_MOON_FIELD,
+                            moon_centred=False):
     """Truth states (m, 6) at times_s by scipy's adaptive DOP853 (integrators.adaptive.dop853_samples) on the
     compiled derivative, restarted at every shadow edge (penumbra and umbra of the Earth and the Moon, located
     as events): the conical shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at
@@ -177,21 +247,19 @@ def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr
     9 days with one eclipse this truth is within 2.3 cm of itself at rtol 1e-13
     (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant extra acceleration on the ICRF
     axes (the truth's unmodelled force; None: none); acceleration_table_km_s2 (m, 3): one more, given at
-    times_s and linear between them (a Gauss-Markov force drawn per run; None: none)."""
-    out = np.empty(6)
+    times_s and linear between them (a Gauss-Markov force drawn per run; None: none); moon_field: the Moon's
+    harmonics (ephemeris_derivative's). moon_centred: the integrator carries the state less the Moon's (DE421's,
+    its acceleration a central difference of its velocity), so that rtol is relative to the orbit about the Moon,
+    and atol is at most MOON_CENTRED_ATOL: geocentric, a 100 km lunar orbit's steps were sized by 384,000 km, and
+    the truth at rtol 1e-12 was 2.7 m from itself at 1e-13 after a day (benchmarks.lunar_field_dated); the states
+    returned are geocentric either way."""
+    if moon_centred:
+        return _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol,
+                                    min(atol, MOON_CENTRED_ATOL),
+                                    acceleration_km_s2, acceleration_table_km_s2, moon_field)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
-
-    forced = acceleration_km_s2 is not None and np.any(np.asarray(acceleration_km_s2) != 0.0)
-    table = None if acceleration_table_km_s2 is None else _LinearTable(times_s, acceleration_table_km_s2)
-
-    def rhs(t, y):
-        ephemeris_derivative(t, y, *args, bodies, gms, gm_earth, cr_am, False, out)
-        rate = out.copy()
-        if forced:
-            rate[3:] += acceleration_km_s2
-        if table is not None:
-            rate[3:] += table(t)
-        return rate
+    rhs = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration_km_s2,
+                          acceleration_table_km_s2, times_s)
 
     def edge(which, body):
         def event(t, y):
@@ -204,6 +272,60 @@ def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr
 
     events = [edge(w, b) for w in (0, 1) for b in (BODY_EARTH, BODY_MOON)] if cr_am > 0.0 else []
     return dop853_samples(rhs, t0_s, x0, times_s, rtol, atol, events, what="ephemeris truth propagation")
+
+
+def _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol, atol, acceleration_km_s2,
+                         acceleration_table_km_s2, moon_field):
+    """dop853_ephemeris_states flown about the Moon: y = state - moon(t), y' = f(t, y + moon(t)) - moon'(t)."""
+    args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
+
+    def moon(t):
+        return geocentric_state(*args, np.int64(BODY_MOON), t)
+
+    def moon_rate(t):
+        h = MOON_ACCELERATION_STEP_S
+        state = moon(t)
+        return np.concatenate([state[3:], (moon(t + h)[3:] - moon(t - h)[3:]) / (2.0 * h)])
+
+    geocentric = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration_km_s2,
+                                 acceleration_table_km_s2, times_s)
+
+    def rhs(t, y):
+        return geocentric(t, y + moon(t)) - moon_rate(t)
+
+    def edge(which, body):
+        def event(t, y):
+            r_sun = geocentric_state(*args, np.int64(BODY_SUN), t)[0:3]
+            r_moon = moon(t)[0:3]
+            r_body = np.zeros(3) if body == BODY_EARTH else r_moon
+            return shadow_edges(y[0:3] + r_moon, r_sun, r_body, R_EARTH_KM if body == BODY_EARTH else R_MOON_KM)[which]
+
+        event.terminal = True
+        return event
+
+    events = [edge(w, b) for w in (0, 1) for b in (BODY_EARTH, BODY_MOON)] if cr_am > 0.0 else []
+    relative = dop853_samples(rhs, t0_s, np.asarray(x0, dtype=float) - moon(t0_s), times_s, rtol, atol, events,
+                              what="ephemeris truth propagation")
+    return relative + np.array([moon(t) for t in np.asarray(times_s, dtype=float)])
+
+
+def _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration_km_s2, acceleration_table_km_s2,
+                    times_s):
+    """The truth's geocentric right-hand side (t, y) -> y' with its extra accelerations (dop853_ephemeris_states)."""
+    out = np.empty(6)
+    forced = acceleration_km_s2 is not None and np.any(np.asarray(acceleration_km_s2) != 0.0)
+    table = None if acceleration_table_km_s2 is None else _LinearTable(times_s, acceleration_table_km_s2)
+
+    def rhs(t, y):
+        ephemeris_derivative(t, y, *args, bodies, gms, gm_earth, cr_am, moon_field, False, out)
+        rate = out.copy()
+        if forced:
+            rate[3:] += acceleration_km_s2
+        if table is not None:
+            rate[3:] += table(t)
+        return rate
+
+    return rhs
 
 
 class _LinearTable:

@@ -12,13 +12,16 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
-from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE, ephemeris_derivative
+from liaison_cli.dynamics.ephemeris import BODY_MOON
+from liaison_cli.dynamics.ephemeris_dynamics import (NO_MOON_FIELD, SENSITIVITY_SIZE, STM_SIZE, add_moon_field,
+                                                     ephemeris_derivative)
 from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
 from liaison_cli.dynamics.registry import DYNAMICS
 
 SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
-HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, spare
+HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, start of the Moon's field payload (0: a point-mass Moon)
 PARAM_CR_AM = 5
+PARAM_MOON_FIELD_AT = 7
 
 
 def with_cr_scaled(params: np.ndarray, factor: float) -> np.ndarray:
@@ -40,12 +43,24 @@ def with_body_gm_scaled(params: np.ndarray, body: int, factor: float) -> np.ndar
     return out
 
 
-def pack_params(window, bodies, gms, gm_earth: float, cr_am: float, epoch_tdb_s: float) -> np.ndarray:
-    """One flat float64 vector: the header, the window's record tables, the bodies, then the coefficients."""
+def pack_params(window, bodies, gms, gm_earth: float, cr_am: float, epoch_tdb_s: float,
+                moon_field=NO_MOON_FIELD) -> np.ndarray:
+    """One flat float64 vector: the header, the window's record tables, the bodies, the coefficients, then the
+    Moon's field payload (ephemeris_dynamics.moon_field_payload; none for a point-mass Moon)."""
     S, _, R, N = window.coeffs.shape
     header = np.array([S, R, N, len(bodies), gm_earth, cr_am, epoch_tdb_s, 0.0], dtype=float)
-    return np.concatenate([header, window.start_s, window.interval_s, window.n_records.astype(float),
-                           np.asarray(bodies, dtype=float), np.asarray(gms, dtype=float), window.coeffs.ravel()])
+    out = np.concatenate([header, window.start_s, window.interval_s, window.n_records.astype(float),
+                          np.asarray(bodies, dtype=float), np.asarray(gms, dtype=float), window.coeffs.ravel(),
+                          np.asarray(moon_field, dtype=float)])
+    if len(moon_field):
+        out[PARAM_MOON_FIELD_AT] = len(out) - len(moon_field)
+    return out
+
+
+def moon_field_of(params) -> np.ndarray:
+    """The Moon's field payload of packed parameters (empty: a point-mass Moon)."""
+    at = int(params[PARAM_MOON_FIELD_AT])
+    return params[at:] if at > 0 else NO_MOON_FIELD
 
 
 @njit(cache=True)
@@ -63,20 +78,22 @@ def _unpack(params):
     gms = params[off : off + B]
     off += B
     coeffs = np.ascontiguousarray(params[off : off + S * 3 * R * N]).reshape((S, 3, R, N))
-    return coeffs, start_s, interval_s, n_records, bodies, gms, params[4], params[5], params[6]
+    at = int(params[PARAM_MOON_FIELD_AT])
+    moon_field = params[at:] if at > 0 else params[0:0]
+    return coeffs, start_s, interval_s, n_records, bodies, gms, params[4], params[5], params[6], moon_field
 
 
 @njit(cache=True)
 def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
     """(6,) scaled state at t_tu (TU since the epoch) -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, scaled
     units, by n_steps fixed RK8 steps of the DE421 + SRP field."""
-    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, moon_field = _unpack(params)
     y = np.zeros(42)
     for i in range(6):
         y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
     rk8_advance_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records,
-                          bodies, gms, gm_earth, cr_am, RK8_A, RK8_B, RK8_C)
+                          bodies, gms, gm_earth, cr_am, moon_field, RK8_A, RK8_B, RK8_C)
     out = np.empty(6)
     phi = np.empty((6, 6))
     for i in range(6):
@@ -91,7 +108,7 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
     """ephemeris_state_stm_scaled with the filter's C_R A/m times (1 + cr_scale), written into y (48,) =
     [state (6), Phi row-major (36), gamma (6)], scaled units: gamma = d state / d cr_scale, the column of the
     transition that couples an estimated C_R state to the spacecraft (estimation.blocks)."""
-    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, moon_field = _unpack(params)
     if not 1.0 + cr_scale > 0.0:  # a non-positive C_R: no physics to fly; NaN makes the run fail its health check
         for i in range(SENSITIVITY_SIZE):
             y[i] = np.nan
@@ -102,7 +119,7 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
         y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
     rk8_advance_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records,
-                          bodies, gms, gm_earth, cr_am * (1.0 + cr_scale), RK8_A, RK8_B, RK8_C)
+                          bodies, gms, gm_earth, cr_am * (1.0 + cr_scale), moon_field, RK8_A, RK8_B, RK8_C)
     # The integrated column is d/dlambda at C_R (1 + cr_scale) (1 + lambda): d/dcr_scale is it / (1 + cr_scale).
     for i in range(6):
         y[STM_SIZE + i] /= SCALE[i] * (1.0 + cr_scale)
@@ -114,7 +131,7 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
 @njit(cache=True)
 def ephemeris_accelerations_scaled(params, states, times_tu):
     """The field's accelerations (m, 3), LU/TU^2, at scaled states (m, 6) and times_tu (m,) past the epoch."""
-    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch = _unpack(params)
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, moon_field = _unpack(params)
     out = np.empty((states.shape[0], 3))
     y = np.empty(6)
     dy = np.empty(6)
@@ -122,7 +139,7 @@ def ephemeris_accelerations_scaled(params, states, times_tu):
         for i in range(6):
             y[i] = states[k, i] * SCALE[i]
         ephemeris_derivative(epoch + times_tu[k] * TU_S, y, coeffs, start_s, interval_s, n_records, bodies, gms,
-                             gm_earth, cr_am, False, dy)
+                             gm_earth, cr_am, moon_field, False, dy)
         for i in range(3):
             out[k, i] = dy[3 + i] / AU_KM_S2
     return out
@@ -161,21 +178,27 @@ class EphemerisDynamicsModel:
         return self.descriptor.rotating_frame
 
     def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None,
-                 truth_acceleration_km_s2=(0.0, 0.0, 0.0)):
+                 truth_acceleration_km_s2=(0.0, 0.0, 0.0), moon_field=NO_MOON_FIELD, filter_moon_field=None):
         """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all);
-        truth_acceleration_km_s2 (3,): the truth's unmodelled constant force on the ICRF axes."""
+        truth_acceleration_km_s2 (3,): the truth's unmodelled constant force on the ICRF axes; moon_field: the
+        truth's lunar harmonics (ephemeris_dynamics.moon_field_payload; NO_MOON_FIELD: a point mass),
+        filter_moon_field: the filter's (None: the truth's)."""
         self.code = self.descriptor.code
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
-        self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s)
+        self.moon_field = np.asarray(moon_field, dtype=float)
+        self.filter_moon_field = self.moon_field if filter_moon_field is None else np.asarray(filter_moon_field,
+                                                                                               dtype=float)
+        self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s, self.moon_field)
         self.truth_acceleration_km_s2 = np.asarray(truth_acceleration_km_s2, dtype=float)
         keep = np.isin(self.bodies, self.bodies if filter_bodies is None else filter_bodies)
-        self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s)
+        if BODY_MOON not in self.bodies[keep]:  # a filter without the Moon has no lunar field either
+            self.filter_moon_field = NO_MOON_FIELD
+        self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s,
+                                         self.filter_moon_field)
 
     def scaled_filter_params(self, cr_factor: float = 1.0, moon_gm_factor: float = 1.0) -> np.ndarray:
         """The filter's parameters with its C_R A/m times cr_factor and the Moon's GM times moon_gm_factor."""
-        from liaison_cli.dynamics.ephemeris import BODY_MOON
-
         return with_body_gm_scaled(with_cr_scaled(self.filter_params, cr_factor), BODY_MOON, moon_gm_factor)
 
     def field_accelerations(self, params, states, times_tu) -> np.ndarray:
@@ -190,25 +213,61 @@ class EphemerisDynamicsModel:
         """The truth's constant acceleration the filter never models (3,), LU/TU^2."""
         return self.truth_acceleration_km_s2 / AU_KM_S2
 
-    def body_positions_lu(self, times_s) -> dict:
-        """The Earth (origin) and the Moon's geocentric positions (m, 3) at times_s past the epoch, scaled."""
-        from liaison_cli.dynamics.ephemeris import BODY_MOON, geocentric_state
+    def moon_states_km(self, times_tu) -> np.ndarray:
+        """(m, 6) the Moon's geocentric ICRF states (DE421), km, km/s, at times_tu past the epoch."""
+        return self._moon_states_km_at(np.asarray(times_tu, dtype=float) * TU_S)
+
+    def _moon_states_km_at(self, times_s) -> np.ndarray:
+        from liaison_cli.dynamics.ephemeris import geocentric_state
 
         w = self.window
-        moon = np.array([geocentric_state(w.coeffs, w.start_s, w.interval_s, w.n_records, BODY_MOON,
-                                          self.epoch_tdb_s + float(t))[:3] for t in np.asarray(times_s, dtype=float)])
-        return {"earth_lu": np.zeros(3), "moon_lu": moon / LU_KM}
+        return np.array([geocentric_state(w.coeffs, w.start_s, w.interval_s, w.n_records, BODY_MOON,
+                                          self.epoch_tdb_s + float(t)) for t in np.asarray(times_s, dtype=float)])
+
+    def moon_relative_states(self, states, times_tu) -> np.ndarray:
+        """(m, 6) scaled: the states (m, 6) about the Moon (its DE421 state at times_tu subtracted), ICRF axes."""
+        return np.asarray(states, dtype=float) - self.moon_states_km(times_tu) / SCALE
+
+    def moon_field_difference(self, states, times_tu) -> np.ndarray:
+        """(m, 3) LU/TU^2: the truth's lunar harmonics minus the filter's at states (m, 6) and times_tu (zero when
+        they are the same field); ICRF axes."""
+        states = np.asarray(states, dtype=float)
+        out = np.zeros((len(states), 3))
+        if self.filter_moon_field is self.moon_field or BODY_MOON not in self.bodies:
+            return out
+        gm_moon = float(self.gms[list(self.bodies).index(BODY_MOON)])
+        moon_km = self.moon_states_km(times_tu)
+        grad = np.zeros((3, 3))
+        for field, sign in ((self.moon_field, 1.0), (self.filter_moon_field, -1.0)):
+            if len(field) == 0:
+                continue
+            for k, t in enumerate(np.asarray(times_tu, dtype=float)):
+                acc = np.zeros(3)
+                add_moon_field(self.epoch_tdb_s + t * TU_S, states[k, :3] * SCALE[:3], moon_km[k, :3], gm_moon, field,
+                               False, acc, grad)
+                out[k] += sign * acc / AU_KM_S2
+        return out
+
+    def body_positions_lu(self, times_s) -> dict:
+        """The Earth (origin) and the Moon's geocentric positions (m, 3) at times_s past the epoch, scaled."""
+        moon_km = self._moon_states_km_at(times_s)[:, :3]
+        return {"earth_lu": np.zeros(3), "moon_lu": moon_km / LU_KM}
 
     def truth_states(self, state0, times_tu, extra_acceleration_lu_tu2=None) -> np.ndarray:
         """Truth (m, 6), scaled units, from state0 (scaled) at times_tu[0] (TU since the epoch); with
-        extra_acceleration_lu_tu2 (m, 3) an unmodelled force at the samples and linear between them (ICRF)."""
-        from liaison_cli.dynamics.ephemeris_dynamics import dop853_ephemeris_states
+        extra_acceleration_lu_tu2 (m, 3) an unmodelled force at the samples and linear between them (ICRF). A
+        low or elliptical lunar orbit (ephemeris_dynamics.bound_to_moon) is integrated about the Moon."""
+        from liaison_cli.dynamics.ephemeris_dynamics import bound_to_moon, dop853_ephemeris_states
 
         times_s = self.epoch_tdb_s + np.asarray(times_tu, dtype=float) * TU_S
         table = None if extra_acceleration_lu_tu2 is None else np.asarray(extra_acceleration_lu_tu2) * AU_KM_S2
+        moon = self.moon_states_km(np.asarray(times_tu[:1], dtype=float))[0]
+        centred = BODY_MOON in self.bodies and bound_to_moon(np.asarray(state0) * SCALE, moon,
+                                                             float(self.gms[list(self.bodies).index(BODY_MOON)]))
         km = dop853_ephemeris_states(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies,
                                      self.gms, self.gm_earth, self.cr_am,
-                                     acceleration_km_s2=self.truth_acceleration_km_s2, acceleration_table_km_s2=table)
+                                     acceleration_km_s2=self.truth_acceleration_km_s2, acceleration_table_km_s2=table,
+                                     moon_field=self.moon_field, moon_centred=centred)
         return km / SCALE
 
     def trajectory(self, states, times_tu):

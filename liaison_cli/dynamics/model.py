@@ -144,9 +144,16 @@ class DynamicsModel:
         rotating-frame terms included; the truth's unmodelled acceleration not)."""
         return field_accelerations(np.ascontiguousarray(states, dtype=float), np.asarray(params, dtype=float))
 
-    def moon_field_difference(self, states) -> np.ndarray:
+    def moon_relative_states(self, states, times_tu=None) -> np.ndarray:
+        """(m, 6): the states (m, 6) about the Moon, which rests at (1 - mu, 0, 0) (rotating frame; times_tu is not
+        needed)."""
+        out = np.array(states, dtype=float)
+        out[:, 0] -= 1.0 - float(self.params[0])
+        return out
+
+    def moon_field_difference(self, states, times_tu=None) -> np.ndarray:
         """(m, 3) LU/TU^2: the truth's added terms (crtbp_field: the lunar harmonics, or J2) minus the filter's at
-        states (m, 6) (zero when they are the same field); the rotating frame's axes."""
+        states (m, 6) (zero when they are the same field); the rotating frame's axes (times_tu is not needed)."""
         states = np.asarray(states, dtype=float)
         out = np.zeros((len(states), 3))
         acc, grad = np.empty(3), np.empty(6)

@@ -35,7 +35,8 @@ class Dynamics:
     exports in it); parameters: what the filter may estimate of the model; integrator_order: the order of
     the filter's fixed-step integrator (RK4: 4, RK8: 8), which dynamics.step_choice's error estimate needs; observability:
     analysis.observability can map its partials with this model's STM (the CRTBP's adaptive DOP853); lunar_field:
-    its field takes the Moon's spherical harmonics (dynamics.crtbp_field, the scenario's moon_gravity). How each
+    its field takes the Moon's spherical harmonics (the scenario's moon_gravity: dynamics.crtbp_field in the
+    CRTBP, ephemeris_dynamics.add_moon_field in the dated model). How each
     side integrates, with its measured accuracy, is docs/model.md's."""
 
     name: str
@@ -46,7 +47,7 @@ class Dynamics:
     parameters: tuple[DynamicsParameter, ...] = ()
     observability: bool = False
     integrator_order: int = 4  # the order of the filter's fixed-step integrator (dynamics.step_choice)
-    lunar_field: bool = False  # its field takes the Moon's harmonics (dynamics.crtbp_field; scenario moon_gravity)
+    lunar_field: bool = False  # its field takes the Moon's harmonics (the scenario's moon_gravity)
 
     def parameter(self, name: str) -> DynamicsParameter | None:
         return next((p for p in self.parameters if p.name == name), None)
@@ -62,7 +63,7 @@ CR = DynamicsParameter(
 CRTBP = Dynamics("crtbp", MODEL_CRTBP, "the Earth-Moon CRTBP, undated", dated=False, rotating_frame=True,
                  observability=True, lunar_field=True)
 
-EPHEMERIS = Dynamics("ephemeris", MODEL_EPHEMERIS, "DE421 point masses + SRP from ephemeris.epoch_utc", dated=True,
-                     rotating_frame=False, parameters=(CR,), integrator_order=8)
+EPHEMERIS = Dynamics("ephemeris", MODEL_EPHEMERIS, "DE421 point masses + SRP (+ the lunar field) from ephemeris.epoch_utc", dated=True,
+                     rotating_frame=False, parameters=(CR,), integrator_order=8, lunar_field=True)
 
 DYNAMICS = {d.name: d for d in (CRTBP, EPHEMERIS)}

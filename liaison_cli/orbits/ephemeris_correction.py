@@ -42,12 +42,13 @@ STAGE_DAYS at a time: each stage appends patch points from the CRTBP orbit re-ph
 (the CRTBP state nearest it in the rotating frame) and the whole arc so far is corrected again.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.ephemeris import geocentric_state
+from liaison_cli.dynamics.ephemeris_dynamics import NO_MOON_FIELD
 from liaison_cli.dynamics.frames import crtbp_to_inertial, inertial_to_crtbp
 from liaison_cli.dynamics.integrators.rk4 import rk4_states
 from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
@@ -87,13 +88,15 @@ class CorrectedOrbit:
 @dataclass(frozen=True, eq=False)
 class ForceModel:
     """Everything the ephemeris propagator needs, bundled: the DE421 window, third bodies and GMs, the
-    Earth's GM and C_R A/m (m^2/kg)."""
+    Earth's GM, C_R A/m (m^2/kg) and the Moon's harmonics (ephemeris_dynamics.moon_field_payload; empty: a
+    point mass)."""
 
     window: object
     bodies: np.ndarray
     gms: np.ndarray
     gm_earth: float
     cr_am: float
+    moon_field: np.ndarray = field(default_factory=lambda: NO_MOON_FIELD)
 
     def propagate(self, x0, t_s, dt_s, n_steps, with_stm=False):
         y = np.zeros(42) if with_stm else np.array(x0, dtype=float)
@@ -102,7 +105,7 @@ class ForceModel:
             y[6::7] = 1.0
         w = self.window
         rk8_advance_ephemeris(y, t_s, dt_s, n_steps, w.coeffs, w.start_s, w.interval_s, w.n_records, self.bodies,
-                              self.gms, self.gm_earth, self.cr_am, RK8_A, RK8_B, RK8_C)
+                              self.gms, self.gm_earth, self.cr_am, self.moon_field, RK8_A, RK8_B, RK8_C)
         return (y[:6].copy(), y[6:].reshape(6, 6).copy()) if with_stm else y
 
     def moon_state(self, t_s):

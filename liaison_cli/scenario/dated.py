@@ -71,7 +71,25 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
     filter_bodies = [BODY_CODES[name] for name in spec.filter_bodies]
     return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[BODY_EARTH], spec.cr * spec.area_to_mass_m2_kg, epoch_s,
                                   filter_bodies,
-                                  np.asarray(scenario.model_error.truth_acceleration_m_s2, dtype=float) * 1e-3)
+                                  np.asarray(scenario.model_error.truth_acceleration_m_s2, dtype=float) * 1e-3,
+                                  *moon_fields(scenario.moon_gravity))
+
+
+def moon_fields(gravity) -> tuple[np.ndarray, np.ndarray | None]:
+    """(the truth's lunar field payload, the filter's or None for the truth's) of a scenario's moon_gravity
+    section (None: a point-mass Moon in both)."""
+    from liaison_cli.dynamics.ephemeris_dynamics import NO_MOON_FIELD, moon_field_payload
+    from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2_field
+
+    if gravity is None:
+        return NO_MOON_FIELD, None
+    truth = moon_field_payload(lunar_field(gravity.degree))
+    if gravity.filter_field == "j2":
+        return truth, moon_field_payload(lunar_j2_field())
+    degree = gravity.filter_degree_or_truth
+    if degree == gravity.degree:
+        return truth, None
+    return truth, (moon_field_payload(lunar_field(degree)) if degree else NO_MOON_FIELD)
 
 
 def departure_from_spec_km(spec, epoch_utc) -> np.ndarray:
@@ -102,20 +120,42 @@ def dated_initial_state_lu(spacecraft, scenario, model: EphemerisDynamicsModel) 
         return opm_state_lu(spacecraft, model.epoch_tdb_s)
     if spacecraft.departure is not None:
         return departure_from_spec_km(spacecraft.departure, scenario.ephemeris.epoch()) / SCALE
+    if spacecraft.orbit == KEPLERIAN_ORBIT:
+        return lunar_orbiter_state_km(spacecraft.elements, model) / SCALE
     return corrected_nodes_lu(spacecraft, scenario, model)[1][0]
+
+
+def lunar_orbiter_state_km(elements, model: EphemerisDynamicsModel) -> np.ndarray:
+    """The geocentric ICRF state (6,) km, km/s at the epoch of a lunar orbiter's Moon-centred elements. Their axes
+    are the CRTBP's (orbits.keplerian: the rotating frame's at t0, where the CRTBP's Moon has its principal axes
+    at x_PA = -x, y_PA = -y, z_PA = z): here the Moon's principal axes at the epoch (dynamics.lunar_orientation)
+    turned the same way, so an inclination is measured from the lunar equator in both models. The Moon's GM is
+    the model's (DE421's)."""
+    from liaison_cli.dynamics.ephemeris import BODY_MOON
+    from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf
+    from liaison_cli.orbits.keplerian import elements_to_moon_inertial
+
+    gm_moon = float(model.gms[list(model.bodies).index(BODY_MOON)])
+    r_km, v_km_s = elements_to_moon_inertial(elements.semi_major_axis_km, elements.eccentricity,
+                                             elements.inclination_deg, elements.raan_deg,
+                                             elements.argument_of_perilune_deg, elements.ta_deg, gm_moon)
+    icrf_from_axes = moon_pa_from_icrf(model.epoch_tdb_s).T @ np.diag([-1.0, -1.0, 1.0])
+    moon = model.moon_states_km(np.zeros(1))[0]
+    return moon + np.concatenate([icrf_from_axes @ r_km, icrf_from_axes @ v_km_s])
 
 
 def is_corrected(spacecraft) -> bool:
     """The spacecraft flies a catalog or family orbit corrected into the dated model (not a given state, an
-    orbit file or a departure)."""
-    return spacecraft.state_km is None and spacecraft.orbit_file is None and spacecraft.departure is None
+    orbit file, a departure or a lunar orbiter's elements, which are flown from the epoch)."""
+    return (spacecraft.state_km is None and spacecraft.orbit_file is None and spacecraft.departure is None
+            and spacecraft.orbit != KEPLERIAN_ORBIT)
 
 
 def corrected_nodes_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> tuple[np.ndarray, np.ndarray]:
     """(node times (N + 1,) s from the scenario epoch, nodes (N + 1, 6) scaled): the spacecraft's catalog orbit
     corrected by multiple shooting into the dated model over the scenario, at its node spacing or, failing
     that, the others tried (RETRY_NODE_SPACINGS_DAYS); OrbitCorrectionError when none converges."""
-    forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am)
+    forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am, model.moon_field)
     span_s = scenario.duration_days * SECONDS_PER_DAY
     tried = []
     for spacing_days in node_spacings_to_try(scenario.ephemeris.node_spacing_days):

@@ -68,15 +68,16 @@ def _unmodelled_rms_m_s2(scenario: Scenario, model, states, times_s) -> float:
     difference = (model.field_accelerations(model.params, states[k], times_tu)
                   - model.field_accelerations(filter_params, states[k], times_tu) + unmodelled)
     if model.descriptor.lunar_field:  # the field's truncation has its own part (field_truncation_psd)
-        difference -= model.moon_field_difference(states[k])
+        difference -= model.moon_field_difference(states[k], times_tu)
     return float(np.sqrt(np.mean(np.sum(difference**2, axis=1)))) * M_S2_PER_AU
 
 
-def _moon_ric(states, mu) -> np.ndarray:
-    """(m, 3, 3): each epoch's radial, in-track and cross-track unit vectors (rows) about the Moon."""
-    r = states[:, 0:3] - np.array([1.0 - mu, 0.0, 0.0])
+def _moon_ric(moon_relative) -> np.ndarray:
+    """(m, 3, 3): each epoch's radial, in-track and cross-track unit vectors (rows) of states (m, 6) about the
+    Moon (the model's moon_relative_states)."""
+    r = moon_relative[:, 0:3]
     radial = r / np.linalg.norm(r, axis=1, keepdims=True)
-    normal = np.cross(r, states[:, 3:6])
+    normal = np.cross(r, moon_relative[:, 3:6])
     cross = normal / np.linalg.norm(normal, axis=1, keepdims=True)
     return np.stack([radial, np.cross(cross, radial), cross], axis=1)
 
@@ -103,10 +104,12 @@ def field_truncation_psd(scenario: Scenario, model, states, times_s) -> float:
     if not model.descriptor.lunar_field:
         return 0.0
     k = np.arange(min(len(times_s), MAX_FIELD_SAMPLES))
-    difference = model.moon_field_difference(states[k])
+    times_tu = (np.asarray(times_s, dtype=float)[k] - float(times_s[0])) / TU_S
+    difference = model.moon_field_difference(states[k], times_tu)
     if not np.any(difference):
         return 0.0
-    ric = np.einsum("kij,kj->ki", _moon_ric(np.asarray(states, dtype=float)[k], float(model.params[0])), difference)
+    ric = np.einsum("kij,kj->ki", _moon_ric(model.moon_relative_states(np.asarray(states, dtype=float)[k], times_tu)),
+                    difference)
     dt_s = float(times_s[1] - times_s[0])
     tau_s = correlation_time_s(ric, dt_s, scenario.settle_days() * SECONDS_PER_DAY)
     rms = float(np.sqrt(np.mean(np.sum(difference**2, axis=1)))) * M_S2_PER_AU

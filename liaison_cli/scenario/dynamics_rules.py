@@ -11,7 +11,7 @@ from liaison_cli.dynamics.registry import DYNAMICS
 from liaison_cli.estimation.estimators import ESTIMATORS
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.orbits.departure import MAX_TIME_FROM_PERIAPSIS_S
-from liaison_cli.scenario.participants import DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT, KEPLERIAN_ORBIT
+from liaison_cli.scenario.participants import DATED_ONLY_ORBITS, GEOSTATIONARY_ORBIT
 
 
 def check_dynamics(scenario) -> None:
@@ -71,10 +71,6 @@ def _check_dated(scenario):
             raise ValueError(f"links[{i}]: dynamics: ephemeris takes range, range-rate, tdoa and fdoa links today; got "
                              f"{', '.join(unsupported)}")
     _check_departures(scenario)
-    for i, sc in enumerate(scenario.spacecraft):
-        if sc.orbit == KEPLERIAN_ORBIT:
-            raise ValueError(f"spacecraft[{i}].orbit = {sc.orbit!r}: dynamics: ephemeris takes a catalog or "
-                             f"family orbit (corrected into the dated model), {', '.join(DATED_ONLY_ORBITS)}")
 
 def _check_earth_orientation(scenario):
     """Ground stations and geostationary spacecraft turn with the Earth: their epochs need the IERS table
@@ -184,7 +180,7 @@ def _check_truth_acceleration(scenario, key: str, spacecraft) -> None:
         raise ValueError(f"model_error.{key} with spacecraft[{corrected[0]}] on a corrected "
                          "orbit: its truth is flown from the corrected nodes, which would undo the acceleration "
                          "at every node; allowed: dynamics: crtbp, or dated spacecraft with a state_km, an OPM "
-                         "or a departure")
+                         "a departure or lunar_keplerian elements")
 
 
 def check_estimated_parameters(scenario) -> None:

@@ -7,8 +7,9 @@ along each orbit).
 
 degree: the truth's (2..EVALUATOR_MAX_DEGREE); filter_degree: the filter's (0 = a point-mass Moon; default: the
 truth's, a filter whose field is the truth's); or filter_field: j2, the filter carrying the Moon's J2 alone in
-closed form (dynamics.zonal_j2), as many flight filters do. The CRTBP only, for now: the dated model keeps a
-point-mass Moon.
+closed form, as many flight filters do. Both dynamics models take it: the CRTBP with the Moon's principal axes on
+the rotating frame (dynamics.crtbp_field), the dated model with the Moon turned by the IAU model
+(dynamics.lunar_orientation, ephemeris_dynamics.add_moon_field).
 """
 
 from typing import Literal

@@ -37,7 +37,8 @@ UNPHASED_ORBITS = (KEPLERIAN_ORBIT, *DATED_ONLY_ORBITS, "oem")
 
 
 class KeplerianElements(StrictModel):
-    """Moon-centred elements in inertial axes aligned with the rotating frame at t0. The orbit's size is a_km or,
+    """Moon-centred elements in inertial axes aligned with the rotating frame at t0 (in a dated scenario: the Moon's
+    principal axes at the epoch, turned as the CRTBP's; scenario.dated.lunar_orbiter_state_km). The orbit's size is a_km or,
     for a low lunar orbit, altitude_km: the perilune's altitude above the mean lunar radius (a circular orbit's
     altitude when e is 0), from which a_km follows. With frozen: true, an elliptical frozen orbit (ELFO): give
     e or i_deg and the other is solved so that the argument of perilune (90 or 270 deg) stands still under the
@@ -54,8 +55,8 @@ class KeplerianElements(StrictModel):
                                       "altitude (km)")
     e: float | None = Field(None, ge=0.0, lt=1.0, description="eccentricity; the perilune a_km (1 - e) must clear "
                             "the lunar radius; with frozen: true, give e or i_deg (dimensionless)")
-    i_deg: float | None = Field(None, ge=0.0, le=180.0, description="inclination to the Earth-Moon orbit plane; with "
-                                "frozen: true, give e or i_deg (deg)")
+    i_deg: float | None = Field(None, ge=0.0, le=180.0, description="inclination to the Earth-Moon orbit plane (dated: "
+                                "to the lunar equator); with frozen: true, give e or i_deg (deg)")
     raan_deg: float = Field(0.0, description="right ascension of the ascending node (deg)")
     argp_deg: float | None = Field(None, description="argument of perilune (default 0; frozen: 90 or 270, default 90) "
                                    "(deg)")

@@ -26,7 +26,7 @@ from liaison_cli.scenario.dynamics_rules import (check_dynamics, check_empirical
 from liaison_cli.scenario.model_error import ModelErrorSpec
 from liaison_cli.scenario.moon_gravity import MoonGravitySpec
 from liaison_cli.scenario.participants import (
-    DATED_ONLY_ORBITS, KEPLERIAN_ORBIT, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
+    DATED_ONLY_ORBITS, EphemerisSpec, GroundStationSpec, SpacecraftSpec)
 from liaison_cli.scenario.radio_settings import NoiseSpec
 from liaison_cli.scenario.schema_rules import (
     all_of, any_of, each, equals, given, negate, not_given, schema_rules, together, when)
@@ -51,8 +51,7 @@ class Scenario(StrictModel):
         any_of(given("links"), given("topology")),
         *(together(equals("estimator", name), section) for name, section in OWN_SECTIONS),
         when(equals("dynamics", "ephemeris"),
-             all_of(given("ephemeris"), not_given("moon_gravity"), negate(equals("estimator", *_UNDATED_ESTIMATORS)),
-                    each("spacecraft", negate(equals("orbit", KEPLERIAN_ORBIT)))),
+             all_of(given("ephemeris"), negate(equals("estimator", *_UNDATED_ESTIMATORS))),
              all_of(not_given("ephemeris"), each("spacecraft", negate(equals("orbit", *DATED_ONLY_ORBITS))),
                     each("ground_stations", not_given("site")))),
         optional=("links",)))
@@ -73,9 +72,8 @@ class Scenario(StrictModel):
     dynamics: Literal[tuple(DYNAMICS)] = Field("crtbp", description="; ".join(
         f"{d.name}: {d.summary}" for d in DYNAMICS.values()))
     ephemeris: EphemerisSpec | None = Field(None, description="dynamics: ephemeris: the epoch and SRP")
-    moon_gravity: MoonGravitySpec | None = Field(None, description="dynamics: crtbp: the Moon's gravity field "
-                                                 "(GRGM1200A) to a degree, in the truth and in the filter; absent: "
-                                                 "a point-mass Moon")
+    moon_gravity: MoonGravitySpec | None = Field(None, description="the Moon's gravity field (GRGM1200A) to a "
+                                                 "degree, in the truth and in the filter; absent: a point-mass Moon")
     estimator: Literal[tuple(ESTIMATORS)] = Field(DEFAULT_ESTIMATOR, description="; ".join(
         f"{e.name}: {e.summary}" for e in ESTIMATORS.values()))
     batch: BatchSpec | None = Field(None, description="estimator: batch: its span and settings")

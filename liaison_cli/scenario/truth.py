@@ -64,6 +64,8 @@ def trajectory_key(scenario: Scenario) -> str:
         "state_km": [sc.state_km for sc in scenario.spacecraft],
         "orbit_file": [sc.orbit_file and sc.orbit_file.model_dump() for sc in scenario.spacecraft],
         "truth_acceleration_m_s2": list(scenario.model_error.truth_acceleration_m_s2),
+        # the truth's lunar field (the filter's degree does not move the truth: a sweep over it shares one)
+        "moon_gravity_degree": scenario.moon_gravity and scenario.moon_gravity.degree,
     }
     return json.dumps(fields, sort_keys=True)
 

@@ -112,5 +112,10 @@ def test_the_scenario_keys_ask_for_the_field_and_refuse_what_cannot_be():
     assert len(dynamics_model(_scenario(moon_gravity={"degree": 6, "filter_degree": 0})).filter_params) == 1
     with pytest.raises(Exception, match="at most moon_gravity.degree"):
         _scenario(moon_gravity={"degree": 4, "filter_degree": 8})
-    with pytest.raises(Exception, match="keeps a point-mass Moon"):
-        _scenario(moon_gravity={"degree": 4}, dynamics="ephemeris", ephemeris={"epoch_utc": "2026-01-01T00:00:00"})
+    from liaison_cli.dynamics.ephemeris_model import moon_field_of
+
+    dated = dynamics_model(_scenario(moon_gravity={"degree": 4, "filter_field": "j2"}, dynamics="ephemeris",
+                                     ephemeris={"epoch_utc": "2026-01-01T00:00:00"},
+                                     measurement={"interval_s": 60, "light_time": False}))
+    assert moon_field_of(dated.params)[0] == 4 and moon_field_of(dated.filter_params)[0] == 2
+    assert np.count_nonzero(moon_field_of(dated.filter_params)[2:]) == 1  # J2 alone: C20

@@ -151,8 +151,6 @@ BROKEN = [
     (SMOKE, [("ephemeris", {"epoch_utc": "2020-01-01T00:00:00"})], "needs dynamics: ephemeris"),
     (DATED, [("ephemeris", DROP)], "needs an 'ephemeris' section"),
     (DATED, [("estimator", "batch"), ("batch", {"span_days": 1, "prediction_hours": 0})], "runs the ekf today"),
-    (DATED, [("spacecraft.1", {"name": "EML2", "orbit": "lunar_keplerian", "elements": ELEMENTS})],
-     "takes a catalog or family orbit"),
     (SMOKE, [("spacecraft.2", GEO)], "'geostationary' needs dynamics: ephemeris"),
     (SMOKE, [("ground_stations", [{"name": "GS", "site": "goldstone"}])], "needs dynamics: ephemeris"),
     (DATED, [("ephemeris.filter_bodies", ["moon", "moon"])], "repeated body"),
