@@ -29,7 +29,8 @@ from liaison_cli.dynamics.constants import (
 from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_state
 from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
-from liaison_cli.dynamics.spherical_harmonics import acceleration_gradient_into, packed_index
+from liaison_cli.dynamics.crtbp_field import harmonics_payload
+from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, harmonic_factors
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
 # Lengths of the integrated vector: the state and its STM (6 + 36), and with the C_R sensitivity column (+ 6).
@@ -107,8 +108,10 @@ NO_MOON_FIELD = np.zeros(0)  # the moon_field argument of a point-mass Moon
 
 def moon_field_payload(field) -> np.ndarray:
     """The moon_field argument of ephemeris_derivative for a dynamics.lunar_gravity.LunarField: degree, reference
-    radius (km), C̄ and S̄ packed (spherical_harmonics.packed_index)."""
-    return np.concatenate([[float(field.degree), field.radius_km], field.c, field.s])
+    radius (km), C̄ and S̄ packed (spherical_harmonics.packed_index), the recursions' factors (the CRTBP's layout:
+    crtbp_field.harmonics_payload)."""
+    return np.concatenate([[float(field.degree), field.radius_km], field.c, field.s,
+                           harmonic_factors(field.degree + 2).ravel()])
 
 
 @njit(cache=True)
@@ -117,8 +120,7 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
     ICRF position r (km), the Moon at r_moon, at TDB t_s; with with_grad, grad (3, 3) += their gradient. Evaluated
     in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
     G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well)."""
-    degree = int(field[0])
-    size = packed_index(degree, degree) + 1
+    degree, radius, c, s, factors = harmonics_payload(field)
     rot = np.empty((3, 3))
     moon_pa_from_icrf_into(t_s, rot)
     p = np.zeros(3)
@@ -126,8 +128,7 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
         for j in range(3):
             p[i] += rot[i, j] * (r[j] - r_moon[j])
     a_pa, g = np.empty(3), np.empty(6)
-    acceleration_gradient_into(field[2:2 + size], field[2 + size:2 + 2 * size], gm_moon, field[1], degree, p[0],
-                               p[1], p[2], with_grad, a_pa, g)
+    field_acceleration_into(c, s, factors, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
     for j in range(3):
         acc[j] += rot[0, j] * a_pa[0] + rot[1, j] * a_pa[1] + rot[2, j] * a_pa[2]
     if not with_grad:

@@ -118,4 +118,4 @@ def test_the_scenario_keys_ask_for_the_field_and_refuse_what_cannot_be():
                                      ephemeris={"epoch_utc": "2026-01-01T00:00:00"},
                                      measurement={"interval_s": 60, "light_time": False}))
     assert moon_field_of(dated.params)[0] == 4 and moon_field_of(dated.filter_params)[0] == 2
-    assert np.count_nonzero(moon_field_of(dated.filter_params)[2:]) == 1  # J2 alone: C20
+    assert np.count_nonzero(moon_field_of(dated.filter_params)[2:2 + 2 * 6]) == 1  # J2 alone: C20 of C and S
