@@ -126,3 +126,23 @@ def test_the_tdoa_template_covers_its_arc_and_the_ground_pair_it_replaced_does_n
     assert ran.exit_code == 0, ran.output
     (line,) = [line for line in ran.output.splitlines() if "measured at" in line]
     assert line.startswith("MaunaKea/OwensValley->TX measured at 28 % of the epochs"), line
+
+
+def test_the_lunar_relay_template_flies_on_a_date_as_its_comments_say(tmp_path):
+    """The template's 'on a date' instructions, followed as written: the same formation in DE421 + SRP with the Moon
+    and its field turned (issue 46). Over 0.3 d the user's whole-arc error (its a priori included) stays well under
+    a kilometre (measured 226 m) and the filter's σ covers it as the other templates' do."""
+    path = tmp_path / "dated_relay.yaml"
+    assert invoke("new", path, "--from", "lunar-relay").exit_code == 0
+    text = path.read_text()
+    assert 'ephemeris: {epoch_utc: "2026-01-01T00:00:00"}' in text and "light_time: false" in text  # the comments
+    text = text.replace("duration_days: 1.5\n", 'duration_days: 0.3\ndynamics: ephemeris\n'
+                        'ephemeris: {epoch_utc: "2026-01-01T00:00:00"}\n')
+    text = text.replace("measurement:\n  interval_s: 60\n", "measurement:\n  interval_s: 60\n  light_time: false\n")
+    path.write_text(text)
+    ran = invoke("run", path, "--jobs", "1", "--quiet", "--output", tmp_path / "out", "--json")
+    assert ran.exit_code == 0, ran.output
+    summary = json.loads(ran.stdout)
+    assert summary["runs_ok"] == summary["runs"] == 3
+    user = summary["spacecraft"]["User"]
+    assert 1.0 < user["rms_position_m"] < 1000.0 and 0.4 < user["position_error_to_sigma_settled"] < 2.5, user
