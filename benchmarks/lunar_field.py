@@ -150,8 +150,20 @@ FILTER_DEGREES = (0, 8, 20)
 TRUTH_DEGREE = 20
 
 
-def filter_study(runs: int = 8) -> list[str]:
+def settled_figures(summary):
+    """Per spacecraft of a campaign's summary table: (name, position RMS after the settle time m, err/σ, its 95 %
+    half-width, the share of epochs with its own NEES in band, consistent) over the runs that finished."""
     from liaison_cli.analysis.consistency import campaign_verdict
+
+    for name, group in summary.groupby("spacecraft", sort=False):
+        ok = group[group.status == "ok"]
+        verdict = campaign_verdict(ok)
+        yield (name, float(np.sqrt(np.mean(ok.rms_position_settled_m**2))),
+               verdict["position_error_to_sigma_settled"], verdict["position_error_to_sigma_halfwidth"],
+               verdict["frac_nees_spacecraft_in_band_settled"], bool(verdict["consistent_settled"]))
+
+
+def filter_study(runs: int = 8) -> list[str]:
     from liaison_cli.campaign.engine.results import summary_table
     from liaison_cli.campaign.engine.runner import run_campaign
     from liaison_cli.scenario.loading import validate_scenario
@@ -173,14 +185,9 @@ def filter_study(runs: int = 8) -> list[str]:
         scenario = validate_scenario(mapping, mapping["name"])
         noises = prepare_problem(scenario).default_noises
         summary = summary_table(run_campaign(scenario, jobs=2, progress=False))
-        for name, group in summary.groupby("spacecraft", sort=False):
-            ok = group[group.status == "ok"]
-            verdict = campaign_verdict(ok)
-            lines.append(f"| {degree} | {name} | {np.sqrt(np.mean(ok.rms_position_settled_m**2)):.3g} | "
-                         f"{verdict['position_error_to_sigma_settled']:.2f}"
-                         f"±{verdict['position_error_to_sigma_halfwidth']:.2f} | "
-                         f"{100 * verdict['frac_nees_spacecraft_in_band_settled']:.0f} % | "
-                         f"{'yes' if verdict['consistent_settled'] else 'no'} | {noises[name].psd_m2_s3:.2g} |")
+        for name, rms_m, ratio, halfwidth, in_band, consistent in settled_figures(summary):
+            lines.append(f"| {degree} | {name} | {rms_m:.3g} | {ratio:.2f}±{halfwidth:.2f} | {100 * in_band:.0f} % | "
+                         f"{'yes' if consistent else 'no'} | {noises[name].psd_m2_s3:.2g} |")
     return lines
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.lunar_field import MOON_RADIUS_KM, accelerations, rms, rotation, sphere, turned
+from benchmarks.lunar_field import MOON_RADIUS_KM, accelerations, rms, rotation, settled_figures, sphere, turned
 from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.lunar_orientation import PA_FROM_ME
 
@@ -119,7 +119,6 @@ def truth_against_filter(degree: int = 100) -> list[str]:
 
 
 def formation_study(runs: int = 6) -> list[str]:
-    from liaison_cli.analysis.consistency import campaign_verdict
     from liaison_cli.campaign.engine.results import summary_table
     from liaison_cli.campaign.engine.runner import run_campaign
     from liaison_cli.scenario.loading import validate_scenario
@@ -143,15 +142,10 @@ def formation_study(runs: int = 6) -> list[str]:
         start = time.perf_counter()
         summary = summary_table(run_campaign(scenario, jobs=2, progress=False))
         per_run_s = (time.perf_counter() - start) / runs
-        for name, group in summary.groupby("spacecraft", sort=False):
-            ok = group[group.status == "ok"]
-            verdict = campaign_verdict(ok)
-            lines.append(f"| {degree} | {name} | {np.sqrt(np.mean(ok.rms_position_settled_m**2)):.3g} | "
-                         f"{verdict['position_error_to_sigma_settled']:.2f} ± "
-                         f"{verdict['position_error_to_sigma_halfwidth']:.2f} | "
-                         f"{100 * verdict['frac_nees_spacecraft_in_band_settled']:.0f} % | "
-                         f"{'consistent' if verdict['consistent_settled'] else 'not consistent'} | "
-                         f"{noises[name].psd_m2_s3:.2g} | {per_run_s:.1f} |")
+        for name, rms_m, ratio, halfwidth, in_band, consistent in settled_figures(summary):
+            lines.append(f"| {degree} | {name} | {rms_m:.3g} | {ratio:.2f} ± {halfwidth:.2f} | {100 * in_band:.0f} % | "
+                         f"{'consistent' if consistent else 'not consistent'} | {noises[name].psd_m2_s3:.2g} | "
+                         f"{per_run_s:.1f} |")
     return lines
 
 
