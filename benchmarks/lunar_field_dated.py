@@ -44,8 +44,9 @@ def frame_weight(degree: int = 100, points_count: int = 2000) -> list[str]:
         base = accelerations(field, degree, points)
         small = turned(field, degree, points, PA_FROM_ME.T)
         large = turned(field, degree, points, rotation(2, 7.9))
-        lines.append(f"| {altitude:.0f} | {rms(base):.3g} | {rms(small - base):.3g} ({100 * rms(small - base) / rms(base):.1f} %) "
-                     f"| {rms(large - base):.3g} ({100 * rms(large - base) / rms(base):.0f} %) |")
+        small_share, large_share = 100 * rms(small - base) / rms(base), 100 * rms(large - base) / rms(base)
+        lines.append(f"| {altitude:.0f} | {rms(base):.3g} | {rms(small - base):.3g} ({small_share:.1f} %) "
+                     f"| {rms(large - base):.3g} ({large_share:.0f} %) |")
     return lines
 
 
@@ -66,7 +67,7 @@ def orientation_cost(calls: int = 20000) -> str:
 
 def _model(degree: int, filter_degree: int | None = None):
     from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
-    from liaison_cli.dynamics.ephemeris_dynamics import moon_field_payload
+    from liaison_cli.dynamics.ephemeris_dynamics import dated_terms, moon_harmonics_term
     from liaison_cli.dynamics.ephemeris_model import EphemerisDynamicsModel
     from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
     from liaison_cli.scenario.dated import THIRD_BODIES
@@ -75,9 +76,9 @@ def _model(degree: int, filter_degree: int | None = None):
     window = load_window(t0, t0 + 2 * 86400.0)
     bodies = np.array(THIRD_BODIES, dtype=np.int64)
     gms = np.array([GM_KM3_S2[int(b)] for b in bodies])
-    own = None if filter_degree is None else moon_field_payload(lunar_field(filter_degree))
+    own = None if filter_degree is None else dated_terms(moon_harmonics_term(lunar_field(filter_degree)))
     return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[399], 0.0, t0,
-                                  moon_field=moon_field_payload(lunar_field(degree)), filter_moon_field=own)
+                                  terms=dated_terms(moon_harmonics_term(lunar_field(degree))), filter_terms=own)
 
 
 def truth_against_filter(degree: int = 100) -> list[str]:
@@ -94,12 +95,12 @@ def truth_against_filter(degree: int = 100) -> list[str]:
     state_km = lunar_orbiter_state_km(elements, model)
     times_s = model.epoch_tdb_s + np.arange(0.0, 86400.0 + 1.0, 60.0)
     args = (state_km, times_s[0], times_s, model.window, model.bodies, model.gms, model.gm_earth, 0.0)
-    geocentric = dop853_ephemeris_states(*args, moon_field=model.moon_field)
-    geocentric_tighter = dop853_ephemeris_states(*args, rtol=1e-13, moon_field=model.moon_field)
+    geocentric = dop853_ephemeris_states(*args, terms=model.terms)
+    geocentric_tighter = dop853_ephemeris_states(*args, rtol=1e-13, terms=model.terms)
     start = time.perf_counter()
-    truth = dop853_ephemeris_states(*args, moon_field=model.moon_field, moon_centred=True)
+    truth = dop853_ephemeris_states(*args, terms=model.terms, moon_centred=True)
     truth_s = time.perf_counter() - start
-    tighter = dop853_ephemeris_states(*args, rtol=1e-13, moon_field=model.moon_field, moon_centred=True)
+    tighter = dop853_ephemeris_states(*args, rtol=1e-13, terms=model.terms, moon_centred=True)
     state, worst_m = state_km / SCALE, 0.0
     start = time.perf_counter()
     for k in range(1, len(times_s)):
@@ -143,9 +144,9 @@ def formation_study(runs: int = 6) -> list[str]:
         summary = summary_table(run_campaign(scenario, jobs=2, progress=False))
         per_run_s = (time.perf_counter() - start) / runs
         for name, rms_m, ratio, halfwidth, in_band, consistent in settled_figures(summary):
-            lines.append(f"| {degree} | {name} | {rms_m:.3g} | {ratio:.2f} ± {halfwidth:.2f} | {100 * in_band:.0f} % | "
-                         f"{'consistent' if consistent else 'not consistent'} | {noises[name].psd_m2_s3:.2g} | "
-                         f"{per_run_s:.1f} |")
+            verdict = "consistent" if consistent else "not consistent"
+            lines.append(f"| {degree} | {name} | {rms_m:.3g} | {ratio:.2f} ± {halfwidth:.2f} | {100 * in_band:.0f} % "
+                         f"| {verdict} | {noises[name].psd_m2_s3:.2g} | {per_run_s:.1f} |")
     return lines
 
 

@@ -103,11 +103,41 @@ def _point_mass(out_a, grad, r, r_b, gm, indirect, with_grad):
                 grad[i, j] += c * d[i] * d[j] - (k if i == j else 0.0)
 
 
-NO_MOON_FIELD = np.zeros(0)  # the moon_field argument of a point-mass Moon
+# The forces beyond the bodies' point masses and SRP, as a table of terms (ephemeris_derivative's `terms`): [T, then T
+# pairs (kind, start of its payload in the table), then the payloads]; NO_TERMS: none. A kind is a part: its payload
+# (built by its own function) and its branch in add_terms.
+NO_TERMS = np.zeros(0)
+TERM_MOON_HARMONICS = 1  # payload: moon_field_payload
+
+
+def dated_terms(*terms) -> np.ndarray:
+    """The terms table of (kind, payload) pairs (None ones left out); NO_TERMS when there are none."""
+    terms = [term for term in terms if term is not None]
+    if not terms:
+        return NO_TERMS
+    table, payloads, start = [float(len(terms))], [], 1 + 2 * len(terms)
+    for kind, payload in terms:
+        table += [float(kind), float(start)]
+        payloads.append(np.asarray(payload, dtype=float))
+        start += len(payload)
+    return np.concatenate([table, *payloads])
+
+
+def term_of(terms, kind: int):
+    """The payload of the first term of `kind` in a terms table (None when it has none)."""
+    for t in range(int(terms[0]) if len(terms) else 0):
+        if int(terms[1 + 2 * t]) == kind:
+            return terms[int(terms[2 + 2 * t]):]
+    return None
+
+
+def moon_harmonics_term(field) -> tuple[int, np.ndarray] | None:
+    """(TERM_MOON_HARMONICS, payload) of a dynamics.lunar_gravity.LunarField (None: none)."""
+    return None if field is None else (TERM_MOON_HARMONICS, moon_field_payload(field))
 
 
 def moon_field_payload(field) -> np.ndarray:
-    """The moon_field argument of ephemeris_derivative for a dynamics.lunar_gravity.LunarField: degree, reference
+    """The Moon's harmonics' payload for a dynamics.lunar_gravity.LunarField: degree, reference
     radius (km), C̄ and S̄ packed (spherical_harmonics.packed_index), the recursions' factors (the CRTBP's layout:
     crtbp_field.harmonics_payload)."""
     return np.concatenate([[float(field.degree), field.radius_km], field.c, field.s,
@@ -141,12 +171,22 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
 
 
 @njit(cache=True)
-def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, moon_field,
+def add_terms_at_moon(terms, t_s, r, r_moon, gm_moon, with_grad, acc, grad):
+    """acc (3,) (and with with_grad, grad (3, 3)) += every term of the table that acts from the Moon, at the
+    geocentric position r, the Moon at r_moon with its GM (the one place a dated force of that kind is added)."""
+    for t in range(int(terms[0]) if terms.shape[0] > 0 else 0):
+        kind, start = int(terms[1 + 2 * t]), int(terms[2 + 2 * t])
+        if kind == TERM_MOON_HARMONICS:
+            add_moon_field(t_s, r, r_moon, gm_moon, terms[start:], with_grad, acc, grad)
+
+
+@njit(cache=True)
+def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, terms,
                          with_stm, out):
     """dy/dt for y = [r, v] (6,), [r, v, Phi row-major] (42,) or [r, v, Phi, s] (48,), geocentric ICRF km, km/s
     at TDB t_s. bodies / gms (B,): third bodies (codes of dynamics.ephemeris) and their GM; cr_am: C_R A/m
-    (m^2/kg), 0 for no SRP (the Sun must then still be in `bodies` for its gravity); moon_field: the Moon's
-    harmonics (moon_field_payload; NO_MOON_FIELD: a point mass), felt where the Moon is one of `bodies`. The
+    (m^2/kg), 0 for no SRP (the Sun must then still be in `bodies` for its gravity); terms: the forces beyond those
+    (dated_terms; NO_TERMS: none), the Moon's harmonics felt where the Moon is one of `bodies`. The
     field's pull on the Earth (the indirect term) is left out: at the Earth it is about 1e-8 of the Moon's point
     mass's pull there (4e-13 m/s^2).
 
@@ -167,8 +207,7 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
             r_sun = r_b
         elif bodies[i] == BODY_MOON:
             r_moon = r_b
-            if moon_field.shape[0] > 0:
-                add_moon_field(t_s, r, r_b, gms[i], moon_field, with_stm, acc, grad)
+            add_terms_at_moon(terms, t_s, r, r_b, gms[i], with_stm, acc, grad)
     a_srp = np.zeros(3)
     if cr_am > 0.0:
         if r_moon[0] == 0.0 and r_moon[1] == 0.0 and r_moon[2] == 0.0:  # the Moon's shadow needs its position
@@ -239,7 +278,7 @@ def bound_to_moon(state_km, moon_km, gm_moon: float) -> bool:
 
 
 def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
-                            acceleration_km_s2=None, acceleration_table_km_s2=None, moon_field=NO_MOON_FIELD,
+                            acceleration_km_s2=None, acceleration_table_km_s2=None, terms=NO_TERMS,
                             moon_centred=False):
     """Truth states (m, 6) at times_s by scipy's adaptive DOP853 (integrators.adaptive.dop853_samples) on the
     compiled derivative, restarted at every shadow edge (penumbra and umbra of the Earth and the Moon, located
@@ -248,18 +287,18 @@ def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr
     9 days with one eclipse this truth is within 2.3 cm of itself at rtol 1e-13
     (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant extra acceleration on the ICRF
     axes (the truth's unmodelled force; None: none); acceleration_table_km_s2 (m, 3): one more, given at
-    times_s and linear between them (a Gauss-Markov force drawn per run; None: none); moon_field: the Moon's
-    harmonics (ephemeris_derivative's). moon_centred: the integrator carries the state less the Moon's (DE421's,
-    its acceleration a central difference of its velocity), so that rtol is relative to the orbit about the Moon,
-    and atol is at most MOON_CENTRED_ATOL: geocentric, a 100 km lunar orbit's steps were sized by 384,000 km, and
-    the truth at rtol 1e-12 was 2.7 m from itself at 1e-13 after a day (benchmarks.lunar_field_dated); the states
-    returned are geocentric either way."""
+    times_s and linear between them (a Gauss-Markov force drawn per run; None: none); terms: the forces beyond the
+    point masses and SRP (ephemeris_derivative's). moon_centred: the integrator carries the state less the Moon's
+    (DE421's, its acceleration a central difference of its velocity), so that rtol is relative to the orbit about
+    the Moon, and atol is at most MOON_CENTRED_ATOL: geocentric, a 100 km lunar orbit's steps were sized by
+    384,000 km, and the truth at rtol 1e-12 was 2.7 m from itself at 1e-13 after a day
+    (benchmarks.lunar_field_dated); the states returned are geocentric either way."""
     if moon_centred:
         return _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol,
                                     min(atol, MOON_CENTRED_ATOL),
-                                    acceleration_km_s2, acceleration_table_km_s2, moon_field)
+                                    acceleration_km_s2, acceleration_table_km_s2, terms)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
-    rhs = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration_km_s2,
+    rhs = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, terms, acceleration_km_s2,
                           acceleration_table_km_s2, times_s)
 
     def edge(which, body):
@@ -276,7 +315,7 @@ def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr
 
 
 def _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol, atol, acceleration_km_s2,
-                         acceleration_table_km_s2, moon_field):
+                         acceleration_table_km_s2, terms):
     """dop853_ephemeris_states flown about the Moon: y = state - moon(t), y' = f(t, y + moon(t)) - moon'(t)."""
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
 
@@ -288,7 +327,7 @@ def _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am
         state = moon(t)
         return np.concatenate([state[3:], (moon(t + h)[3:] - moon(t - h)[3:]) / (2.0 * h)])
 
-    geocentric = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration_km_s2,
+    geocentric = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, terms, acceleration_km_s2,
                                  acceleration_table_km_s2, times_s)
 
     def rhs(t, y):
@@ -310,7 +349,7 @@ def _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am
     return relative + np.array([moon(t) for t in np.asarray(times_s, dtype=float)])
 
 
-def _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration_km_s2, acceleration_table_km_s2,
+def _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, terms, acceleration_km_s2, acceleration_table_km_s2,
                     times_s):
     """The truth's geocentric right-hand side (t, y) -> y' with its extra accelerations (dop853_ephemeris_states)."""
     out = np.empty(6)
@@ -318,7 +357,7 @@ def _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, moon_field, acceleration
     table = None if acceleration_table_km_s2 is None else _LinearTable(times_s, acceleration_table_km_s2)
 
     def rhs(t, y):
-        ephemeris_derivative(t, y, *args, bodies, gms, gm_earth, cr_am, moon_field, False, out)
+        ephemeris_derivative(t, y, *args, bodies, gms, gm_earth, cr_am, terms, False, out)
         rate = out.copy()
         if forced:
             rate[3:] += acceleration_km_s2

@@ -13,15 +13,15 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
 from liaison_cli.dynamics.ephemeris import BODY_MOON
-from liaison_cli.dynamics.ephemeris_dynamics import (NO_MOON_FIELD, SENSITIVITY_SIZE, STM_SIZE, add_moon_field,
-                                                     ephemeris_derivative)
+from liaison_cli.dynamics.ephemeris_dynamics import (NO_TERMS, SENSITIVITY_SIZE, STM_SIZE, TERM_MOON_HARMONICS,
+                                                     add_moon_field, ephemeris_derivative, term_of)
 from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
 from liaison_cli.dynamics.registry import DYNAMICS
 
 SCALE = np.array([LU_KM, LU_KM, LU_KM, VU_KM_S, VU_KM_S, VU_KM_S])  # scaled units -> km, km/s
-HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, start of the Moon's field payload (0: a point-mass Moon)
+HEADER = 8  # S, R, N, B, gm_earth, cr_am, epoch_tdb_s, start of the terms table (0: none)
 PARAM_CR_AM = 5
-PARAM_MOON_FIELD_AT = 7
+PARAM_TERMS_AT = 7
 
 
 def with_cr_scaled(params: np.ndarray, factor: float) -> np.ndarray:
@@ -44,23 +44,28 @@ def with_body_gm_scaled(params: np.ndarray, body: int, factor: float) -> np.ndar
 
 
 def pack_params(window, bodies, gms, gm_earth: float, cr_am: float, epoch_tdb_s: float,
-                moon_field=NO_MOON_FIELD) -> np.ndarray:
+                terms=NO_TERMS) -> np.ndarray:
     """One flat float64 vector: the header, the window's record tables, the bodies, the coefficients, then the
-    Moon's field payload (ephemeris_dynamics.moon_field_payload; none for a point-mass Moon)."""
+    table of the forces beyond the point masses and SRP (ephemeris_dynamics.dated_terms; none: NO_TERMS)."""
     S, _, R, N = window.coeffs.shape
     header = np.array([S, R, N, len(bodies), gm_earth, cr_am, epoch_tdb_s, 0.0], dtype=float)
     out = np.concatenate([header, window.start_s, window.interval_s, window.n_records.astype(float),
                           np.asarray(bodies, dtype=float), np.asarray(gms, dtype=float), window.coeffs.ravel(),
-                          np.asarray(moon_field, dtype=float)])
-    if len(moon_field):
-        out[PARAM_MOON_FIELD_AT] = len(out) - len(moon_field)
+                          np.asarray(terms, dtype=float)])
+    if len(terms):
+        out[PARAM_TERMS_AT] = len(out) - len(terms)
     return out
 
 
-def moon_field_of(params) -> np.ndarray:
-    """The Moon's field payload of packed parameters (empty: a point-mass Moon)."""
-    at = int(params[PARAM_MOON_FIELD_AT])
-    return params[at:] if at > 0 else NO_MOON_FIELD
+def terms_of(params) -> np.ndarray:
+    """The terms table of packed parameters (NO_TERMS: none)."""
+    at = int(params[PARAM_TERMS_AT])
+    return params[at:] if at > 0 else NO_TERMS
+
+
+def moon_field_of(params):
+    """The Moon's harmonics' payload of packed parameters (None: a point-mass Moon)."""
+    return term_of(terms_of(params), TERM_MOON_HARMONICS)
 
 
 @njit(cache=True)
@@ -78,22 +83,22 @@ def _unpack(params):
     gms = params[off : off + B]
     off += B
     coeffs = np.ascontiguousarray(params[off : off + S * 3 * R * N]).reshape((S, 3, R, N))
-    at = int(params[PARAM_MOON_FIELD_AT])
-    moon_field = params[at:] if at > 0 else params[0:0]
-    return coeffs, start_s, interval_s, n_records, bodies, gms, params[4], params[5], params[6], moon_field
+    at = int(params[PARAM_TERMS_AT])
+    terms = params[at:] if at > 0 else params[0:0]
+    return coeffs, start_s, interval_s, n_records, bodies, gms, params[4], params[5], params[6], terms
 
 
 @njit(cache=True)
 def ephemeris_state_stm_scaled(params, state, t_tu, dt_tu, n_steps):
     """(6,) scaled state at t_tu (TU since the epoch) -> (state (6,), Phi (6, 6)) at t_tu + dt_tu, scaled
     units, by n_steps fixed RK8 steps of the DE421 + SRP field."""
-    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, moon_field = _unpack(params)
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, terms = _unpack(params)
     y = np.zeros(42)
     for i in range(6):
         y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
     rk8_advance_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records,
-                          bodies, gms, gm_earth, cr_am, moon_field, RK8_A, RK8_B, RK8_C)
+                          bodies, gms, gm_earth, cr_am, terms, RK8_A, RK8_B, RK8_C)
     out = np.empty(6)
     phi = np.empty((6, 6))
     for i in range(6):
@@ -108,7 +113,7 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
     """ephemeris_state_stm_scaled with the filter's C_R A/m times (1 + cr_scale), written into y (48,) =
     [state (6), Phi row-major (36), gamma (6)], scaled units: gamma = d state / d cr_scale, the column of the
     transition that couples an estimated C_R state to the spacecraft (estimation.blocks)."""
-    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, moon_field = _unpack(params)
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, terms = _unpack(params)
     if not 1.0 + cr_scale > 0.0:  # a non-positive C_R: no physics to fly; NaN makes the run fail its health check
         for i in range(SENSITIVITY_SIZE):
             y[i] = np.nan
@@ -119,7 +124,7 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
         y[i] = state[i] * SCALE[i]
         y[6 + 7 * i] = 1.0
     rk8_advance_ephemeris(y, epoch + t_tu * TU_S, dt_tu * TU_S, n_steps, coeffs, start_s, interval_s, n_records,
-                          bodies, gms, gm_earth, cr_am * (1.0 + cr_scale), moon_field, RK8_A, RK8_B, RK8_C)
+                          bodies, gms, gm_earth, cr_am * (1.0 + cr_scale), terms, RK8_A, RK8_B, RK8_C)
     # The integrated column is d/dlambda at C_R (1 + cr_scale) (1 + lambda): d/dcr_scale is it / (1 + cr_scale).
     for i in range(6):
         y[STM_SIZE + i] /= SCALE[i] * (1.0 + cr_scale)
@@ -131,7 +136,7 @@ def ephemeris_state_stm_cr_scaled(params, cr_scale, state, t_tu, dt_tu, n_steps,
 @njit(cache=True)
 def ephemeris_accelerations_scaled(params, states, times_tu):
     """The field's accelerations (m, 3), LU/TU^2, at scaled states (m, 6) and times_tu (m,) past the epoch."""
-    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, moon_field = _unpack(params)
+    coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth, cr_am, epoch, terms = _unpack(params)
     out = np.empty((states.shape[0], 3))
     y = np.empty(6)
     dy = np.empty(6)
@@ -139,7 +144,7 @@ def ephemeris_accelerations_scaled(params, states, times_tu):
         for i in range(6):
             y[i] = states[k, i] * SCALE[i]
         ephemeris_derivative(epoch + times_tu[k] * TU_S, y, coeffs, start_s, interval_s, n_records, bodies, gms,
-                             gm_earth, cr_am, moon_field, False, dy)
+                             gm_earth, cr_am, terms, False, dy)
         for i in range(3):
             out[k, i] = dy[3 + i] / AU_KM_S2
     return out
@@ -178,24 +183,23 @@ class EphemerisDynamicsModel:
         return self.descriptor.rotating_frame
 
     def __init__(self, window, bodies, gms, gm_earth, cr_am, epoch_tdb_s, filter_bodies=None,
-                 truth_acceleration_km_s2=(0.0, 0.0, 0.0), moon_field=NO_MOON_FIELD, filter_moon_field=None):
+                 truth_acceleration_km_s2=(0.0, 0.0, 0.0), terms=NO_TERMS, filter_terms=None):
         """bodies / gms: the truth's third bodies; filter_bodies: the subset the filter models (default all);
-        truth_acceleration_km_s2 (3,): the truth's unmodelled constant force on the ICRF axes; moon_field: the
-        truth's lunar harmonics (ephemeris_dynamics.moon_field_payload; NO_MOON_FIELD: a point mass),
-        filter_moon_field: the filter's (None: the truth's)."""
+        truth_acceleration_km_s2 (3,): the truth's unmodelled constant force on the ICRF axes; terms: the truth's
+        forces beyond the point masses and SRP (ephemeris_dynamics.dated_terms: the lunar harmonics; NO_TERMS:
+        none), filter_terms: the filter's (None: the truth's)."""
         self.code = self.descriptor.code
         self.window, self.bodies, self.gms = window, np.asarray(bodies), np.asarray(gms, dtype=float)
         self.gm_earth, self.cr_am, self.epoch_tdb_s = gm_earth, cr_am, epoch_tdb_s
-        self.moon_field = np.asarray(moon_field, dtype=float)
-        self.filter_moon_field = self.moon_field if filter_moon_field is None else np.asarray(filter_moon_field,
-                                                                                               dtype=float)
-        self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s, self.moon_field)
+        self.terms = np.asarray(terms, dtype=float)
+        self.filter_terms = self.terms if filter_terms is None else np.asarray(filter_terms, dtype=float)
+        self.params = pack_params(window, self.bodies, self.gms, gm_earth, cr_am, epoch_tdb_s, self.terms)
         self.truth_acceleration_km_s2 = np.asarray(truth_acceleration_km_s2, dtype=float)
         keep = np.isin(self.bodies, self.bodies if filter_bodies is None else filter_bodies)
         if BODY_MOON not in self.bodies[keep]:  # a filter without the Moon has no lunar field either
-            self.filter_moon_field = NO_MOON_FIELD
+            self.filter_terms = NO_TERMS
         self.filter_params = pack_params(window, self.bodies[keep], self.gms[keep], gm_earth, cr_am, epoch_tdb_s,
-                                         self.filter_moon_field)
+                                         self.filter_terms)
 
     def scaled_filter_params(self, cr_factor: float = 1.0, moon_gm_factor: float = 1.0) -> np.ndarray:
         """The filter's parameters with its C_R A/m times cr_factor and the Moon's GM times moon_gm_factor."""
@@ -233,13 +237,14 @@ class EphemerisDynamicsModel:
         they are the same field); ICRF axes."""
         states = np.asarray(states, dtype=float)
         out = np.zeros((len(states), 3))
-        if self.filter_moon_field is self.moon_field or BODY_MOON not in self.bodies:
+        if self.filter_terms is self.terms or BODY_MOON not in self.bodies:
             return out
         gm_moon = float(self.gms[list(self.bodies).index(BODY_MOON)])
         moon_km = self.moon_states_km(times_tu)
         grad = np.zeros((3, 3))
-        for field, sign in ((self.moon_field, 1.0), (self.filter_moon_field, -1.0)):
-            if len(field) == 0:
+        for terms, sign in ((self.terms, 1.0), (self.filter_terms, -1.0)):
+            field = term_of(terms, TERM_MOON_HARMONICS)
+            if field is None:
                 continue
             for k, t in enumerate(np.asarray(times_tu, dtype=float)):
                 acc = np.zeros(3)
@@ -267,7 +272,7 @@ class EphemerisDynamicsModel:
         km = dop853_ephemeris_states(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies,
                                      self.gms, self.gm_earth, self.cr_am,
                                      acceleration_km_s2=self.truth_acceleration_km_s2, acceleration_table_km_s2=table,
-                                     moon_field=self.moon_field, moon_centred=centred)
+                                     terms=self.terms, moon_centred=centred)
         return km / SCALE
 
     def trajectory(self, states, times_tu):

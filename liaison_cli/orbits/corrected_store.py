@@ -46,7 +46,7 @@ def correction_key(state_lu, epoch_s: float, span_s: float, node_spacing_s: floa
     digest.update(repr(settings).encode())
     window = forces.window
     for array in (state_lu, forces.bodies, forces.gms, window.coeffs, window.start_s, window.interval_s,
-                  window.n_records, forces.moon_field):
+                  window.n_records, forces.terms):
         array = np.ascontiguousarray(array)
         digest.update(f"{array.dtype.str}{array.shape}".encode())
         digest.update(array.tobytes())

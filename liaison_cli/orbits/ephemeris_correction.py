@@ -48,7 +48,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.ephemeris import geocentric_state
-from liaison_cli.dynamics.ephemeris_dynamics import NO_MOON_FIELD
+from liaison_cli.dynamics.ephemeris_dynamics import NO_TERMS
 from liaison_cli.dynamics.frames import crtbp_to_inertial, inertial_to_crtbp
 from liaison_cli.dynamics.integrators.rk4 import rk4_states
 from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
@@ -88,15 +88,15 @@ class CorrectedOrbit:
 @dataclass(frozen=True, eq=False)
 class ForceModel:
     """Everything the ephemeris propagator needs, bundled: the DE421 window, third bodies and GMs, the
-    Earth's GM, C_R A/m (m^2/kg) and the Moon's harmonics (ephemeris_dynamics.moon_field_payload; empty: a
-    point mass)."""
+    Earth's GM, C_R A/m (m^2/kg) and the forces beyond those (ephemeris_dynamics.dated_terms: the lunar harmonics;
+    NO_TERMS: none)."""
 
     window: object
     bodies: np.ndarray
     gms: np.ndarray
     gm_earth: float
     cr_am: float
-    moon_field: np.ndarray = field(default_factory=lambda: NO_MOON_FIELD)
+    terms: np.ndarray = field(default_factory=lambda: NO_TERMS)
 
     def propagate(self, x0, t_s, dt_s, n_steps, with_stm=False):
         y = np.zeros(42) if with_stm else np.array(x0, dtype=float)
@@ -105,7 +105,7 @@ class ForceModel:
             y[6::7] = 1.0
         w = self.window
         rk8_advance_ephemeris(y, t_s, dt_s, n_steps, w.coeffs, w.start_s, w.interval_s, w.n_records, self.bodies,
-                              self.gms, self.gm_earth, self.cr_am, self.moon_field, RK8_A, RK8_B, RK8_C)
+                              self.gms, self.gm_earth, self.cr_am, self.terms, RK8_A, RK8_B, RK8_C)
         return (y[:6].copy(), y[6:].reshape(6, 6).copy()) if with_stm else y
 
     def moon_state(self, t_s):

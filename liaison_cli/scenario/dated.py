@@ -76,20 +76,20 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
 
 
 def moon_fields(gravity) -> tuple[np.ndarray, np.ndarray | None]:
-    """(the truth's lunar field payload, the filter's or None for the truth's) of a scenario's moon_gravity
-    section (None: a point-mass Moon in both)."""
-    from liaison_cli.dynamics.ephemeris_dynamics import NO_MOON_FIELD, moon_field_payload
+    """(the truth's terms table, the filter's or None for the truth's) of a scenario's moon_gravity section (None:
+    a point-mass Moon in both; ephemeris_dynamics.dated_terms)."""
+    from liaison_cli.dynamics.ephemeris_dynamics import NO_TERMS, dated_terms, moon_harmonics_term
     from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2_field
 
     if gravity is None:
-        return NO_MOON_FIELD, None
-    truth = moon_field_payload(lunar_field(gravity.degree))
+        return NO_TERMS, None
+    truth = dated_terms(moon_harmonics_term(lunar_field(gravity.degree)))
     if gravity.filter_field == "j2":
-        return truth, moon_field_payload(lunar_j2_field())
+        return truth, dated_terms(moon_harmonics_term(lunar_j2_field()))
     degree = gravity.filter_degree_or_truth
     if degree == gravity.degree:
         return truth, None
-    return truth, (moon_field_payload(lunar_field(degree)) if degree else NO_MOON_FIELD)
+    return truth, dated_terms(moon_harmonics_term(lunar_field(degree) if degree else None))
 
 
 def departure_from_spec_km(spec, epoch_utc) -> np.ndarray:
@@ -155,7 +155,7 @@ def corrected_nodes_lu(spacecraft, scenario, model: EphemerisDynamicsModel) -> t
     """(node times (N + 1,) s from the scenario epoch, nodes (N + 1, 6) scaled): the spacecraft's catalog orbit
     corrected by multiple shooting into the dated model over the scenario, at its node spacing or, failing
     that, the others tried (RETRY_NODE_SPACINGS_DAYS); OrbitCorrectionError when none converges."""
-    forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am, model.moon_field)
+    forces = ForceModel(model.window, model.bodies, model.gms, model.gm_earth, model.cr_am, model.terms)
     span_s = scenario.duration_days * SECONDS_PER_DAY
     tried = []
     for spacing_days in node_spacings_to_try(scenario.ephemeris.node_spacing_days):

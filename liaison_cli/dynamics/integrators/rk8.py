@@ -130,7 +130,7 @@ def rk8_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2
 
 @njit(cache=True)
 def rk8_advance_ephemeris(y, t_s, dt_s, n_steps, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth,
-                          cr_am, moon_field, a, b, c):
+                          cr_am, terms, a, b, c):
     """Advance y (6,), (42,) or (48,) (the layouts of dynamics.ephemeris_dynamics.ephemeris_derivative) in place
     from t_s over dt_s in n_steps RK8 steps (tableau a, b, c)."""
     size = y.shape[0]
@@ -143,7 +143,7 @@ def rk8_advance_ephemeris(y, t_s, dt_s, n_steps, coeffs, start_s, interval_s, n_
         for s in range(12):
             rk8_stage_input(y, h, a, k, s, tmp)
             ephemeris_derivative(t + c[s] * h, tmp, coeffs, start_s, interval_s, n_records, bodies, gms, gm_earth,
-                                 cr_am, moon_field, with_stm, k[s])
+                                 cr_am, terms, with_stm, k[s])
         rk8_combine(y, h, b, k)
         t += h
 

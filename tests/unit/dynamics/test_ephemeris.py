@@ -10,7 +10,7 @@ import pytest
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, J2000_JD, de421_path, geocentric_state, load_window
 from liaison_cli.dynamics.ephemeris_dynamics import (
     AU_KM,
-    NO_MOON_FIELD,
+    NO_TERMS,
     P_1AU_N_M2,
     R_EARTH_KM,
     dop853_ephemeris_states,
@@ -100,7 +100,7 @@ def _propagate(window, t0, x0, dt, n, gm_bodies=True, cr_am=0.015, stm=False):
         y[:6] = x0
         y[6::7] = 1.0
     rk8_advance_ephemeris(y, t0, dt, n, window.coeffs, window.start_s, window.interval_s, window.n_records, bodies,
-                          gms, GM_KM3_S2[399], cr_am, NO_MOON_FIELD, RK8_A, RK8_B, RK8_C)
+                          gms, GM_KM3_S2[399], cr_am, NO_TERMS, RK8_A, RK8_B, RK8_C)
     return y
 
 

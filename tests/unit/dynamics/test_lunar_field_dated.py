@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.ephemeris import BODY_MOON, GM_KM3_S2, load_window
-from liaison_cli.dynamics.ephemeris_dynamics import add_moon_field, moon_field_payload
-from liaison_cli.dynamics.ephemeris_model import SCALE, EphemerisDynamicsModel, ephemeris_state_stm_scaled
+from liaison_cli.dynamics.ephemeris_dynamics import add_moon_field, dated_terms, moon_harmonics_term
+from liaison_cli.dynamics.ephemeris_model import (SCALE, EphemerisDynamicsModel, ephemeris_state_stm_scaled,
+                                                  moon_field_of)
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S, VU_KM_S
 from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
@@ -27,8 +28,8 @@ def model():
     bodies = np.array(THIRD_BODIES, dtype=np.int64)
     gms = np.array([GM_KM3_S2[int(b)] for b in bodies])
     return EphemerisDynamicsModel(window, bodies, gms, GM_KM3_S2[399], 0.0, t0,
-                                  moon_field=moon_field_payload(lunar_field(DEGREE)),
-                                  filter_moon_field=moon_field_payload(lunar_field(4)))
+                                  terms=dated_terms(moon_harmonics_term(lunar_field(DEGREE))),
+                                  filter_terms=dated_terms(moon_harmonics_term(lunar_field(4))))
 
 
 def _polar_orbiter_km(model, altitude_km=100.0):
@@ -43,7 +44,7 @@ def _polar_orbiter_km(model, altitude_km=100.0):
 
 
 def test_the_gradient_is_the_accelerations_derivative(model):
-    field = model.moon_field
+    field = moon_field_of(model.params)
     gm_moon = GM_KM3_S2[BODY_MOON]
     moon = model.moon_states_km(np.zeros(1))[0, :3]
     r = _polar_orbiter_km(model)[:3] + np.array([30.0, -50.0, 70.0])
@@ -142,8 +143,8 @@ def test_a_lunar_orbiters_truth_is_flown_about_the_moon_and_converges(model):
     assert not bound_to_moon(moon + about_moon, moon, GM_KM3_S2[BODY_MOON])
     times_s = model.epoch_tdb_s + np.arange(0.0, 6 * 3600.0 + 1.0, 60.0)
     args = (state_km, times_s[0], times_s, model.window, model.bodies, model.gms, model.gm_earth, 0.0)
-    loose = dop853_ephemeris_states(*args, moon_field=model.moon_field, moon_centred=True)
-    tight = dop853_ephemeris_states(*args, rtol=1e-13, moon_field=model.moon_field, moon_centred=True)
+    loose = dop853_ephemeris_states(*args, terms=model.terms, moon_centred=True)
+    tight = dop853_ephemeris_states(*args, rtol=1e-13, terms=model.terms, moon_centred=True)
     assert np.max(np.linalg.norm(loose[:, :3] - tight[:, :3], axis=1)) * 1e3 < 0.01
     assert np.allclose(loose[0], state_km, rtol=0.0, atol=1e-9)  # geocentric out, as given
 

@@ -259,7 +259,7 @@ def _flown_km(model, state_lu, t_s, span_s=4.0):
 
     def rhs(s, y):
         ephemeris_derivative(model.epoch_tdb_s + t_s + s, y, w.coeffs, w.start_s, w.interval_s, w.n_records,
-                             model.bodies, model.gms, model.gm_earth, model.cr_am, model.moon_field, False, out)
+                             model.bodies, model.gms, model.gm_earth, model.cr_am, model.terms, False, out)
         return out.copy()
 
     legs = [solve_ivp(rhs, (0.0, end), state_lu * SCALE, method="DOP853", rtol=1e-13, atol=1e-10,
