@@ -105,7 +105,7 @@ def _point_mass(out_a, grad, r, r_b, gm, indirect, with_grad):
 
 # The forces beyond the bodies' point masses and SRP, as a table of terms (ephemeris_derivative's `terms`): [T, then T
 # pairs (kind, start of its payload in the table), then the payloads]; NO_TERMS: none. A kind is a part: its payload
-# (built by its own function) and its branch in add_terms.
+# (built by its own function) and its branch in add_terms_at_moon.
 NO_TERMS = np.zeros(0)
 TERM_MOON_HARMONICS = 1  # payload: moon_field_payload
 
