@@ -12,9 +12,10 @@ Parts, each with its acceleration and its gradient (the STM's):
 Parameter vector (plain data, so one compiled body serves every field; issue 49's "specialise on data"):
 params[0] = mu; with added terms, params[1] = their count T, then T pairs (kind, start of its payload), then the
 payloads. TERM_HARMONICS: degree, reference radius (LU), then C̄ and S̄ packed (spherical_harmonics.packed_index),
-each packed_index(degree, degree) + 1 long, then the recursions' factors (harmonics_payload); TERM_J2: J2, reference radius (LU). A point-mass CRTBP is [mu]
-alone (the golden record's arithmetic, bit for bit). Every term's GM is the CRTBP's Moon, mu (LU^3/TU^2);
-GRGM1200A's own GM differs from it by 2e-7 relative, which scales the terms' small accelerations by as much.
+each packed_index(degree, degree) + 1 long, then the recursions' factors (harmonics_payload); TERM_J2: J2,
+reference radius (LU). A point-mass CRTBP is [mu] alone (the golden record's arithmetic, bit for bit). Every
+term's GM is the CRTBP's Moon, mu (LU^3/TU^2); GRGM1200A's own GM differs from it by 2e-7 relative, which scales
+the terms' small accelerations by as much.
 
 Frame: the Moon is tidally locked with its principal axes on the rotating frame: x_PA = -x (towards the Earth),
 y_PA = -y (against the orbital motion), z_PA = z. What that leaves out (the physical and optical librations, up to
@@ -30,7 +31,7 @@ from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs, truth_der
 from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, harmonic_factors, packed_index
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
-TERM_HARMONICS = 1  # payload: degree, radius (LU), C̄ packed, S̄ packed
+TERM_HARMONICS = 1  # payload: degree, radius (LU), C̄ packed, S̄ packed, the recursions' factors (harmonics_payload)
 TERM_J2 = 2  # payload: J2, radius (LU)
 
 

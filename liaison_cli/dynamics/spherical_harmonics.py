@@ -1,6 +1,7 @@
 """A body's gravity field in fully normalised spherical harmonics: the acceleration and its gradient (for the STM)
-of the terms of degree 2 and above, in the body's own axes. Compiled; plain arrays in, no allocation beyond
-two packed scratch tables per call. Every square-root factor of the recursions depends on n and m alone, so a field
+of the terms of degree 2 and above, in the body's own axes. Compiled; plain arrays in; `field_acceleration_into`
+allocates nothing beyond two packed scratch tables per call (`acceleration_gradient_into`, for one-off calls,
+builds the factors table too). Every square-root factor of the recursions depends on n and m alone, so a field
 computes them once (`harmonic_factors`, carried in the propagators' parameter vectors) and an evaluation
 (`field_acceleration_into`) only looks them up: at degree 20, half the cost of computing them in place, with the
 same numbers bit for bit.

@@ -4,9 +4,9 @@ every scenario or study run after the first reads them (NumPy .npz, no pickles).
 
 Cache folder: `$LIAISON_CACHE_DIR/dated-orbits` (default `~/.cache/liaison/dated-orbits`). A file's name is
 a hash of everything that determines the result: the CRTBP state and period, epoch, span and node spacing, the
-force model (DE421 window coefficients, bodies, GMs, C_R A/m), the corrector's settings and tolerances, and the
-code of orbits/ and dynamics/ (core_source_hash), so a changed corrector or force model never serves stale
-nodes. A correction that did not converge is kept too (it is as deterministic), so the caller's error comes
+force model (DE421 window coefficients, bodies, GMs, C_R A/m, the terms beyond those: the lunar field), the
+corrector's settings and tolerances, and the code of orbits/ and dynamics/ (core_source_hash), so a changed
+corrector or force model never serves stale nodes. A correction that did not converge is kept too (it is as deterministic), so the caller's error comes
 at once. Files are written atomically (storage); a damaged one is rebuilt with a note on stderr.
 """
 

@@ -160,3 +160,22 @@ def test_the_truths_key_follows_the_truths_field_not_the_filters():
     other_truth = apply_overrides(scenario, {"moon_gravity.degree": 60})
     other_filter = apply_overrides(scenario, {"moon_gravity.filter_degree": 20})
     assert trajectory_key(other_truth) != trajectory_key(scenario) == trajectory_key(other_filter)
+
+
+def test_a_table_of_terms_adds_each_and_finds_each(model):
+    """Two harmonic terms in one dated table (and one of a kind nothing reads): add_terms_at_moon adds both, and
+    term_of finds the first of a kind, each at the start the table records."""
+    from liaison_cli.dynamics.ephemeris_dynamics import TERM_MOON_HARMONICS, add_terms_at_moon, term_of
+
+    four, six = (moon_harmonics_term(lunar_field(d)) for d in (4, 6))
+    table = dated_terms((99, np.array([1.0, 2.0])), four, None, six)
+    assert int(table[0]) == 3 and [int(v) for v in table[2:7:2]] == [7, 9, 9 + len(four[1])]
+    assert np.array_equal(term_of(table, TERM_MOON_HARMONICS)[:len(four[1])], four[1])
+    moon = model.moon_states_km(np.zeros(1))[0, :3]
+    r, t = _polar_orbiter_km(model)[:3], model.epoch_tdb_s
+    both, unused = np.zeros(3), np.zeros((3, 3))
+    add_terms_at_moon(table, t, r, moon, GM_KM3_S2[BODY_MOON], False, both, unused)
+    each = np.zeros(3)
+    for term in (four, six):
+        add_moon_field(t, r, moon, GM_KM3_S2[BODY_MOON], term[1], False, each, unused)
+    assert np.array_equal(both, each)

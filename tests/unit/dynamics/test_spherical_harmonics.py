@@ -155,3 +155,29 @@ def test_acceleration_matches_pyshtools_at_1000_points_to_degree_100():
                                    acc, grad)
         worst = max(worst, np.linalg.norm(acc * 1e3 - theirs) / np.linalg.norm(theirs))
     assert worst <= 1e-12
+
+
+def test_the_factors_table_holds_the_recursions_factors_exactly():
+    """harmonic_factors (computed once per field) holds, bit for bit, the factors the recursions computed in place
+    before (the expressions of M&G Eq. 3.31 and 3.33, normalised, evaluated here in Python)."""
+    import math
+
+    from liaison_cli.dynamics.spherical_harmonics import (COLUMN_A, COLUMN_B, SLOPE_A, SLOPE_B, SLOPE_C,
+                                                           harmonic_factors)
+
+    top = 40
+    table = harmonic_factors(top)
+    for n in range(top + 1):
+        for m in range(n + 1):
+            k = packed_index(n, m)
+            q = (2.0 * n + 1.0) / (2.0 * n + 3.0)
+            assert table[SLOPE_C, k] == math.sqrt(q * (n + m + 1.0) * (n - m + 1.0))
+            if m == 0:
+                assert table[SLOPE_A, k] == math.sqrt(0.5 * q * (n + 1.0) * (n + 2.0))
+            else:
+                assert table[SLOPE_A, k] == math.sqrt(q * (n + m + 1.0) * (n + m + 2.0))
+                assert table[SLOPE_B, k] == math.sqrt((2.0 if m == 1 else 1.0) * q * (n - m + 1.0) * (n - m + 2.0))
+            if n >= m + 2:
+                assert table[COLUMN_A, k] == math.sqrt((2.0 * n - 1.0) * (2.0 * n + 1.0) / ((n - m) * (n + m)))
+                assert table[COLUMN_B, k] == math.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0)
+                                                       / ((2.0 * n - 3.0) * (n + m) * (n - m)))

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.ephemeris import GM_KM3_S2, load_window
+from liaison_cli.dynamics.ephemeris_dynamics import dated_terms, moon_harmonics_term
+from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.timescales import utc_to_tdb_seconds
 from liaison_cli.orbits import corrected_store
 from liaison_cli.orbits.catalog import CATALOG
@@ -57,6 +59,7 @@ def test_every_input_is_in_the_key(setting):
         (*args[:4], dataclasses.replace(forces, cr_am=0.02), *args[5:]),
         (*args[:4], dataclasses.replace(forces, bodies=BODIES[:2], gms=forces.gms[:2]), *args[5:]),
         (*args[:4], dataclasses.replace(forces, window=shifted_window), *args[5:]),
+        (*args[:4], dataclasses.replace(forces, terms=dated_terms(moon_harmonics_term(lunar_field(4)))), *args[5:]),
         (*args[:5], 100, 20),
         (*args[:6], 10),
         (*args, CATALOG["eml1_halo"].period_tu),  # patch points taken within one period
