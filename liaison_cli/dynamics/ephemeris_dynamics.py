@@ -31,6 +31,7 @@ from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
 from liaison_cli.dynamics.crtbp_field import harmonics_payload
 from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, harmonic_factors
+from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
 # Lengths of the integrated vector: the state and its STM (6 + 36), and with the C_R sensitivity column (+ 6).
@@ -108,6 +109,7 @@ def _point_mass(out_a, grad, r, r_b, gm, indirect, with_grad):
 # (built by its own function) and its branch in add_terms_at_moon.
 NO_TERMS = np.zeros(0)
 TERM_MOON_HARMONICS = 1  # payload: moon_field_payload
+TERM_MOON_J2 = 2  # payload: J2, reference radius (km): the Moon's J2 alone in closed form (dynamics.zonal_j2)
 
 
 def dated_terms(*terms) -> np.ndarray:
@@ -136,6 +138,11 @@ def moon_harmonics_term(field) -> tuple[int, np.ndarray] | None:
     return None if field is None else (TERM_MOON_HARMONICS, moon_field_payload(field))
 
 
+def moon_j2_term(j2: float, radius_km: float) -> tuple[int, np.ndarray]:
+    """(TERM_MOON_J2, payload): a J2 (unnormalised) and its reference radius, e.g. lunar_gravity.lunar_j2()'s."""
+    return TERM_MOON_J2, np.array([j2, radius_km])
+
+
 def moon_field_payload(field) -> np.ndarray:
     """The Moon's harmonics' payload for a dynamics.lunar_gravity.LunarField: degree, reference
     radius (km), C̄ and S̄ packed (spherical_harmonics.packed_index), the recursions' factors (the CRTBP's layout:
@@ -159,6 +166,28 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
             p[i] += rot[i, j] * (r[j] - r_moon[j])
     a_pa, g = np.empty(3), np.empty(6)
     field_acceleration_into(c, s, factors, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
+    _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
+
+
+@njit(cache=True)
+def add_moon_j2(t_s, r, r_moon, gm_moon, payload, with_grad, acc, grad):
+    """add_moon_field for the Moon's J2 alone (payload: J2, radius km), about the lunar pole (the principal axes' z;
+    J2 is symmetric about it, so the other two axes do not matter)."""
+    rot = np.empty((3, 3))
+    moon_pa_from_icrf_into(t_s, rot)
+    p = np.zeros(3)
+    for i in range(3):
+        for j in range(3):
+            p[i] += rot[i, j] * (r[j] - r_moon[j])
+    a_pa, g = np.empty(3), np.empty(6)
+    j2_acceleration_gradient_into(gm_moon, payload[0], payload[1], p[0], p[1], p[2], with_grad, a_pa, g)
+    _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
+
+
+@njit(cache=True)
+def _add_turned_back(rot, a_pa, g, with_grad, acc, grad):
+    """acc += R^T a_pa; with with_grad, grad (3, 3) += R^T G R, G the symmetric gradient g (gxx, gyy, gzz, gxy, gxz,
+    gyz) in the principal axes."""
     for j in range(3):
         acc[j] += rot[0, j] * a_pa[0] + rot[1, j] * a_pa[1] + rot[2, j] * a_pa[2]
     if not with_grad:
@@ -178,6 +207,8 @@ def add_terms_at_moon(terms, t_s, r, r_moon, gm_moon, with_grad, acc, grad):
         kind, start = int(terms[1 + 2 * t]), int(terms[2 + 2 * t])
         if kind == TERM_MOON_HARMONICS:
             add_moon_field(t_s, r, r_moon, gm_moon, terms[start:], with_grad, acc, grad)
+        elif kind == TERM_MOON_J2:
+            add_moon_j2(t_s, r, r_moon, gm_moon, terms[start:], with_grad, acc, grad)
 
 
 @njit(cache=True)

@@ -14,7 +14,7 @@ from numba import njit
 from liaison_cli.dynamics.constants import AU_KM_S2, LU_KM, TU_S, VU_KM_S
 from liaison_cli.dynamics.ephemeris import BODY_MOON
 from liaison_cli.dynamics.ephemeris_dynamics import (NO_TERMS, SENSITIVITY_SIZE, STM_SIZE, TERM_MOON_HARMONICS,
-                                                     add_moon_field, ephemeris_derivative, term_of)
+                                                     add_terms_at_moon, ephemeris_derivative, term_of)
 from liaison_cli.dynamics.integrators.rk8 import RK8_A, RK8_B, RK8_C, rk8_advance_ephemeris
 from liaison_cli.dynamics.registry import DYNAMICS
 
@@ -233,8 +233,8 @@ class EphemerisDynamicsModel:
         return np.asarray(states, dtype=float) - self.moon_states_km(times_tu) / SCALE
 
     def moon_field_difference(self, states, times_tu) -> np.ndarray:
-        """(m, 3) LU/TU^2: the truth's lunar harmonics minus the filter's at states (m, 6) and times_tu (zero when
-        they are the same field); ICRF axes."""
+        """(m, 3) LU/TU^2: the truth's terms acting from the Moon (the lunar harmonics, or J2) minus the filter's at
+        states (m, 6) and times_tu (zero when they are the same); ICRF axes."""
         states = np.asarray(states, dtype=float)
         out = np.zeros((len(states), 3))
         if self.filter_terms is self.terms or BODY_MOON not in self.bodies:
@@ -243,13 +243,10 @@ class EphemerisDynamicsModel:
         moon_km = self.moon_states_km(times_tu)
         grad = np.zeros((3, 3))
         for terms, sign in ((self.terms, 1.0), (self.filter_terms, -1.0)):
-            field = term_of(terms, TERM_MOON_HARMONICS)
-            if field is None:
-                continue
             for k, t in enumerate(np.asarray(times_tu, dtype=float)):
                 acc = np.zeros(3)
-                add_moon_field(self.epoch_tdb_s + t * TU_S, states[k, :3] * SCALE[:3], moon_km[k, :3], gm_moon, field,
-                               False, acc, grad)
+                add_terms_at_moon(terms, self.epoch_tdb_s + t * TU_S, states[k, :3] * SCALE[:3], moon_km[k, :3],
+                                  gm_moon, False, acc, grad)
                 out[k] += sign * acc / AU_KM_S2
         return out
 

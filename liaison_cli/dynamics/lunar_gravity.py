@@ -79,13 +79,3 @@ def lunar_j2() -> tuple[float, float]:
     """(J2, reference radius km) of GRGM1200A: J2 = -sqrt(5) C̄20."""
     field = lunar_field(2)
     return float(-np.sqrt(5.0) * field.c[packed_index(2, 0)]), float(field.radius_km)
-
-
-def lunar_j2_field() -> LunarField:
-    """GRGM1200A's J2 alone as a degree-2 field (C̄20; C̄21, S̄21, C̄22, S̄22 zero): the dated model's J2-only filter
-    field, which the Cunningham evaluator gives as dynamics.zonal_j2's closed form (tested there)."""
-    field = lunar_field(2)
-    c = np.zeros_like(field.c)
-    c[packed_index(2, 0)] = field.c[packed_index(2, 0)]
-    c.setflags(write=False)
-    return LunarField(2, c, np.zeros_like(field.s), field.radius_km, field.gm_km3_s2)

@@ -78,14 +78,14 @@ def dated_model(scenario) -> EphemerisDynamicsModel:
 def moon_fields(gravity) -> tuple[np.ndarray, np.ndarray | None]:
     """(the truth's terms table, the filter's or None for the truth's) of a scenario's moon_gravity section (None:
     a point-mass Moon in both; ephemeris_dynamics.dated_terms)."""
-    from liaison_cli.dynamics.ephemeris_dynamics import NO_TERMS, dated_terms, moon_harmonics_term
-    from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2_field
+    from liaison_cli.dynamics.ephemeris_dynamics import NO_TERMS, dated_terms, moon_harmonics_term, moon_j2_term
+    from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2
 
     if gravity is None:
         return NO_TERMS, None
     truth = dated_terms(moon_harmonics_term(lunar_field(gravity.degree)))
     if gravity.filter_field == "j2":
-        return truth, dated_terms(moon_harmonics_term(lunar_j2_field()))
+        return truth, dated_terms(moon_j2_term(*lunar_j2()))
     degree = gravity.filter_degree_or_truth
     if degree == gravity.degree:
         return truth, None

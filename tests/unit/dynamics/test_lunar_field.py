@@ -117,5 +117,9 @@ def test_the_scenario_keys_ask_for_the_field_and_refuse_what_cannot_be():
     dated = dynamics_model(_scenario(moon_gravity={"degree": 4, "filter_field": "j2"}, dynamics="ephemeris",
                                      ephemeris={"epoch_utc": "2026-01-01T00:00:00"},
                                      measurement={"interval_s": 60, "light_time": False}))
-    assert moon_field_of(dated.params)[0] == 4 and moon_field_of(dated.filter_params)[0] == 2
-    assert np.count_nonzero(moon_field_of(dated.filter_params)[2:2 + 2 * 6]) == 1  # J2 alone: C20 of C and S
+    from liaison_cli.dynamics.ephemeris_dynamics import TERM_MOON_J2, term_of
+    from liaison_cli.dynamics.ephemeris_model import terms_of
+    from liaison_cli.dynamics.lunar_gravity import lunar_j2
+
+    assert moon_field_of(dated.params)[0] == 4 and moon_field_of(dated.filter_params) is None
+    assert np.array_equal(term_of(terms_of(dated.filter_params), TERM_MOON_J2), lunar_j2())  # J2 alone, closed form

@@ -179,3 +179,28 @@ def test_a_table_of_terms_adds_each_and_finds_each(model):
     for term in (four, six):
         add_moon_field(t, r, moon, GM_KM3_S2[BODY_MOON], term[1], False, each, unused)
     assert np.array_equal(both, each)
+
+
+def test_the_closed_form_j2_term_is_the_harmonic_fields_c20(model):
+    """The dated J2-only term (TERM_MOON_J2, zonal_j2's closed form about the lunar pole) equals the harmonic
+    evaluator fed GRGM1200A's C̄20 alone, acceleration and gradient, at points around a low orbit: the second term
+    kind of the dated table (issue 46's second proof), added as its checklist says."""
+    from liaison_cli.dynamics.ephemeris_dynamics import add_moon_j2, moon_field_payload, moon_j2_term
+    from liaison_cli.dynamics.lunar_gravity import LunarField, lunar_j2
+    from liaison_cli.dynamics.spherical_harmonics import packed_index
+
+    degree2 = lunar_field(2)
+    c = np.zeros_like(degree2.c)
+    c[packed_index(2, 0)] = degree2.c[packed_index(2, 0)]
+    c20_only = moon_field_payload(LunarField(2, c, np.zeros_like(degree2.s), degree2.radius_km, degree2.gm_km3_s2))
+    j2 = moon_j2_term(*lunar_j2())[1]
+    moon = model.moon_states_km(np.zeros(1))[0, :3]
+    rng = np.random.default_rng(46)
+    for _ in range(20):
+        r = moon + rng.normal(size=3) / np.sqrt(3.0) * rng.uniform(1800.0, 6000.0)
+        t = model.epoch_tdb_s + rng.uniform(0.0, 86400.0)
+        ours, theirs = (np.zeros(3), np.zeros((3, 3))), (np.zeros(3), np.zeros((3, 3)))
+        add_moon_j2(t, r, moon, GM_KM3_S2[BODY_MOON], j2, True, *ours)
+        add_moon_field(t, r, moon, GM_KM3_S2[BODY_MOON], c20_only, True, *theirs)
+        assert np.allclose(ours[0], theirs[0], rtol=1e-12, atol=1e-12 * np.linalg.norm(theirs[0]))
+        assert np.allclose(ours[1], theirs[1], rtol=1e-11, atol=1e-11 * np.max(np.abs(theirs[1])))
