@@ -158,12 +158,7 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
     in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
     G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well)."""
     degree, radius, c, s, factors = harmonics_payload(field)
-    rot = np.empty((3, 3))
-    moon_pa_from_icrf_into(t_s, rot)
-    p = np.zeros(3)
-    for i in range(3):
-        for j in range(3):
-            p[i] += rot[i, j] * (r[j] - r_moon[j])
+    rot, p = _in_principal_axes(t_s, r, r_moon)
     a_pa, g = np.empty(3), np.empty(6)
     field_acceleration_into(c, s, factors, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
     _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
@@ -173,15 +168,22 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
 def add_moon_j2(t_s, r, r_moon, gm_moon, payload, with_grad, acc, grad):
     """add_moon_field for the Moon's J2 alone (payload: J2, radius km), about the lunar pole (the principal axes' z;
     J2 is symmetric about it, so the other two axes do not matter)."""
+    rot, p = _in_principal_axes(t_s, r, r_moon)
+    a_pa, g = np.empty(3), np.empty(6)
+    j2_acceleration_gradient_into(gm_moon, payload[0], payload[1], p[0], p[1], p[2], with_grad, a_pa, g)
+    _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
+
+
+@njit(cache=True)
+def _in_principal_axes(t_s, r, r_moon):
+    """(R (3, 3), p (3,)): the ICRF -> lunar principal axes rotation at TDB t_s, and p = R (r - r_moon), km."""
     rot = np.empty((3, 3))
     moon_pa_from_icrf_into(t_s, rot)
     p = np.zeros(3)
     for i in range(3):
         for j in range(3):
             p[i] += rot[i, j] * (r[j] - r_moon[j])
-    a_pa, g = np.empty(3), np.empty(6)
-    j2_acceleration_gradient_into(gm_moon, payload[0], payload[1], p[0], p[1], p[2], with_grad, a_pa, g)
-    _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
+    return rot, p
 
 
 @njit(cache=True)

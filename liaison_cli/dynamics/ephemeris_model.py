@@ -217,6 +217,11 @@ class EphemerisDynamicsModel:
         """The truth's constant acceleration the filter never models (3,), LU/TU^2."""
         return self.truth_acceleration_km_s2 / AU_KM_S2
 
+    @property
+    def moon_gm_km3_s2(self) -> float | None:
+        """The Moon's GM in the truth's bodies (None when they leave the Moon out)."""
+        return float(self.gms[list(self.bodies).index(BODY_MOON)]) if BODY_MOON in self.bodies else None
+
     def moon_states_km(self, times_tu) -> np.ndarray:
         """(m, 6) the Moon's geocentric ICRF states (DE421), km, km/s, at times_tu past the epoch."""
         return self._moon_states_km_at(np.asarray(times_tu, dtype=float) * TU_S)
@@ -237,9 +242,9 @@ class EphemerisDynamicsModel:
         states (m, 6) and times_tu (zero when they are the same); ICRF axes."""
         states = np.asarray(states, dtype=float)
         out = np.zeros((len(states), 3))
-        if self.filter_terms is self.terms or BODY_MOON not in self.bodies:
+        gm_moon = self.moon_gm_km3_s2
+        if self.filter_terms is self.terms or gm_moon is None:
             return out
-        gm_moon = float(self.gms[list(self.bodies).index(BODY_MOON)])
         moon_km = self.moon_states_km(times_tu)
         grad = np.zeros((3, 3))
         for terms, sign in ((self.terms, 1.0), (self.filter_terms, -1.0)):
@@ -264,8 +269,8 @@ class EphemerisDynamicsModel:
         times_s = self.epoch_tdb_s + np.asarray(times_tu, dtype=float) * TU_S
         table = None if extra_acceleration_lu_tu2 is None else np.asarray(extra_acceleration_lu_tu2) * AU_KM_S2
         moon = self.moon_states_km(np.asarray(times_tu[:1], dtype=float))[0]
-        centred = BODY_MOON in self.bodies and bound_to_moon(np.asarray(state0) * SCALE, moon,
-                                                             float(self.gms[list(self.bodies).index(BODY_MOON)]))
+        centred = self.moon_gm_km3_s2 is not None and bound_to_moon(np.asarray(state0) * SCALE, moon,
+                                                                    self.moon_gm_km3_s2)
         km = dop853_ephemeris_states(np.asarray(state0) * SCALE, times_s[0], times_s, self.window, self.bodies,
                                      self.gms, self.gm_earth, self.cr_am,
                                      acceleration_km_s2=self.truth_acceleration_km_s2, acceleration_table_km_s2=table,

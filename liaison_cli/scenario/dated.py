@@ -131,14 +131,12 @@ def lunar_orbiter_state_km(elements, model: EphemerisDynamicsModel) -> np.ndarra
     at x_PA = -x, y_PA = -y, z_PA = z): here the Moon's principal axes at the epoch (dynamics.lunar_orientation)
     turned the same way, so an inclination is measured from the lunar equator in both models. The Moon's GM is
     the model's (DE421's)."""
-    from liaison_cli.dynamics.ephemeris import BODY_MOON
     from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf
     from liaison_cli.orbits.keplerian import elements_to_moon_inertial
 
-    gm_moon = float(model.gms[list(model.bodies).index(BODY_MOON)])
     r_km, v_km_s = elements_to_moon_inertial(elements.semi_major_axis_km, elements.eccentricity,
                                              elements.inclination_deg, elements.raan_deg,
-                                             elements.argument_of_perilune_deg, elements.ta_deg, gm_moon)
+                                             elements.argument_of_perilune_deg, elements.ta_deg, model.moon_gm_km3_s2)
     icrf_from_axes = moon_pa_from_icrf(model.epoch_tdb_s).T @ np.diag([-1.0, -1.0, 1.0])
     moon = model.moon_states_km(np.zeros(1))[0]
     return moon + np.concatenate([icrf_from_axes @ r_km, icrf_from_axes @ v_km_s])
