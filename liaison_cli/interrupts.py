@@ -20,6 +20,7 @@ would be dropped for the whole process, and a Ctrl-C pressed while the pool star
 the command ran to its end, exit 0, and replaced the earlier result).
 """
 
+import os
 import signal
 import sys
 import threading
@@ -28,11 +29,42 @@ from contextlib import contextmanager
 _requested = False
 _written: list = []  # result folders this command has swapped in (storage.staged_output)
 
+# The Python functions numba's compiled code calls back into: an environment constant (a returned array's
+# dtype) or an exception's arguments are unpickled on a compiled function's first calls after it is loaded.
+# Their callers in compiled code do not check for an error: a KeyboardInterrupt raised in them leaves a NULL
+# in the returned tuple, and the command dies of a segmentation fault (exit -11, seen in a clean-clone CI run:
+# a Ctrl-C while run 0 of `run --jobs 2` started) or ends in a SystemError.
+_CALLED_FROM_COMPILED_CODE = frozenset({"_numba_unpickle", "runtime_build_excinfo_struct"})
+_REDELIVER_AFTER_S = 0.005
+
 
 def _on_sigint(signum, frame):
     global _requested
     _requested = True
+    if _inside_a_compiled_call(frame):
+        _redeliver_later(signum)
+        return
     raise KeyboardInterrupt
+
+
+def _inside_a_compiled_call(frame) -> bool:
+    """The handler runs in Python code that numba's compiled code called (at any depth), where an exception
+    cannot be raised safely."""
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name in _CALLED_FROM_COMPILED_CODE and os.path.basename(code.co_filename) == "serialize.py":
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _redeliver_later(signum: int) -> None:
+    """The same signal to the main thread a few milliseconds later: by then the compiled call has returned (the
+    callback is microseconds; a compiled run runs no Python code, so the handler next runs after it), and the
+    interrupt is raised where Python can unwind. Still inside, it is deferred again."""
+    timer = threading.Timer(_REDELIVER_AFTER_S, signal.pthread_kill, (threading.main_thread().ident, signum))
+    timer.daemon = True
+    timer.start()
 
 
 def install() -> None:

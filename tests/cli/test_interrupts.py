@@ -50,6 +50,53 @@ def test_a_worker_re_raises_an_interrupt_from_compiled_code_instead_of_reporting
     assert worker.execute_run(problem, worker.RunTask(0)).status == "error"
 
 
+# A Ctrl-C that lands while numba's compiled code calls back into Python (it unpickles a constant, e.g. a
+# returned array's dtype, on a function's first calls after loading): replayed by raising SIGINT inside
+# that callback. Raised there, the interrupt left a NULL in the returned tuple (exit -11 in a clean-clone CI
+# run, 6 in 100 of `run --jobs 2` interrupted while run 0 started) or a SystemError; it must wait until the
+# call has returned, then stop the program as any Ctrl-C does.
+_INTERRUPT_IN_A_COMPILED_CALLBACK = """
+import signal, sys, time
+import numpy as np
+from numba import njit
+from numba.core import serialize
+from liaison_cli import interrupts
+
+@njit
+def arrays(n):
+    return np.zeros(n), np.ones((n, 2)), n
+
+arrays(3)
+interrupts.install()
+real = serialize.cloudpickle
+
+class InterruptedLoads:
+    def __getattr__(self, name):
+        return getattr(real, name)
+
+    def loads(self, data):
+        print("callback", file=sys.stderr)
+        signal.raise_signal(signal.SIGINT)
+        return real.loads(data)
+
+serialize.cloudpickle, serialize._unpickled_memo = InterruptedLoads(), {}
+try:
+    result = arrays(4)
+    print("returned", *[type(x).__name__ for x in result], file=sys.stderr)
+    time.sleep(5.0)
+except KeyboardInterrupt:
+    sys.exit(130)
+"""
+
+
+def test_ctrl_c_while_compiled_code_calls_back_into_python_waits_for_the_call_to_return():
+    proc = subprocess.run([sys.executable, "-c", _INTERRUPT_IN_A_COMPILED_CALLBACK], cwd=REPO, capture_output=True,
+                          text=True, timeout=120, preexec_fn=_default_signals)
+    assert proc.returncode == 130, (proc.returncode, proc.stderr)
+    assert "callback" in proc.stderr and "returned ndarray ndarray int" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr, proc.stderr
+
+
 def _start(args):
     """The CLI in its own process group with SIGINT and SIGTERM at their defaults, as a terminal starts it."""
     return subprocess.Popen([sys.executable, "-m", "liaison_cli", *map(str, args)], cwd=REPO,
