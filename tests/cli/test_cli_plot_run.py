@@ -159,7 +159,7 @@ def test_time_axes_name_the_dated_epoch_and_the_settle_time_is_read(tmp_path):
     from liaison_cli.report.run_plots import time_label
     from liaison_cli.report.run_result import RunResult, load_run_result
     from liaison_cli.scenario.loading import load_scenario
-    from tests.conftest import SCENARIOS, run_cli
+    from tests.conftest import SCENARIOS, run_cli_in_process
 
     empty = pd.DataFrame()
     dated = pd.DataFrame({"t_s": [0.0, 60.0], "epoch_tdb": pd.to_datetime(["2026-01-01 00:01:09.184",
@@ -168,7 +168,8 @@ def test_time_axes_name_the_dated_epoch_and_the_settle_time_is_read(tmp_path):
     assert time_label(result) == "days from t0 = 2026-01-01 00:01:09 TDB"
     assert time_label(RunResult(tmp_path, "x", empty, dated[["t_s"]], empty, empty, empty, empty)) == \
         "time (days from t0)"
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--quiet", "--output", tmp_path / "r")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--runs", "1", "--jobs", "1", "--quiet", "--output",
+                              tmp_path / "r")
     assert proc.returncode == 0, proc.stderr
     assert load_run_result(tmp_path / "r").settle_days == load_scenario(SCENARIOS / "smoke.yaml")[0].settle_days()
 

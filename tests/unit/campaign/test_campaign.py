@@ -11,7 +11,7 @@ from liaison_cli.campaign.engine import worker as worker_module
 from liaison_cli.storage import read_metadata, write_parquet_atomic
 from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli, run_cli_in_process
 
 
 def test_smoke_run_writes_results_with_provenance(tmp_path):
@@ -146,7 +146,7 @@ def test_diverged_runs_are_recorded_and_excluded(tmp_path):
     text = (SCENARIOS / "smoke.yaml").read_text().replace("monte_carlo:", "filter:\n  divergence_position_km: 0.3\nmonte_carlo:")
     text = text.replace("name: smoke", "name: tight")
     bad.write_text(text)
-    proc = run_cli("run", bad, "--output", tmp_path / "out", "--jobs", "1")
+    proc = run_cli_in_process("run", bad, "--output", tmp_path / "out", "--jobs", "1")
     assert proc.returncode == 5 and "no run of" in proc.stderr, proc.stderr  # every run diverged
     summary = pd.read_parquet(tmp_path / "out" / "summary.parquet")
     assert set(summary.status) == {"diverged"}

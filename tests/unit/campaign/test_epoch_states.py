@@ -9,7 +9,7 @@ from liaison_cli.campaign.engine.results import write_campaign
 from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import apply_overrides, load_scenario
 from liaison_cli.storage import read_metadata, units_of_file
-from tests.conftest import SCENARIOS, run_cli
+from tests.conftest import SCENARIOS, run_cli_in_process
 
 
 @pytest.fixture(scope="module")
@@ -79,12 +79,12 @@ def test_states_carry_units_and_their_frame(smoke_folder):
 
 def test_no_states_table_unless_asked(tmp_path):
     out = tmp_path / "plain"
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", out, "--jobs", "1", "--runs", "1")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", out, "--jobs", "1", "--runs", "1")
     assert proc.returncode == 0, proc.stderr
     assert not (out / "states.parquet").exists()
     asked = tmp_path / "asked"
-    proc = run_cli("run", SCENARIOS / "smoke.yaml", "--output", asked, "--jobs", "1", "--runs", "2",
-                   "--epoch-states", "1")
+    proc = run_cli_in_process("run", SCENARIOS / "smoke.yaml", "--output", asked, "--jobs", "1", "--runs", "2",
+                              "--epoch-states", "1")
     assert proc.returncode == 0, proc.stderr
     assert set(pd.read_parquet(asked / "states.parquet").run) == {0}
     assert read_metadata(asked / "summary.parquet")["scenario_effective"]["output"]["epoch_states_runs"] == 1
