@@ -3,8 +3,8 @@
 `python -m benchmarks.lunar_field_dated` reports:
 - the frame's weight: the dated model turns GRGM1200A with the IAU model of the Moon (the mean-Earth axes) and
   DE430's constant turn from those to the principal axes (dynamics.lunar_orientation). The IAU series is a fit to
-  an older ephemeris's librations; its departure from DE430's is not measured here (no package ships DE430's
-  lunar orientation). What is measured is what a turn of that kind costs: the RMS change of the field's
+  an older ephemeris's librations; its departure from DE421's integrated ones is benchmarks.lunar_orientation's
+  (at most 18″ over 2000-2049). What is measured here is what a turn of that kind costs: the RMS change of the field's
   acceleration (degree 100, over a sphere at 100 km and 1,000 km) when it is turned by the mean-Earth to
   principal-axes angle (104 arcsec), against the field's own RMS; and the CRTBP's frame approximation's size for
   comparison (benchmarks.lunar_field: turned by 7.9 deg in longitude);
