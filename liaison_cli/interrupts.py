@@ -62,9 +62,16 @@ def _redeliver_later(signum: int) -> None:
     """The same signal to the main thread a few milliseconds later: by then the compiled call has returned (the
     callback is microseconds; a compiled run runs no Python code, so the handler next runs after it), and the
     interrupt is raised where Python can unwind. Still inside, it is deferred again."""
-    timer = threading.Timer(_REDELIVER_AFTER_S, signal.pthread_kill, (threading.main_thread().ident, signum))
+    timer = threading.Timer(_REDELIVER_AFTER_S, _signal_main_thread, (threading.main_thread().ident, signum))
     timer.daemon = True
     timer.start()
+
+
+def _signal_main_thread(ident: int, signum: int) -> None:
+    try:
+        signal.pthread_kill(ident, signum)
+    except (OSError, ValueError):  # the main thread has ended meanwhile: the process is exiting, nothing to stop
+        pass
 
 
 def install() -> None:
