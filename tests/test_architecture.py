@@ -195,6 +195,20 @@ def test_liaison_run_loads_only_what_it_needs(tmp_path):
     assert (tmp_path / "out" / "summary.parquet").exists()
 
 
+def test_a_command_that_runs_no_filter_does_not_load_scipy_linalg():
+    """`liaison validate` (as `scenarios`, `new` and the other commands that run no filter) does not import
+    scipy.linalg (about 0.27 s a launch; it is imported where a filter runs, by the compiled code's LAPACK)."""
+    scenario = PACKAGE.parent / "scenarios" / "smoke.yaml"
+    code = (
+        "import sys\nfrom liaison_cli.cli import app\n"
+        f"try:\n    app(['validate', {str(scenario)!r}])\n"
+        "except SystemExit as stop:\n    assert stop.code == 0, stop.code\n"
+        "print('loaded: ' + ','.join(m for m in ['scipy.linalg'] if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "loaded:", out.stdout
+
+
 def observable_vocabulary_outside_measurements(package_root: Path) -> list[str]:
     """Kind codes defined or imported, or an observable's name compared against, outside measurements/."""
     found = []

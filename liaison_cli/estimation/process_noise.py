@@ -33,7 +33,6 @@ Units: blocks are returned in the estimators' scaled units (LU, LU/TU) given the
 
 import numpy as np
 from numba import njit
-from scipy.linalg import expm
 
 PROCESS_NOISE_MODELS = ("continuous_white_acceleration", "velocity_only")
 
@@ -91,6 +90,8 @@ def gauss_markov_process_noise(sigma_m_s2: float, tau_s: float, dt_s: float, m_p
 
     Per axis, F = [[0, 1, 0], [0, 0, 1], [0, 0, -1/tau]], G = [0, 0, 1]^T, PSD q = 2 sigma^2 / tau: Van Loan's
     exp([[-F, G q G^T], [0, F^T]] dt) = [[., Phi^-1 Q], [0, Phi^T]] gives Q = Phi (Phi^-1 Q)."""
+    from scipy.linalg import expm  # here: scipy.linalg costs every command about 0.27 s to import
+
     F = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0 / tau_s]])
     noise = np.zeros((3, 3))
     noise[2, 2] = 2.0 * sigma_m_s2**2 / tau_s
