@@ -10,8 +10,8 @@ Rz(phi) r_ICRF, TDB. `departures` and `de421_pa_from_icrf` are the test's refere
 (tests/unit/dynamics/test_lunar_orientation.py).
 
 Reported: the angle of the rotation between the two frames over 2000-2049 (sampled every 1.37 d), its largest
-value, RMS and mean per axis (the mean holds the two ephemerides' principal-axes definitions, DE421's against
-DE430's, which differ by a fraction of an arcsecond); the same without DE430's turn (the IAU mean-Earth axes alone)
+value, RMS and mean per axis (the mean: the IAU series' own bias, and the two ephemerides' principal-axes
+definitions, DE421's against DE430's, which differ by a fraction of an arcsecond); the same without DE430's turn (the IAU mean-Earth axes alone)
 as the scale; and what the departure moves the field by: the degree-100 acceleration at 100 and 1,000 km
 altitude, turned by the worst epoch's rotation, against the field's own RMS.
 """

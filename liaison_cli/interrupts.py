@@ -29,8 +29,10 @@ from contextlib import contextmanager
 _requested = False
 _written: list = []  # result folders this command has swapped in (storage.staged_output)
 
-# The Python functions numba's compiled code calls back into: an environment constant (a returned array's
-# dtype) or an exception's arguments are unpickled on a compiled function's first calls after it is loaded.
+# The Python functions numba's compiled code calls back into in liaison's compiled calls: an environment constant
+# (a returned array's dtype) or an exception's arguments are unpickled on a compiled function's first calls after
+# it is loaded. (Returning a namedtuple, an enum or a typed container to Python would call Python classes too; no
+# compiled entry point of liaison's does.)
 # Their callers in compiled code do not check for an error: a KeyboardInterrupt raised in them leaves a NULL
 # in the returned tuple, and the command dies of a segmentation fault (exit -11, seen in a clean-clone CI run:
 # a Ctrl-C while run 0 of `run --jobs 2` started) or ends in a SystemError.

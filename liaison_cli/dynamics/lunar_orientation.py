@@ -13,7 +13,7 @@ Two parts, composed:
 
 What it leaves out: the IAU series is a fit to an older ephemeris's librations, not a DE's numerically integrated
 ones. Against DE421's (the ephemeris whose bodies the dated model flies; the `de421` package, a test dependency)
-these axes are within 18.1" at worst over 2000-2049, 9.4" RMS (153 m at the surface), which moves the degree-100
+these axes are within 18.1" at worst over 2000-2049 (153 m at the surface), 9.4" RMS, which moves the degree-100
 field at 100 km by 0.04 % of its RMS (benchmarks.lunar_orientation; tests/unit/dynamics/test_lunar_orientation.py).
 
 Time: TDB seconds past J2000 (the dated model's). d = days, T = Julian centuries past J2000.

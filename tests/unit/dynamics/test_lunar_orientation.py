@@ -66,9 +66,9 @@ def test_the_pole_keeps_cassinis_tilt_and_the_moon_turns_once_a_sidereal_month(m
 def test_the_principal_axes_stay_within_20_arcsec_of_de421s_integrated_librations():
     """Against an independent source, DE421's numerically integrated physical librations (the `de421` package, read
     by benchmarks.lunar_orientation), every 7.3 d over 2000-2049: liaison's principal axes (the IAU series, then
-    DE430's turn) stay within 20″ (measured: 18.1″ at worst, 9.4″ RMS, sampled every 1.37 d; 153 m at the
-    surface), with no mean offset beyond 2″ per axis (DE421's and DE430's principal axes differ by a fraction of
-    an arcsecond). The IAU mean-Earth axes alone are about 100″ off, reversed turn about 200″: the turn is needed,
+    DE430's turn) stay within 20″ (measured: 18.1″ at worst, 153 m at the surface, and 9.4″ RMS, sampled every
+    1.37 d), with no mean offset beyond 2″ per axis (measured: 1.4″ at most, the IAU series' own bias and the
+    two ephemerides' principal axes, which differ by a fraction of an arcsecond). The IAU mean-Earth axes alone are about 100″ off, reversed turn about 200″: the turn is needed,
     and its sign is right."""
     from benchmarks.lunar_orientation import departures
 
