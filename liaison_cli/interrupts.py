@@ -60,20 +60,72 @@ def _inside_a_compiled_call(frame) -> bool:
     return False
 
 
+# The pending re-delivery of a deferred interrupt (a threading.Timer), None when there is none. Reentrant: the
+# handler may run in the main thread while that thread holds it.
+_redelivery = None
+_redelivery_lock = threading.RLock()
+
+
 def _redeliver_later(signum: int) -> None:
     """The same signal to the main thread a few milliseconds later: by then the compiled call has returned (the
     callback is microseconds; a compiled run runs no Python code, so the handler next runs after it), and the
-    interrupt is raised where Python can unwind. Still inside, it is deferred again."""
-    timer = threading.Timer(_REDELIVER_AFTER_S, _signal_main_thread, (threading.main_thread().ident, signum))
-    timer.daemon = True
-    timer.start()
+    interrupt is raised where Python can unwind. Still inside, it is deferred again. Cancelled when the stop is
+    acted on first (_cancel_redelivery): re-delivered later, it would interrupt the stop's own clean-up (a staging
+    folder's removal was cut short, found by a fault hunt)."""
+    global _redelivery
+    with _redelivery_lock:
+        if _redelivery is not None:
+            return
+        _redelivery = threading.Timer(_REDELIVER_AFTER_S, _signal_main_thread, (threading.main_thread().ident, signum))
+        _redelivery.daemon = True
+        _redelivery.start()
 
 
 def _signal_main_thread(ident: int, signum: int) -> None:
+    global _redelivery
+    with _redelivery_lock:
+        if _redelivery is None:  # cancelled: the stop was acted on meanwhile
+            return
+        _redelivery = None
+        try:
+            signal.pthread_kill(ident, signum)
+        except (OSError, ValueError):  # the main thread has ended meanwhile: the process is exiting
+            pass
+
+
+def _cancel_redelivery() -> None:
+    """The stop is being acted on (requested() or caused_by_interrupt() said so, or the CLI stops listening): a
+    deferred interrupt is not re-delivered."""
+    global _redelivery
+    with _redelivery_lock:
+        if _redelivery is not None:
+            _redelivery.cancel()
+            _redelivery = None
+
+
+@contextmanager
+def noted_not_raised():
+    """For clean-up after a stop was decided (a staging folder's removal): a Ctrl-C meanwhile, a second one or a
+    deferred one, is noted (requested()) and not raised, so the clean-up finishes; the stop goes on as it was.
+    Elsewhere than the main thread, or when SIGINT is not this CLI's, nothing changes."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is not _on_sigint:
+        yield
+        return
+
+    def note(signum, frame):
+        global _requested
+        _requested = True
+
+    previous_term = signal.getsignal(signal.SIGTERM)
+    signal.signal(signal.SIGINT, note)
+    if previous_term is _on_sigint:
+        signal.signal(signal.SIGTERM, note)
     try:
-        signal.pthread_kill(ident, signum)
-    except (OSError, ValueError):  # the main thread has ended meanwhile: the process is exiting, nothing to stop
-        pass
+        yield
+    finally:
+        signal.signal(signal.SIGINT, _on_sigint)
+        if previous_term is _on_sigint:
+            signal.signal(signal.SIGTERM, _on_sigint)
 
 
 def install() -> None:
@@ -84,6 +136,7 @@ def install() -> None:
     global _requested
     _requested = False
     _written.clear()
+    _cancel_redelivery()
     if threading.current_thread() is not threading.main_thread():
         return
     if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, _on_sigint):
@@ -151,6 +204,7 @@ _quiet_pool_thread.previous = threading.excepthook
 def ignore_from_now_on() -> None:
     """After a stop was decided: a later SIGINT (a second Ctrl-C, or one still pending while the pool shuts
     down) must not turn the documented exit code into death by signal."""
+    _cancel_redelivery()
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         if signal.getsignal(signal.SIGTERM) is _on_sigint:
@@ -165,6 +219,7 @@ def record_from_now_on() -> list | None:
     """After the command has finished (its line printed, its result written): a Ctrl-C during the wind-down (the
     pool's shutdown, the exit handlers) is noted in the returned list instead of raised, so the caller can still
     say so in one line. None when SIGINT is not this CLI's to handle (ignored by a shell, another handler)."""
+    _cancel_redelivery()
     if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is not _on_sigint:
         return None
     caught: list = []
@@ -185,13 +240,17 @@ def written() -> list:
 
 
 def requested() -> bool:
-    """True once Ctrl-C was pressed in this process (since `install`)."""
+    """True once Ctrl-C was pressed in this process (since `install`). The caller acts on it (stops): a deferred
+    interrupt is not re-delivered."""
+    if _requested:
+        _cancel_redelivery()
     return _requested
 
 
 def caused_by_interrupt(exc: BaseException) -> bool:
     """True when Ctrl-C was requested, or `exc` is (or was raised while handling, or from) a KeyboardInterrupt."""
     if _requested:
+        _cancel_redelivery()  # the caller acts on it
         return True
     seen = set()
     while exc is not None and id(exc) not in seen:

@@ -123,14 +123,16 @@ def staged_output(path, overwrite: bool):
                     "`liaison plot run` or `liaison export` to remake them)")
             interrupts.result_written(path)
     except OSError as exc:
-        shutil.rmtree(stage, ignore_errors=True)
+        with interrupts.noted_not_raised():  # a Ctrl-C now must not leave the staging folder half-removed
+            shutil.rmtree(stage, ignore_errors=True)
         if exc.filename is not None and str(exc.filename).startswith(str(stage)):
             # Name the file as the user knows it; the staging folder is gone.
             destination = path / Path(exc.filename).relative_to(stage)
             raise OSError(exc.errno, exc.strerror, str(destination)) from exc
         raise
     except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
+        with interrupts.noted_not_raised():
+            shutil.rmtree(stage, ignore_errors=True)
         raise
 
 
