@@ -5,13 +5,22 @@ import hashlib
 import json
 import os
 import sys
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-try:
-    __version__ = version("liaison")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+source"
+
+def __getattr__(name: str):
+    """`__version__` on first use (importlib.metadata is the package import's largest part, and `python -m
+    liaison_cli` imports this package before its entry point can turn a Ctrl-C into one line)."""
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("liaison")
+        except PackageNotFoundError:  # running from a source tree that is not installed
+            value = "0.0.0+source"
+        globals()["__version__"] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 # Compiled (numba) modules; their on-disk cache must be invalidated when any of them changes.
 COMPILED_PACKAGES = ("dynamics", "measurements", "estimation", "analysis")

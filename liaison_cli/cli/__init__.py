@@ -1,6 +1,7 @@
 """Command-line interface (thin layer: parse, call the campaign and report code, print, map errors to exit
-codes), one module per command group. `main` is the `liaison` entry point (pyproject: liaison_cli.cli:main,
-and `python -m liaison_cli`): the Typer `app`, and a clean exit after Ctrl-C.
+codes), one module per command group. `main` runs the `liaison` command: the Typer `app`, and a clean exit after
+Ctrl-C (the entry point, liaison_cli.__main__.run, for the console script and `python -m liaison_cli`, imports
+this package).
 
 root.py holds the Typer app and its root options; common.py the exit codes and error mapping every command
 shares; each other module registers its commands on `app` when imported here."""
@@ -40,15 +41,24 @@ def main() -> None:
     failed keeps its own line and code."""
     import typer
 
-    from liaison_cli.cli.common import EXIT_INTERRUPTED, finished_message
+    from liaison_cli import interrupts
+    from liaison_cli.cli.common import EXIT_INTERRUPTED, INTERRUPTED_MESSAGE, finished_message, interrupt_reported
 
     try:
         app(prog_name="liaison")
+    except KeyboardInterrupt:  # before any command ran (the parser building the command line): nothing written
+        interrupts.ignore_from_now_on()
+        typer.echo(f"error: {INTERRUPTED_MESSAGE}", err=True)
+        _leave(EXIT_INTERRUPTED)
     except SystemExit as exc:
         code = 0 if exc.code is None else exc.code
         if not isinstance(code, int):  # a message for sys.exit to print: left to the interpreter
             raise
-        if code != EXIT_INTERRUPTED and _wind_down() and code == 0:
+        if code == EXIT_INTERRUPTED and not interrupt_reported():
+            # The parser's own Ctrl-C handling (typer turns one into exit 130 and prints nothing): its line.
+            interrupts.ignore_from_now_on()
+            typer.echo(f"error: {INTERRUPTED_MESSAGE}", err=True)
+        elif code != EXIT_INTERRUPTED and _wind_down() and code == 0:
             typer.echo(f"error: {finished_message()}", err=True)
             code = EXIT_INTERRUPTED
         _leave(code)

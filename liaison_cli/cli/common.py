@@ -36,9 +36,18 @@ def finished_message() -> str:
     return "interrupted after the command had finished: its output above is complete"
 
 
+_reported: list = []  # exit codes whose one line this process has printed (cli.main: a silent 130 gets its line)
+
+
 def fail(message: str, code: int) -> None:
     typer.echo(f"error: {message}", err=True)
+    _reported.append(code)
     raise typer.Exit(code)
+
+
+def interrupt_reported() -> bool:
+    """This process has printed its "interrupted" line (fail with EXIT_INTERRUPTED)."""
+    return EXIT_INTERRUPTED in _reported
 
 
 # The parser's usage errors: click's ClickException, which typer re-exports or (from 0.2x) vendors.

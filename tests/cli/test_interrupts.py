@@ -131,6 +131,72 @@ def test_a_deferred_ctrl_c_does_not_cut_the_staging_folders_removal_short():
     assert proc.returncode == 0 and proc.stdout.strip() == "left: []", (proc.returncode, proc.stdout, proc.stderr)
 
 
+# Ctrl-C in a command's first few tenths of a second, while the parser builds the command line and before a
+# command's own handling: found by a fault hunt, a traceback and death by SIGINT (exit -2), or typer's silent
+# exit 130 with no line. Replayed by standing in for the app: an interrupt, typer's silent 130, and a command
+# that printed its own line (which must not get a second one).
+_APP_STAND_IN = """
+import sys
+from liaison_cli import cli
+from liaison_cli.cli.common import EXIT_INTERRUPTED, fail
+
+def interrupted(**kwargs):
+    raise KeyboardInterrupt
+
+def silent_130(**kwargs):
+    raise SystemExit(130)
+
+def reported(**kwargs):  # a command's own line, then the exit typer makes of its Exit
+    try:
+        fail("interrupted: 3 of 9 tasks saved", EXIT_INTERRUPTED)
+    except Exception as exit:
+        raise SystemExit(exit.exit_code)
+
+cli.app = {"interrupted": interrupted, "silent_130": silent_130, "reported": reported}[sys.argv[1]]
+cli.main()
+"""
+
+
+@pytest.mark.parametrize("case", ["interrupted", "silent_130", "reported"])
+def test_ctrl_c_before_a_command_runs_is_one_line_and_exit_130(case):
+    proc = subprocess.run([sys.executable, "-c", _APP_STAND_IN, case], cwd=REPO, capture_output=True, text=True,
+                          timeout=120, preexec_fn=_default_signals)
+    lines = stderr_lines(proc.stderr)
+    assert proc.returncode == 130 and "Traceback" not in proc.stderr, (proc.returncode, proc.stderr)
+    assert len(lines) == 1 and lines[0].startswith("error: interrupted"), proc.stderr
+
+
+_INTERRUPTED_IMPORT = """
+import sys
+
+import importlib.util
+
+class InterruptedImport:  # a Ctrl-C while the command's modules run their module code
+    def find_spec(self, name, path, target=None):
+        return importlib.util.spec_from_loader(name, self) if name == "liaison_cli.cli" else None
+
+    def create_module(self, spec):
+        return None
+
+    def exec_module(self, module):
+        exec("raise KeyboardInterrupt", module.__dict__)
+
+sys.meta_path.insert(0, InterruptedImport())
+from liaison_cli.__main__ import run
+run()
+"""
+
+
+def test_ctrl_c_while_the_commands_modules_load_is_one_line_and_exit_130():
+    """The entry point (the console script's and `python -m`'s) imports the CLI where an interrupt is caught: it
+    was a traceback and death by SIGINT in the fault hunt's first tenth of a second."""
+    proc = subprocess.run([sys.executable, "-c", _INTERRUPTED_IMPORT], cwd=REPO, capture_output=True, text=True,
+                          timeout=120, preexec_fn=_default_signals)
+    assert proc.returncode == 130 and "Traceback" not in proc.stderr, (proc.returncode, proc.stderr)
+    lines = stderr_lines(proc.stderr)
+    assert len(lines) == 1 and lines[0].startswith("error: interrupted"), proc.stderr
+
+
 def _start(args):
     """The CLI in its own process group with SIGINT and SIGTERM at their defaults, as a terminal starts it."""
     return subprocess.Popen([sys.executable, "-m", "liaison_cli", *map(str, args)], cwd=REPO,
