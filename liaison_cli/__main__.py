@@ -8,14 +8,12 @@ def run() -> None:
     try:
         from liaison_cli.cli import main
     except KeyboardInterrupt:  # nothing has started, nothing was written
-        import signal
+        from liaison_cli import interrupts  # the standard library only: it loads where the CLI did not
 
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        # CPython marks an interrupt that escaped module code (an import) as unhandled and, at exit, dies by
-        # SIGINT instead of exiting 130; an exec() of a string clears the mark (as interrupts.ignore_from_now_on).
-        exec("None")  # noqa: S102 - a constant
-        print("error: interrupted: nothing was written and no earlier result was replaced; rerun the same command",
-              file=sys.stderr)
+        # Also clears CPython's mark of an interrupt that escaped module code, which would otherwise end the
+        # process by SIGINT instead of exit 130.
+        interrupts.ignore_from_now_on()
+        print(f"error: {interrupts.INTERRUPTED_MESSAGE}", file=sys.stderr)
         sys.exit(130)
     main()
 

@@ -18,6 +18,12 @@ starting worker waits, unhandled), and `ignore_in_worker_process`, the first thi
 that into ignored (dropping what waited). Blocked, not ignored, in the launching thread: a SIGINT ignored there
 would be dropped for the whole process, and a Ctrl-C pressed while the pool starts was lost (issue 35, fault 7:
 the command ran to its end, exit 0, and replaced the earlier result).
+
+A Ctrl-C whose handler runs inside Python that numba's compiled code called back into (`_inside_a_compiled_call`:
+numba unpickling a constant on a function's first calls) is not raised there, where compiled code would not see
+the error (a NULL in its result, a segmentation fault): it is noted and sent again a few milliseconds later
+(`_redeliver_later`), unless the stop is acted on first. Clean-up after a stop notes a further Ctrl-C instead of
+raising it (`noted_not_raised`).
 """
 
 import os
@@ -25,6 +31,10 @@ import signal
 import sys
 import threading
 from contextlib import contextmanager
+
+# The one line of a Ctrl-C before anything was written (cli.common's and the entry point's).
+INTERRUPTED_MESSAGE = ("interrupted: nothing was written and no earlier result was replaced; rerun the same "
+                       "command")
 
 _requested = False
 _written: list = []  # result folders this command has swapped in (storage.staged_output)

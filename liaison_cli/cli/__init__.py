@@ -41,27 +41,33 @@ def main() -> None:
     failed keeps its own line and code."""
     import typer
 
-    from liaison_cli import interrupts
-    from liaison_cli.cli.common import EXIT_INTERRUPTED, INTERRUPTED_MESSAGE, finished_message, interrupt_reported
+    from liaison_cli.cli.common import EXIT_INTERRUPTED, finished_message, interrupt_reported
 
     try:
         app(prog_name="liaison")
     except KeyboardInterrupt:  # before any command ran (the parser building the command line): nothing written
-        interrupts.ignore_from_now_on()
-        typer.echo(f"error: {INTERRUPTED_MESSAGE}", err=True)
+        _say_interrupted()
         _leave(EXIT_INTERRUPTED)
     except SystemExit as exc:
         code = 0 if exc.code is None else exc.code
         if not isinstance(code, int):  # a message for sys.exit to print: left to the interpreter
             raise
         if code == EXIT_INTERRUPTED and not interrupt_reported():
-            # The parser's own Ctrl-C handling (typer turns one into exit 130 and prints nothing): its line.
-            interrupts.ignore_from_now_on()
-            typer.echo(f"error: {INTERRUPTED_MESSAGE}", err=True)
+            _say_interrupted()  # the parser's own Ctrl-C handling: typer exits 130 and prints nothing
         elif code != EXIT_INTERRUPTED and _wind_down() and code == 0:
             typer.echo(f"error: {finished_message()}", err=True)
             code = EXIT_INTERRUPTED
         _leave(code)
+
+
+def _say_interrupted() -> None:
+    """The one line of a Ctrl-C that came before any command's own handling; from now on Ctrl-C is ignored."""
+    import typer
+
+    from liaison_cli import interrupts
+
+    interrupts.ignore_from_now_on()
+    typer.echo(f"error: {interrupts.INTERRUPTED_MESSAGE}", err=True)
 
 
 def _wind_down() -> bool:

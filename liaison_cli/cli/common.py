@@ -16,8 +16,7 @@ from liaison_cli.errors import LiaisonError
 EXIT_OS_ERROR = 4  # an operating-system fault while reading or writing files
 EXIT_ALL_DIVERGED = 5  # the campaign ran, but no run finished healthy
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT, as a shell reports it)
-INTERRUPTED_MESSAGE = ("interrupted: nothing was written and no earlier result was replaced; rerun the same "
-                       "command")
+INTERRUPTED_MESSAGE = interrupts.INTERRUPTED_MESSAGE
 
 
 def _interrupted_message() -> str:
@@ -36,18 +35,19 @@ def finished_message() -> str:
     return "interrupted after the command had finished: its output above is complete"
 
 
-_reported: list = []  # exit codes whose one line this process has printed (cli.main: a silent 130 gets its line)
+_interrupt_reported = False  # cli.main: a silent exit 130 (typer's own Ctrl-C handling) still gets its line
 
 
 def fail(message: str, code: int) -> None:
+    global _interrupt_reported
     typer.echo(f"error: {message}", err=True)
-    _reported.append(code)
+    _interrupt_reported = _interrupt_reported or code == EXIT_INTERRUPTED
     raise typer.Exit(code)
 
 
 def interrupt_reported() -> bool:
     """This process has printed its "interrupted" line (fail with EXIT_INTERRUPTED)."""
-    return EXIT_INTERRUPTED in _reported
+    return _interrupt_reported
 
 
 # The parser's usage errors: click's ClickException, which typer re-exports or (from 0.2x) vendors.
