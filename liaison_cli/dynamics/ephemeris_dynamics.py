@@ -293,9 +293,12 @@ def shadow_edges(r_sat, r_sun, r_body, radius_body):
 # A lunar orbiter whose osculating apolune is below this is flown about the Moon (dop853_ephemeris_states).
 MOON_CENTRED_APOLUNE_KM = 20000.0
 MOON_ACCELERATION_STEP_S = 10.0  # central difference of DE421's lunar velocity for the Moon's acceleration
-# Its absolute tolerance (km and km/s): the geocentric 1e-9 let a 100 km orbit's velocity err by 1 um/s per step
-# (at rtol 1e-12 it was 0.15 m from itself at rtol and atol 1e-13 after a day at degree 100; at 1e-12, 4 mm).
-MOON_CENTRED_ATOL = 1e-12
+# Every dated truth's DOP853 tolerances (km and km/s; dop853_ephemeris_states). Converged, not merely accurate: a
+# truth's integrator error enters LinCov's dynamics-model part, so at rtol 1e-12 / atol 1e-9 a corrected orbit
+# that differed in its last bits (computed under another BLAS kernel) moved 004's DRO error RMS by 0.1 m; at
+# 1e-13 both agree to 1e-6 m, for about 1.7x the truth's time (0.30 -> 0.52 s for 31.8 days of a DRO).
+TRUTH_RTOL = 1e-13
+TRUTH_ATOL = 1e-13
 
 
 def bound_to_moon(state_km, moon_km, gm_moon: float) -> bool:
@@ -310,25 +313,24 @@ def bound_to_moon(state_km, moon_km, gm_moon: float) -> bool:
     return a * (1.0 + e) < MOON_CENTRED_APOLUNE_KM
 
 
-def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=1e-12, atol=1e-9,
+def dop853_ephemeris_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol=TRUTH_RTOL, atol=TRUTH_ATOL,
                             acceleration_km_s2=None, acceleration_table_km_s2=None, terms=NO_TERMS,
                             moon_centred=False):
     """Truth states (m, 6) at times_s by scipy's adaptive DOP853 (integrators.adaptive.dop853_samples) on the
     compiled derivative, restarted at every shadow edge (penumbra and umbra of the Earth and the Moon, located
     as events): the conical shadow's kinks would otherwise cost metres after one eclipse (a fixed-step RK8 at
-    864 s: 1.6 m after 9 days; DOP853 without the restarts: 0.6 m). Tolerances rtol 1e-12, atol 1e-9 km; after
-    9 days with one eclipse this truth is within 2.3 cm of itself at rtol 1e-13
+    864 s: 1.6 m after 9 days; DOP853 without the restarts: 0.6 m). Tolerances TRUTH_RTOL and TRUTH_ATOL (1e-13,
+    km and km/s); after 9 days with one eclipse this truth is within centimetres of itself at rtol 3e-14
     (tests/unit/dynamics/test_ephemeris.py). acceleration_km_s2 (3,): a constant extra acceleration on the ICRF
     axes (the truth's unmodelled force; None: none); acceleration_table_km_s2 (m, 3): one more, given at
     times_s and linear between them (a Gauss-Markov force drawn per run; None: none); terms: the forces beyond the
     point masses and SRP (ephemeris_derivative's). moon_centred: the integrator carries the state less the Moon's
     (DE421's, its acceleration a central difference of its velocity), so that rtol is relative to the orbit about
-    the Moon, and atol is at most MOON_CENTRED_ATOL: geocentric, a 100 km lunar orbit's steps were sized by
-    384,000 km, and the truth at rtol 1e-12 was 2.7 m from itself at 1e-13 after a day
-    (benchmarks.lunar_field_dated); the states returned are geocentric either way."""
+    the Moon: geocentric, a 100 km lunar orbit's steps were sized by 384,000 km, and the truth at rtol 1e-12 was
+    2.7 m from itself at 1e-13 after a day (benchmarks.lunar_field_dated); the states returned are geocentric
+    either way."""
     if moon_centred:
-        return _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol,
-                                    min(atol, MOON_CENTRED_ATOL),
+        return _moon_centred_states(x0, t0_s, times_s, window, bodies, gms, gm_earth, cr_am, rtol, atol,
                                     acceleration_km_s2, acceleration_table_km_s2, terms)
     args = (window.coeffs, window.start_s, window.interval_s, window.n_records)
     rhs = _geocentric_rhs(args, bodies, gms, gm_earth, cr_am, terms, acceleration_km_s2,
