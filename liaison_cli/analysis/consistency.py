@@ -175,3 +175,13 @@ def run_verdict(row: dict) -> tuple[bool, str]:
               if math.isfinite(row.get(f"{prefix}_in_band_settled", float("nan")))}
     ratios = {kind: (row[f"{kind}_error_to_sigma_settled"], 0.0) for kind in ("position", "velocity")}
     return verdict(shares, ratios)
+
+
+def failed_side(failed: str) -> str:
+    """optimistic when any failed test of the verdict (verdict's text, one test per
+    '; '-separated part, each ending in its side) is optimistic, else pessimistic; '' when no test names a side
+    (a ratio not available)."""
+    sides = {part.rsplit(":", 1)[-1].strip(" )") for part in failed.split("; ")}
+    if "optimistic" in sides:
+        return "optimistic"
+    return "pessimistic" if "pessimistic" in sides else ""

@@ -26,7 +26,7 @@ report.run_text prints each as an `advice:` line under the verdict.
 import math
 from dataclasses import dataclass
 
-from liaison_cli.analysis.consistency import campaign_verdict
+from liaison_cli.analysis.consistency import campaign_verdict, failed_side
 from liaison_cli.dynamics.step_choice import SUBSTEP_LADDER
 
 # A direction whose mean NEES component exceeds this share of the whole-state NEES is the cause named.
@@ -57,7 +57,7 @@ def campaign_advice(scenario, summary: list[dict], spacecraft, columns, step_cho
         if not rows:
             continue
         verdict = campaign_verdict({column: [row.get(column, math.nan) for row in rows] for column in columns})
-        side = _side(verdict["consistency_failed"]) if not verdict["consistent_settled"] else ""
+        side = failed_side(verdict["consistency_failed"]) if not verdict["consistent_settled"] else ""
         if side:
             sides[name] = side
     if not scenario.estimator_descriptor().process_noise:  # a batch: no process noise to name
@@ -97,16 +97,6 @@ def _step_text(short: dict) -> str:
     return ", ".join(f"{name} (needs {choice.accurate_substeps})" if choice.accurate_substeps > 0 else
                      f"{name} (misses it even at {SUBSTEP_LADDER[-1]}: a shorter measurement.interval_s)"
                      for name, choice in short.items())
-
-
-def _side(failed: str) -> str:
-    """optimistic when any failed test of the verdict (analysis.consistency.verdict's text, one test per
-    '; '-separated part, each ending in its side) is optimistic, else pessimistic; '' when no test names a side
-    (a ratio not available)."""
-    sides = {part.rsplit(":", 1)[-1].strip(" )") for part in failed.split("; ")}
-    if "optimistic" in sides:
-        return "optimistic"
-    return "pessimistic" if "pessimistic" in sides else ""
 
 
 def _time_shift_dominates(summary: list[dict], name: str) -> bool:

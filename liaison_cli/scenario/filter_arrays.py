@@ -25,7 +25,8 @@ from liaison_cli.estimation.process_noise import (coupled_process_noise, gauss_m
 from liaison_cli.measurements.observable import FLAG_ROTATING_FRAME
 from liaison_cli.measurements.registry import OBSERVABLES
 from liaison_cli.scenario.estimation_settings import PROCESS_NOISE_PSD, PROCESS_NOISE_PSD_RIC, PROCESS_NOISE_SIGMA_A
-from liaison_cli.scenario.default_noise import default_psd
+from liaison_cli.scenario.default_noise import (default_psd, field_truncation_psd, linked_spacecraft,
+                                                 with_field_coupling)
 from liaison_cli.scenario.integration_steps import step_choices, substeps_per_block
 from liaison_cli.scenario.links import link_label
 from liaison_cli.scenario.scenario_model import Scenario
@@ -407,6 +408,12 @@ def default_noises(scenario: Scenario, model: DynamicsModel, times_s, trajectori
     an estimator without process noise (the batch)."""
     if not scenario.estimator_descriptor().process_noise:
         return {}
-    flt = scenario.filter
-    return {sc.name: default_psd(scenario, model, trajectories[sc.name].states, times_s)
-            for sc in scenario.spacecraft if sc.role == "estimated" and flt.process_noise_of(sc)[1] is None}
+    estimated = [sc for sc in scenario.spacecraft if sc.role == "estimated"]
+    defaulted = [sc.name for sc in estimated if scenario.filter.process_noise_of(sc)[1] is None]
+    if not defaulted:
+        return {}
+    # every estimated spacecraft's omitted field: a spacecraft that names its own noise still passes its share on
+    field = {sc.name: field_truncation_psd(scenario, model, trajectories[sc.name].states, times_s) for sc in estimated}
+    defaults = {name: default_psd(scenario, model, trajectories[name].states, times_s, field[name])
+                for name in defaulted}
+    return with_field_coupling(defaults, field, linked_spacecraft(scenario))

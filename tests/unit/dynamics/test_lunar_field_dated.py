@@ -129,7 +129,9 @@ def test_a_lunar_orbiters_elements_are_read_in_the_crtbp_axes(model):
 
 def test_a_lunar_orbiters_truth_is_flown_about_the_moon_and_converges(model):
     """Flown geocentric, the truth's tolerance is sized by 384,000 km; about the Moon (bound_to_moon) it converges:
-    its default rtol (1e-13) against 3e-14 over six hours of a 100 km orbit within a centimetre. An NRHO is not bound so."""
+    its default tolerances (TRUTH_RTOL, TRUTH_ATOL: 1e-13) against 3e-14 over six hours of a 100 km orbit within
+    0.03 mm (measured 0.007 mm; at rtol and atol 1e-12 it was 0.05 mm, at the former 1e-12 / 1e-9 0.3 mm). An NRHO
+    is not bound so."""
     from liaison_cli.dynamics.ephemeris_dynamics import bound_to_moon, dop853_ephemeris_states
     from liaison_cli.orbits.catalog import CATALOG
 
@@ -145,7 +147,7 @@ def test_a_lunar_orbiters_truth_is_flown_about_the_moon_and_converges(model):
     args = (state_km, times_s[0], times_s, model.window, model.bodies, model.gms, model.gm_earth, 0.0)
     loose = dop853_ephemeris_states(*args, terms=model.terms, moon_centred=True)
     tight = dop853_ephemeris_states(*args, rtol=3e-14, atol=3e-14, terms=model.terms, moon_centred=True)
-    assert np.max(np.linalg.norm(loose[:, :3] - tight[:, :3], axis=1)) * 1e3 < 0.01
+    assert np.max(np.linalg.norm(loose[:, :3] - tight[:, :3], axis=1)) * 1e3 < 3e-5
     assert np.allclose(loose[0], state_km, rtol=0.0, atol=1e-9)  # geocentric out, as given
 
 
