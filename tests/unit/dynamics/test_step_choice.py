@@ -118,3 +118,40 @@ def test_a_fixed_count_reports_its_own_error_and_what_the_tolerance_would_take()
     assert halo.met and halo.accurate_substeps == 0
     never = prepare_problem(_scenario(600.0, extra_filter={"rk4_substeps": 256, "integration_tolerance_m": 1e-9}))
     assert never.step_choices["Low"].accurate_substeps == UNREACHABLE and not never.step_choices["Low"].met
+
+
+def test_the_truth_stops_halving_where_its_error_estimate_is_the_arithmetics():
+    """A 100 km orbit under a degree-30 field, sampled every 3600 s for 3 days: the Richardson estimate of the RK8
+    truth's growth per interval stays near 1e-5 m whatever the step (the arithmetic's, not the step's), so it was
+    halved down past TRUTH_MIN_STEP_S, eight halvings from 60 s to 0.23 s, for nothing (130 s of truth for 3
+    days of another such orbit). The truth now stops once a halving no longer shrinks the estimate (four
+    integrations here) and is 0.18 mm from DOP853 at rtol 1e-13 (bound 0.5 mm); halved to 0.23 s it was 1.44 mm
+    off, as the smaller steps' rounding piled up."""
+    from scipy.integrate import solve_ivp
+
+    from liaison_cli.dynamics import model as dynamics_model
+    from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU, TU_S
+    from liaison_cli.dynamics.crtbp_field import field_derivative
+
+    model = dynamics_model.crtbp_model(MU, moon_degree=30)
+    r, i = (1737.4 + 100.0) / LU_KM, np.radians(60.0)
+    speed = np.sqrt(MU / r)
+    state = np.array([1.0 - MU + r, 0.0, 0.0, 0.0, speed * np.cos(i) - r, speed * np.sin(i)])  # inertial v, rotating
+    times = np.arange(0.0, 3 * 86400.0 + 1.0, 3600.0) / TU_S
+    calls = []
+    original = dynamics_model.rk8_states_forced
+
+    def counted(*args):
+        calls.append(args[2] * TU_S)
+        return original(*args)
+
+    dynamics_model.rk8_states_forced = counted
+    try:
+        truth = model.truth_states(state, times)
+    finally:
+        dynamics_model.rk8_states_forced = original
+    reference = solve_ivp(lambda t, y: field_derivative(y, model.params), (0.0, times[-1]), state, method="DOP853",
+                          rtol=1e-13, atol=1e-16, t_eval=times).y.T
+    assert len(calls) <= 4, calls
+    error_m = np.max(np.linalg.norm(truth[:, :3] - reference[:, :3], axis=1)) * M_PER_LU
+    assert error_m < 5e-4, error_m
