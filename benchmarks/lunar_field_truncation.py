@@ -7,9 +7,9 @@ worst published noise, 2.21 m and 11 mm/s) under a degree-100 GRGM1200A truth, w
 degree 0 (a point-mass Moon), 10, 20, 50 and 100, every filter setting left to its default. Per filter degree
 and spacecraft, over the epochs after day 1: the position error RMS and the filter's sigma RMS, err/sigma with
 its 95 % interval, the spacecraft's own-NEES share in its band, the verdict, and the process noise the default
-chose (scenario.default_noise: its floor plus its "lunar field beyond degree N" part). Then, per filter degree,
-the factor on that default (every spacecraft's alike) that the consistency verdict needs (scale_scan), with the
-figures there. `liaison tune`'s rule cannot answer this: it gives every spacecraft one SNC from a ladder that
+chose (scenario.default_noise: its floor, its "lunar field beyond degree N" part and, for the relay, its share
+"lunar field via User"). Then, per filter degree, the factor on that default (every spacecraft's alike) that the
+consistency verdict needs (scale_scan), with the figures there. `liaison tune`'s rule cannot answer this: it gives every spacecraft one SNC from a ladder that
 ends at 1e-5 m/s^2, and a 100 km orbiter under a truncated field needs far more than its relay.
 """
 
