@@ -75,11 +75,12 @@ tolerances re-measured by `python tests/golden/spread.py --scenario ...` (a clea
 had found nrho_earth_station_norr's NEES 1.1e-7 off its 1e-9 floor).
 The eight 002 scenarios (nrho_earth_station*, nrho_gateway_anchors*) re-recorded on the host and under each kernel
 (one shared cache), their tolerances by `python tests/golden/spread.py --scenario ...`, when the CRTBP truth
-stopped halving its step where a halving no longer halves the Richardson estimate (TRUTH_NOISE_FLOOR_RATIO in
-dynamics/model.py): their NRHO truths (1800 s intervals) had been halved to 0.3125 s, into the arithmetic's
-rounding; the Gateway's now stops at 5 s and is 0.32 mm from DOP853 at rtol 1e-13 over the 13.3 days (was
-0.45 mm), an anchor's at 2.5 s, 0.27 mm (was 0.75 mm). Column sums moved by 2.5e-5 to 4.4e-4 relative (the NEES
-columns); no other scenario's truth met the new stop.
+stopped halving its step where two halvings in a row no longer halve the Richardson estimate
+(TRUTH_NOISE_FLOOR_RATIO and _MISSES in dynamics/model.py; the truth of the smallest estimate kept): their NRHO
+truths (1800 s intervals) had been halved to 0.3125 s, into the arithmetic's rounding (flown from its first
+state over the 13.3 days, the Gateway's truth at 0.3125 s is 0.45 mm from DOP853 at rtol 1e-13, at 5 s 0.32 mm,
+at 2.5 s 0.12 mm). Column sums moved by 9.5e-5 to 5.1e-4 relative (the NEES columns); no other scenario's truth
+met the new stop.
 """
 
 import gzip
