@@ -30,8 +30,10 @@ q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum o
   left its band entirely (benchmarks.lunar_noise_coupling).
 The factor and the share were picked on benchmarks.lunar_noise_coupling's relay formation and checked on ten
 formations, six of them out of sample, with two campaign seeds (benchmarks.lunar_default_rule,
-results/reference/lunar_default_rule.md): never optimistic, 22 of 40 spacecraft consistent against 7 with the
+results/reference/lunar_default_rule.md): never optimistic there, 22 of 40 spacecraft consistent against 7 with the
 part at 2 a_rms^2 tau and no share.
+Not a bound: an EML2 halo with an 80 km orbiter (truth degree 60, filter 15, at 60 and 600 s) leaves the orbiter
+optimistic, err/sigma 2.9 (1.6 with 2 a_rms^2 tau); the run's verdict and advice say so.
 Each part is kept so the run can say where the default came from (default_noise_line).
 """
 
