@@ -11,9 +11,8 @@ Parts, each with its acceleration and its gradient (the STM's):
 
 Parameter vector (plain data, so one compiled body serves every field; issue 49's "specialise on data"):
 params[0] = mu; with added terms, params[1] = their count T, then T pairs (kind, start of its payload), then the
-payloads. TERM_HARMONICS: degree, reference radius (LU), then C̄ and S̄ packed (spherical_harmonics.packed_index),
-each packed_index(degree, degree) + 1 long, then the recursions' factors (harmonics_payload); TERM_J2: J2,
-reference radius (LU). A point-mass CRTBP is [mu] alone (the golden record's arithmetic, bit for bit). Every
+payloads. TERM_HARMONICS: spherical_harmonics.field_payload with the reference radius in LU (degree, radius, the
+recursions' factors and the field's weight tables); TERM_J2: J2, reference radius (LU). A point-mass CRTBP is [mu] alone (the golden record's arithmetic, bit for bit). Every
 term's GM is the CRTBP's Moon, mu (LU^3/TU^2); GRGM1200A's own GM differs from it by 2e-7 relative, which scales
 the terms' small accelerations by as much.
 
@@ -28,29 +27,17 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import LU_KM
 from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs, truth_derivative_into
-from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, harmonic_factors, packed_index
+from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, field_payload, payload_tables
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
-TERM_HARMONICS = 1  # payload: degree, radius (LU), C̄ packed, S̄ packed, the recursions' factors (harmonics_payload)
+TERM_HARMONICS = 1  # payload: spherical_harmonics.field_payload, radius in LU
 TERM_J2 = 2  # payload: J2, radius (LU)
 
 
 def harmonics_term(field) -> tuple[int, np.ndarray]:
-    """(TERM_HARMONICS, payload) of a dynamics.lunar_gravity.LunarField."""
-    return TERM_HARMONICS, np.concatenate([[float(field.degree), field.radius_km / LU_KM], field.c, field.s,
-                                           harmonic_factors(field.degree + 2).ravel()])
-
-
-@njit(cache=True, inline="always")
-def harmonics_payload(payload):
-    """(degree, radius, c, s, factors) of a harmonics payload: degree, radius, C̄ and S̄ packed, then the
-    recursions' factors (spherical_harmonics.harmonic_factors(degree + 2), 5 rows); views, no copy."""
-    degree = int(payload[0])
-    size = packed_index(degree, degree) + 1
-    rows = packed_index(degree + 2, degree + 2) + 1
-    start = 2 + 2 * size
-    factors = payload[start:start + 5 * rows].reshape((5, rows))
-    return degree, payload[1], payload[2:2 + size], payload[2 + size:2 + 2 * size], factors
+    """(TERM_HARMONICS, payload) of a dynamics.lunar_gravity.LunarField (spherical_harmonics.field_payload, radius in
+    LU)."""
+    return TERM_HARMONICS, field_payload(field.c, field.s, field.degree, field.radius_km / LU_KM)
 
 
 def j2_term(j2: float, radius_km: float) -> tuple[int, np.ndarray]:
@@ -97,9 +84,9 @@ def moon_harmonics_into(params, start, x, y, z, with_gradient, acc, grad):
     rotating-frame position (x, y, z); with with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz,
     gyz). LU, TU."""
     mu = params[0]
-    degree, radius, c, s, factors = harmonics_payload(params[start:])
+    degree, radius, tables = payload_tables(params[start:])
     # rotating frame -> principal axes about the Moon: x and y turn over, z stays
-    field_acceleration_into(c, s, factors, mu, radius, degree, 1.0 - mu - x, -y, z, with_gradient, acc, grad)
+    field_acceleration_into(tables, mu, radius, degree, 1.0 - mu - x, -y, z, with_gradient, acc, grad)
     acc[0], acc[1] = -acc[0], -acc[1]
     if with_gradient:  # D G D with D = diag(-1, -1, 1): the xz and yz terms change sign
         grad[4], grad[5] = -grad[4], -grad[5]

@@ -29,8 +29,7 @@ from liaison_cli.dynamics.constants import (
 from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_state
 from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
-from liaison_cli.dynamics.crtbp_field import harmonics_payload
-from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, harmonic_factors
+from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, field_payload, payload_tables
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
@@ -144,11 +143,9 @@ def moon_j2_term(j2: float, radius_km: float) -> tuple[int, np.ndarray]:
 
 
 def moon_field_payload(field) -> np.ndarray:
-    """The Moon's harmonics' payload for a dynamics.lunar_gravity.LunarField: degree, reference
-    radius (km), C̄ and S̄ packed (spherical_harmonics.packed_index), the recursions' factors (the CRTBP's layout:
-    crtbp_field.harmonics_payload)."""
-    return np.concatenate([[float(field.degree), field.radius_km], field.c, field.s,
-                           harmonic_factors(field.degree + 2).ravel()])
+    """The Moon's harmonics' payload for a dynamics.lunar_gravity.LunarField: spherical_harmonics.field_payload with
+    the reference radius in km (the CRTBP's layout, its radius in LU)."""
+    return field_payload(field.c, field.s, field.degree, field.radius_km)
 
 
 @njit(cache=True)
@@ -157,10 +154,10 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
     ICRF position r (km), the Moon at r_moon, at TDB t_s; with with_grad, grad (3, 3) += their gradient. Evaluated
     in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
     G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well)."""
-    degree, radius, c, s, factors = harmonics_payload(field)
+    degree, radius, tables = payload_tables(field)
     rot, p = _in_principal_axes(t_s, r, r_moon)
     a_pa, g = np.empty(3), np.empty(6)
-    field_acceleration_into(c, s, factors, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
+    field_acceleration_into(tables, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
     _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
 
 

@@ -1,10 +1,17 @@
 """A body's gravity field in fully normalised spherical harmonics: the acceleration and its gradient (for the STM)
 of the terms of degree 2 and above, in the body's own axes. Compiled; plain arrays in; `field_acceleration_into`
-allocates nothing beyond two packed scratch tables per call (`acceleration_gradient_into`, for one-off calls,
-builds the factors table too). Every square-root factor of the recursions depends on n and m alone, so a field
-computes them once (`harmonic_factors`, carried in the propagators' parameter vectors) and an evaluation
-(`field_acceleration_into`) only looks them up: at degree 20, half the cost of computing them in place, with the
-same numbers bit for bit.
+allocates nothing beyond two packed scratch tables per call.
+
+What depends on the field alone is computed once per field and carried in the propagators' parameter vectors
+(`field_payload`, read back by `payload_tables`): every square-root factor of the recursions (`harmonic_factors`:
+they depend on n and m alone) and the field itself as weights on the solid harmonics (`field_weights`). The
+acceleration and its gradient are linear in the solid harmonics one and two degrees up (below), so an evaluation
+is the recursion followed by one weighted sum per output (3 for the acceleration, 6 for the gradient), with no
+per-term derivative rules left in it. Against applying the rules term by term, in one session
+(`python -m benchmarks.lunar_field`, 100 km above the reference sphere): the acceleration 1.7-1.9 times and the
+acceleration with its gradient 2.5-3 times faster at degrees 20-200 (docs/performance.md), the same field to
+rounding (a summation order changed: the tests' tolerances are unchanged). `acceleration_gradient_into` builds the
+tables for one call (tests, one-off evaluations).
 
 Method: Cunningham's solid harmonics V_nm, W_nm (Montenbruck & Gill, Satellite Orbits, 2000, Sec. 3.2.4:
 Eq. 3.29-3.31 for the recursions, Eq. 3.33 for the acceleration), carried in normalised form
@@ -15,8 +22,9 @@ root of a ratio of O(n) integers: nothing overflows or underflows at degree 200 
 coordinates, so the poles are ordinary points (no 1 / cos(latitude)).
 
 A derivative of a solid harmonic is a combination of solid harmonics one degree up (the rule behind M&G's
-Eq. 3.33; `_solid_gradient` writes it in normalised form), so the acceleration takes the table to degree N + 1
-and the gradient, the rule applied twice, to N + 2. Tests (tests/unit/dynamics/test_spherical_harmonics.py): the
+Eq. 3.33; `_add_derivative` writes it in normalised form), so the acceleration takes the table to degree N + 1
+and the gradient, the rule applied twice, to N + 2: a degree-n term's acceleration lies in row n + 1 of the weight
+tables and its gradient in row n + 2, so a sum stopped early (below) reads fewer rows. Tests (tests/unit/dynamics/test_spherical_harmonics.py): the
 acceleration against finite differences of the potential, the gradient against finite differences of the
 acceleration, a zero trace (the potential is harmonic), the degree-2 field against its closed form, and the
 potential against an independent sum of scipy's associated Legendre functions.
@@ -44,17 +52,25 @@ def packed_index(n, m):
 
 
 # Rows of harmonic_factors' table, each packed by packed_index(n, m): the column recursion's two factors (M&G Eq.
-# 3.31, normalised) and the derivative rule's three (_solid_gradient).
-COLUMN_A, COLUMN_B, SLOPE_C, SLOPE_A, SLOPE_B = 0, 1, 2, 3, 4
+# 3.31, normalised), the derivative rule's three (the weight tables'), and the factors of the two terms each row
+# starts from, at (n, n) (M&G Eq. 3.30) and at (n, n - 1) (Eq. 3.31 with no n - 2 term).
+COLUMN_A, COLUMN_B, SLOPE_C, SLOPE_A, SLOPE_B, SECTORAL, SUBDIAGONAL = 0, 1, 2, 3, 4, 5, 6
+FACTOR_ROWS = 7
+# Columns of the weight tables (field_weights): V̄'s and W̄'s weight in each output.
+ACC_COLUMNS = 6  # ax, ay, az
+GRAD_COLUMNS = 12  # gxx, gyy, gzz, gxy, gxz, gyz
 
 
 @njit(cache=True)
 def harmonic_factors(top):
-    """(5, packed_index(top, top) + 1): every square-root factor of the recursions to degree `top`, computed once per
-    field instead of at every evaluation (they depend on n and m alone; the same expressions as the recursions had,
-    so the numbers are bit for bit those of computing them in place). A field of degree N needs top = N + 2."""
-    table = np.zeros((5, packed_index(top, top) + 1))
+    """(FACTOR_ROWS, packed_index(top, top) + 1): every square-root factor of the recursions to degree `top`, computed
+    once per field instead of at every evaluation (they depend on n and m alone; the same expressions as the
+    recursions had in place). A field of degree N needs top = N + 2."""
+    table = np.zeros((FACTOR_ROWS, packed_index(top, top) + 1))
     for n in range(top + 1):
+        if n >= 1:
+            table[SECTORAL, packed_index(n, n)] = math.sqrt(3.0) if n == 1 else math.sqrt((2.0 * n + 1.0) / (2.0 * n))
+            table[SUBDIAGONAL, packed_index(n, n - 1)] = math.sqrt(2.0 * (n - 1) + 3.0)
         for m in range(n + 1):
             k = packed_index(n, m)
             if n >= m + 2:
@@ -74,29 +90,29 @@ def harmonic_factors(top):
 @njit(cache=True)
 def solid_harmonics_into(x, y, z, radius, degree, factors, v, w):
     """v, w (packed to `degree`) <- the normalised V̄_nm, W̄_nm at (x, y, z) in the body's axes, lengths in the unit
-    of `radius` (the field's reference radius); factors: harmonic_factors of at least `degree`."""
+    of `radius` (the field's reference radius); factors: harmonic_factors of at least `degree`. Row by row (packed
+    storage keeps a degree's orders together): each order of row n from rows n - 1 and n - 2 (M&G Eq. 3.31),
+    independent of one another, then (n, n - 1) and (n, n) from (n - 1, n - 1) (Eq. 3.31 and 3.30)."""
     r2 = x * x + y * y + z * z
     rho = radius / r2  # R / r^2
     xr, yr, zr, rr = x * rho, y * rho, z * rho, radius * rho  # x R / r^2, ..., R^2 / r^2
     v[0] = radius / math.sqrt(r2)
     w[0] = 0.0
-    for m in range(degree + 1):
-        mm = packed_index(m, m)
-        if m > 0:  # the sectoral term from the one below it (M&G Eq. 3.30, normalised)
-            f = math.sqrt(3.0) if m == 1 else math.sqrt((2.0 * m + 1.0) / (2.0 * m))
-            below = packed_index(m - 1, m - 1)
-            v[mm] = f * (xr * v[below] - yr * w[below])
-            w[mm] = f * (xr * w[below] + yr * v[below])
-        if m + 1 <= degree:  # one degree up (M&G Eq. 3.31 with n = m + 1: no n - 2 term)
-            f = math.sqrt(2.0 * m + 3.0)
-            up = packed_index(m + 1, m)
-            v[up] = f * zr * v[mm]
-            w[up] = f * zr * w[mm]
-        for n in range(m + 2, degree + 1):  # the column recursion (M&G Eq. 3.31, normalised)
-            k, k1, k2 = packed_index(n, m), packed_index(n - 1, m), packed_index(n - 2, m)
+    for n in range(1, degree + 1):
+        row, below_row = packed_index(n, 0), packed_index(n - 1, 0)
+        for m in range(n - 1):  # the column recursion (M&G Eq. 3.31, normalised)
+            k, k1, k2 = row + m, below_row + m, packed_index(n - 2, m)
             a, b = factors[COLUMN_A, k], factors[COLUMN_B, k]
             v[k] = a * zr * v[k1] - b * rr * v[k2]
             w[k] = a * zr * w[k1] - b * rr * w[k2]
+        corner = below_row + n - 1  # (n - 1, n - 1)
+        vc, wc = v[corner], w[corner]
+        f = factors[SUBDIAGONAL, row + n - 1]  # one degree up (M&G Eq. 3.31 with no n - 2 term)
+        v[row + n - 1] = f * zr * vc
+        w[row + n - 1] = f * zr * wc
+        f = factors[SECTORAL, row + n]  # the sectoral term from the one below it (M&G Eq. 3.30, normalised)
+        v[row + n] = f * (xr * vc - yr * wc)
+        w[row + n] = f * (xr * wc + yr * vc)
 
 
 def solid_harmonics(x, y, z, radius, degree):
@@ -110,29 +126,6 @@ def solid_harmonics(x, y, z, radius, degree):
         for m in range(n + 1):
             v2[n, m], w2[n, m] = v[packed_index(n, m)], w[packed_index(n, m)]
     return v2, w2
-
-
-@njit(cache=True, inline="always")
-def _solid_gradient(v, w, factors, n, m, out):
-    """out (6,) <- R times the gradients of V̄_nm and W̄_nm: [dV/dx, dV/dy, dV/dz, dW/dx, dW/dy, dW/dz], from the
-    degree n + 1 row of the packed tables (the derivative of a solid harmonic, normalised; M&G Eq. 3.33's rule)."""
-    k, up = packed_index(n, m), packed_index(n + 1, m)
-    c = factors[SLOPE_C, k]
-    out[2] = -c * v[up]
-    out[5] = -c * w[up]
-    if m == 0:
-        a = factors[SLOPE_A, k]
-        out[0] = -a * v[up + 1]
-        out[1] = -a * w[up + 1]
-        out[3] = 0.0
-        out[4] = 0.0
-        return
-    a, b = factors[SLOPE_A, k], factors[SLOPE_B, k]
-    vp, wp, vm, wm = v[up + 1], w[up + 1], v[up - 1], w[up - 1]
-    out[0] = 0.5 * (-a * vp + b * vm)
-    out[1] = 0.5 * (-a * wp - b * wm)
-    out[3] = 0.5 * (-a * wp + b * wm)
-    out[4] = 0.5 * (a * vp + b * vm)
 
 
 @njit(cache=True, inline="always")
@@ -160,66 +153,152 @@ def potential(c, s, gm, radius, degree, position):
     return gm / radius * total
 
 
-@njit(cache=True)
-def acceleration_gradient_into(c, s, gm, radius, degree, x, y, z, with_gradient, acc, grad):
-    """field_acceleration_into with the factors computed for this call (tests and one-off evaluations; the
-    propagators carry the factors in their parameter vectors)."""
-    field_acceleration_into(c, s, harmonic_factors(degree + 2), gm, radius, degree, x, y, z, with_gradient, acc, grad)
 
 
 @njit(cache=True)
-def field_acceleration_into(c, s, factors, gm, radius, degree, x, y, z, with_gradient, acc, grad):
-    """acc (3,) <- the acceleration of the terms of degree 2..degree at (x, y, z) in the body's axes; with
-    with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz); c and s packed (module docstring),
-    factors: harmonic_factors(degree + 2). Units: those of gm and radius (lengths of x, y, z in radius's unit)."""
-    degree = effective_degree(degree, radius, x * x + y * y + z * z)
-    top = degree + 2 if with_gradient else degree + 1
-    v, w = np.empty(packed_index(top, top) + 1), np.empty(packed_index(top, top) + 1)
-    solid_harmonics_into(x, y, z, radius, top, factors, v, w)
-    first = np.empty(6)
-    second = np.empty(6)
-    ax = ay = az = 0.0
-    gxx = gyy = gzz = gxy = gxz = gyz = 0.0
+def _add_derivative(weights, output, factors, n, m, component, weight):
+    """weights[:, 2 output] (V̄'s) and weights[:, 2 output + 1] (W̄'s) += weight times R times one derivative of the
+    (n, m) harmonics, a combination of the degree n + 1 row (the derivative of a solid harmonic, normalised: M&G Eq.
+    3.33's rule). component: 0-2 dV̄/dx, dy, dz; 3-5 dW̄/dx, dy, dz."""
+    k, up = packed_index(n, m), packed_index(n + 1, m)
+    v_col, w_col = 2 * output, 2 * output + 1
+    if component == 2 or component == 5:
+        weights[up, v_col if component == 2 else w_col] -= weight * factors[SLOPE_C, k]
+        return
+    a = factors[SLOPE_A, k]
+    if m == 0:  # dV̄_n0/dx = -a V̄_{n+1,1}, dV̄_n0/dy = -a W̄_{n+1,1}; W̄_n0 = 0
+        if component == 0:
+            weights[up + 1, v_col] -= weight * a
+        elif component == 1:
+            weights[up + 1, w_col] -= weight * a
+        return
+    half_a, half_b = 0.5 * a, 0.5 * factors[SLOPE_B, k]
+    if component == 0:  # dV̄/dx = (-a V̄p + b V̄m) / 2
+        weights[up + 1, v_col] -= weight * half_a
+        weights[up - 1, v_col] += weight * half_b
+    elif component == 1:  # dV̄/dy = (-a W̄p - b W̄m) / 2
+        weights[up + 1, w_col] -= weight * half_a
+        weights[up - 1, w_col] -= weight * half_b
+    elif component == 3:  # dW̄/dx = (-a W̄p + b W̄m) / 2
+        weights[up + 1, w_col] -= weight * half_a
+        weights[up - 1, w_col] += weight * half_b
+    else:  # dW̄/dy = (a V̄p + b V̄m) / 2
+        weights[up + 1, v_col] += weight * half_a
+        weights[up - 1, v_col] += weight * half_b
+
+
+@njit(cache=True)
+def field_weights(c, s, degree, factors):
+    """The field as weights on the solid harmonics (field_acceleration_into): acc_weights (packed_index(degree + 1,
+    degree + 1) + 1, ACC_COLUMNS) and grad_weights (packed_index(degree + 2, degree + 2) + 1, GRAD_COLUMNS), such that
+    R^2/GM times the acceleration's x component is Σ_k acc_weights[k, 0] V̄_k + acc_weights[k, 1] W̄_k, and so on for
+    y, z and the gradient's six (times R^3/GM). The acceleration of degree n's terms is the derivative rule applied
+    once (row n + 1), its gradient twice (row n + 2), so a sum stopped at degree d (effective_degree) reads rows up
+    to d + 1 and d + 2. c, s packed to `degree`; factors: harmonic_factors(degree + 2)."""
+    acc_weights = np.zeros((packed_index(degree + 1, degree + 1) + 1, ACC_COLUMNS))
+    grad_weights = np.zeros((packed_index(degree + 2, degree + 2) + 1, GRAD_COLUMNS))
     for n in range(2, degree + 1):
         for m in range(n + 1):
             k = packed_index(n, m)
             cnm, snm = c[k], s[k]
             if cnm == 0.0 and snm == 0.0:
                 continue
-            _solid_gradient(v, w, factors, n, m, first)
-            ax += cnm * first[0] + snm * first[3]
-            ay += cnm * first[1] + snm * first[4]
-            az += cnm * first[2] + snm * first[5]
-            if not with_gradient:
-                continue
-            # d/dz of the gradient: -c times the gradient of the (n + 1, m) harmonics
+            for axis in range(3):  # a_axis = Σ C̄ dV̄/d axis + S̄ dW̄/d axis
+                _add_derivative(acc_weights, axis, factors, n, m, axis, cnm)
+                _add_derivative(acc_weights, axis, factors, n, m, 3 + axis, snm)
+            # d/dz of the gradient's x, y, z: -c_nm times the derivatives of the (n + 1, m) harmonics (gxz, gyz, gzz)
             cz = factors[SLOPE_C, k]
-            _solid_gradient(v, w, factors, n + 1, m, second)
-            gzz += -cz * (cnm * second[2] + snm * second[5])
-            gxz += -cz * (cnm * second[0] + snm * second[3])
-            gyz += -cz * (cnm * second[1] + snm * second[4])
-            # d/dx and d/dy of the gradient: combinations of the (n + 1, m +- 1) harmonics' gradients
-            if m == 0:
-                a0 = factors[SLOPE_A, k]
-                _solid_gradient(v, w, factors, n + 1, 1, second)
-                # dV̄_n0/dx = -a0 V̄_{n+1,1}, dV̄_n0/dy = -a0 W̄_{n+1,1}
-                gxx += -a0 * cnm * second[0]
-                gxy += -a0 * cnm * second[1]
-                gyy += -a0 * cnm * second[4]
+            for output, component in ((4, 0), (5, 1), (2, 2)):
+                _add_derivative(grad_weights, output, factors, n + 1, m, component, -cz * cnm)
+                _add_derivative(grad_weights, output, factors, n + 1, m, 3 + component, -cz * snm)
+            # d/dx and d/dy: combinations of the (n + 1, m +- 1) harmonics' derivatives (gxx, gxy, gyy)
+            a = factors[SLOPE_A, k]
+            if m == 0:  # dV̄_n0/dx = -a V̄_{n+1,1}, dV̄_n0/dy = -a W̄_{n+1,1}
+                _add_derivative(grad_weights, 0, factors, n + 1, 1, 0, -a * cnm)
+                _add_derivative(grad_weights, 3, factors, n + 1, 1, 1, -a * cnm)
+                _add_derivative(grad_weights, 1, factors, n + 1, 1, 4, -a * cnm)
                 continue
-            a, b = factors[SLOPE_A, k], factors[SLOPE_B, k]
-            _solid_gradient(v, w, factors, n + 1, m + 1, second)  # gradients of V̄, W̄ at (n + 1, m + 1)
-            gvp_x, gvp_y, gwp_x, gwp_y = second[0], second[1], second[3], second[4]
-            _solid_gradient(v, w, factors, n + 1, m - 1, second)  # ... and at (n + 1, m - 1)
-            gvm_x, gvm_y, gwm_x, gwm_y = second[0], second[1], second[3], second[4]
-            # dV̄/dx = (-a V̄p + b V̄m) / 2, dW̄/dx = (-a W̄p + b W̄m) / 2,
-            # dV̄/dy = (-a W̄p - b W̄m) / 2, dW̄/dy = (a V̄p + b V̄m) / 2
-            gxx += 0.5 * (cnm * (-a * gvp_x + b * gvm_x) + snm * (-a * gwp_x + b * gwm_x))
-            gxy += 0.5 * (cnm * (-a * gvp_y + b * gvm_y) + snm * (-a * gwp_y + b * gwm_y))
-            gyy += 0.5 * (cnm * (-a * gwp_y - b * gwm_y) + snm * (a * gvp_y + b * gvm_y))
+            half_a, half_b = 0.5 * a, 0.5 * factors[SLOPE_B, k]
+            # d/dx: dV̄/dx = (-a V̄p + b V̄m) / 2, dW̄/dx = (-a W̄p + b W̄m) / 2 (p, m: orders m + 1, m - 1)
+            for output, v_part, w_part in ((0, 0, 3), (3, 1, 4)):  # gxx: their x derivatives; gxy: their y ones
+                _add_derivative(grad_weights, output, factors, n + 1, m + 1, v_part, -half_a * cnm)
+                _add_derivative(grad_weights, output, factors, n + 1, m - 1, v_part, half_b * cnm)
+                _add_derivative(grad_weights, output, factors, n + 1, m + 1, w_part, -half_a * snm)
+                _add_derivative(grad_weights, output, factors, n + 1, m - 1, w_part, half_b * snm)
+            # gyy: dV̄/dy = (-a W̄p - b W̄m) / 2, dW̄/dy = (a V̄p + b V̄m) / 2, their y derivatives
+            _add_derivative(grad_weights, 1, factors, n + 1, m + 1, 4, -half_a * cnm)
+            _add_derivative(grad_weights, 1, factors, n + 1, m - 1, 4, -half_b * cnm)
+            _add_derivative(grad_weights, 1, factors, n + 1, m + 1, 1, half_a * snm)
+            _add_derivative(grad_weights, 1, factors, n + 1, m - 1, 1, half_b * snm)
+    return acc_weights, grad_weights
+
+
+def field_payload(c, s, degree: int, radius: float) -> np.ndarray:
+    """A field as one flat vector for the propagators' parameter vectors: degree, reference radius, then the
+    recursions' factors (harmonic_factors(degree + 2)), acc_weights and grad_weights (field_weights), row-major.
+    Read back by payload_tables."""
+    factors = harmonic_factors(degree + 2)
+    acc_weights, grad_weights = field_weights(np.asarray(c, dtype=float), np.asarray(s, dtype=float), degree,
+                                              factors)
+    return np.concatenate([[float(degree), float(radius)], factors.ravel(), acc_weights.ravel(),
+                           grad_weights.ravel()])
+
+
+@njit(cache=True, inline="always")
+def payload_tables(payload):
+    """(degree, radius, (factors, acc_weights, grad_weights)) of a field_payload; views, no copy."""
+    degree = int(payload[0])
+    rows = packed_index(degree + 2, degree + 2) + 1
+    acc_rows = packed_index(degree + 1, degree + 1) + 1
+    start = 2 + FACTOR_ROWS * rows
+    factors = payload[2:start].reshape((FACTOR_ROWS, rows))
+    acc_weights = payload[start:start + ACC_COLUMNS * acc_rows].reshape((acc_rows, ACC_COLUMNS))
+    start += ACC_COLUMNS * acc_rows
+    grad_weights = payload[start:start + GRAD_COLUMNS * rows].reshape((rows, GRAD_COLUMNS))
+    return degree, payload[1], (factors, acc_weights, grad_weights)
+
+
+@njit(cache=True)
+def acceleration_gradient_into(c, s, gm, radius, degree, x, y, z, with_gradient, acc, grad):
+    """field_acceleration_into with the field's tables built for this call (tests and one-off evaluations; the
+    propagators carry them in their parameter vectors: field_payload)."""
+    factors = harmonic_factors(degree + 2)
+    acc_weights, grad_weights = field_weights(c, s, degree, factors)
+    field_acceleration_into((factors, acc_weights, grad_weights), gm, radius, degree, x, y, z, with_gradient, acc,
+                            grad)
+
+
+@njit(cache=True)
+def field_acceleration_into(tables, gm, radius, degree, x, y, z, with_gradient, acc, grad):
+    """acc (3,) <- the acceleration of the terms of degree 2..degree at (x, y, z) in the body's axes; with
+    with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz). tables: (factors, acc_weights,
+    grad_weights) of the field (field_weights; payload_tables). Units: those of gm and radius (lengths of x, y, z in
+    radius's unit). The solid harmonics to the degree the point needs (effective_degree) plus one (two with the
+    gradient), then one weighted sum per output."""
+    factors, acc_weights, grad_weights = tables
+    degree = effective_degree(degree, radius, x * x + y * y + z * z)
+    top = degree + 2 if with_gradient else degree + 1
+    v, w = np.empty(packed_index(top, top) + 1), np.empty(packed_index(top, top) + 1)
+    solid_harmonics_into(x, y, z, radius, top, factors, v, w)
+    ax = ay = az = 0.0
+    for k in range(packed_index(3, 0), packed_index(degree + 1, degree + 1) + 1):  # degree 2's terms start at row 3
+        vk, wk = v[k], w[k]
+        ax += acc_weights[k, 0] * vk + acc_weights[k, 1] * wk
+        ay += acc_weights[k, 2] * vk + acc_weights[k, 3] * wk
+        az += acc_weights[k, 4] * vk + acc_weights[k, 5] * wk
     scale = gm / (radius * radius)
     acc[0], acc[1], acc[2] = scale * ax, scale * ay, scale * az
-    if with_gradient:
-        scale2 = scale / radius
-        grad[0], grad[1], grad[2] = scale2 * gxx, scale2 * gyy, scale2 * gzz
-        grad[3], grad[4], grad[5] = scale2 * gxy, scale2 * gxz, scale2 * gyz
+    if not with_gradient:
+        return
+    gxx = gyy = gzz = gxy = gxz = gyz = 0.0
+    for k in range(packed_index(4, 0), packed_index(degree + 2, degree + 2) + 1):  # ... and row 4 for the gradient
+        vk, wk = v[k], w[k]
+        gxx += grad_weights[k, 0] * vk + grad_weights[k, 1] * wk
+        gyy += grad_weights[k, 2] * vk + grad_weights[k, 3] * wk
+        gzz += grad_weights[k, 4] * vk + grad_weights[k, 5] * wk
+        gxy += grad_weights[k, 6] * vk + grad_weights[k, 7] * wk
+        gxz += grad_weights[k, 8] * vk + grad_weights[k, 9] * wk
+        gyz += grad_weights[k, 10] * vk + grad_weights[k, 11] * wk
+    scale2 = scale / radius
+    grad[0], grad[1], grad[2] = scale2 * gxx, scale2 * gyy, scale2 * gzz
+    grad[3], grad[4], grad[5] = scale2 * gxy, scale2 * gxz, scale2 * gyz

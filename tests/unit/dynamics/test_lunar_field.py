@@ -9,8 +9,8 @@ from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant
-from liaison_cli.dynamics.crtbp_field import (TERM_HARMONICS, crtbp_params, field_degree, field_derivative,
-                                              harmonics_term, moon_harmonics_into, term_payload)
+from liaison_cli.dynamics.crtbp_field import (crtbp_params, field_degree, field_derivative,
+                                              harmonics_term, moon_harmonics_into)
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm
 from liaison_cli.dynamics.lunar_gravity import lunar_field
 from liaison_cli.dynamics.spherical_harmonics import packed_index, potential
@@ -25,14 +25,11 @@ def low_orbit_state(altitude_km=100.0, inclination_deg=90.0):
     return np.array([1.0 - MU + r, 0.0, 0.0, 0.0, v * np.cos(i) - r, v * np.sin(i)])  # inertial v minus omega x r
 
 
-def field_jacobi(state, params):
-    """C = 2 (U_CRTBP + U_field) - v^2: the field is fixed in the rotating frame, so C is an integral of motion."""
-    payload = term_payload(params, TERM_HARMONICS)
-    degree, radius = int(payload[0]), payload[1]
-    size = packed_index(degree, degree) + 1
-    c, s = payload[2:2 + size], payload[2 + size:2 + 2 * size]
+def field_jacobi(state, field):
+    """C = 2 (U_CRTBP + U_field) - v^2: the field is fixed in the rotating frame, so C is an integral of motion. The
+    potential from the field's own coefficients (the propagators carry weight tables, not the coefficients)."""
     pa = np.array([1.0 - MU - state[0], -state[1], state[2]])
-    return jacobi_constant(state, MU) + 2.0 * potential(c, s, MU, radius, degree, pa)
+    return jacobi_constant(state, MU) + 2.0 * potential(field.c, field.s, MU, field.radius_km / LU_KM, field.degree, pa)
 
 
 def test_grgm1200a_is_read_as_published():
@@ -47,12 +44,13 @@ def test_grgm1200a_is_read_as_published():
 
 
 def test_the_field_keeps_the_jacobi_integral():
-    params = crtbp_params(MU, harmonics_term(lunar_field(20)))
+    field = lunar_field(20)
+    params = crtbp_params(MU, harmonics_term(field))
     x0 = low_orbit_state()
     span = 0.5 * 86400.0 / TU_S
     orbit = solve_ivp(lambda t, y: field_derivative(y, params), (0.0, span), x0, method="DOP853", rtol=1e-12,
                       atol=1e-14, dense_output=False, t_eval=np.linspace(0.0, span, 40))
-    c = np.array([field_jacobi(s, params) for s in orbit.y.T])
+    c = np.array([field_jacobi(s, field) for s in orbit.y.T])
     assert np.ptp(c) < 1e-10 * abs(c[0])
     point_mass = np.array([jacobi_constant(s, MU) for s in orbit.y.T])
     assert np.ptp(point_mass) > 100 * np.ptp(c)  # ... which the point-mass integral alone is not

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from scipy.special import sph_harm_y
 
-from liaison_cli.dynamics.spherical_harmonics import acceleration_gradient_into, packed_index, potential
+from liaison_cli.dynamics.spherical_harmonics import (acceleration_gradient_into, field_acceleration_into, field_payload,
+                                                       packed_index, payload_tables, potential)
 
 GM, RADIUS = 4902.8, 1738.0  # km^3/s^2, km: the Moon's size, so the numbers are the ones the field meets
 
@@ -140,6 +141,7 @@ def test_acceleration_matches_pyshtools_at_1000_points_to_degree_100():
     altitude_km = 50.0 + (20000.0 - 50.0) * rng.random(count) ** 3  # most of them low, where the field is rough
     latitude, longitude = np.degrees(np.arcsin(rng.uniform(-1, 1, count))), rng.uniform(0.0, 360.0, count)
     acc, grad = np.empty(3), np.empty(6)
+    _, _, tables = payload_tables(field_payload(moon.c, moon.s, degree, moon.radius_km))
     worst = 0.0
     for h, lat, lon in zip(altitude_km, latitude, longitude):
         r_km = 1737.4 + h
@@ -151,8 +153,7 @@ def test_acceleration_matches_pyshtools_at_1000_points_to_degree_100():
         east = np.array([-np.sin(phi), np.cos(phi), 0.0])
         theirs = g_r * radial + g_theta * south + g_phi * east
         p = r_km * radial
-        acceleration_gradient_into(moon.c, moon.s, moon.gm_km3_s2, moon.radius_km, degree, p[0], p[1], p[2], False,
-                                   acc, grad)
+        field_acceleration_into(tables, moon.gm_km3_s2, moon.radius_km, degree, p[0], p[1], p[2], False, acc, grad)
         worst = max(worst, np.linalg.norm(acc * 1e3 - theirs) / np.linalg.norm(theirs))
     assert worst <= 1e-12
 
@@ -162,11 +163,15 @@ def test_the_factors_table_holds_the_recursions_factors_exactly():
     before (the expressions of M&G Eq. 3.31 and 3.33, normalised, evaluated here in Python)."""
     import math
 
-    from liaison_cli.dynamics.spherical_harmonics import (COLUMN_A, COLUMN_B, SLOPE_A, SLOPE_B, SLOPE_C,
-                                                           harmonic_factors)
+    from liaison_cli.dynamics.spherical_harmonics import (COLUMN_A, COLUMN_B, SECTORAL, SLOPE_A, SLOPE_B, SLOPE_C,
+                                                           SUBDIAGONAL, harmonic_factors)
 
     top = 40
     table = harmonic_factors(top)
+    for n in range(1, top + 1):  # the two terms each row starts from (M&G Eq. 3.30 and 3.31 with no n - 2 term)
+        sectoral = math.sqrt(3.0) if n == 1 else math.sqrt((2.0 * n + 1.0) / (2.0 * n))
+        assert table[SECTORAL, packed_index(n, n)] == sectoral
+        assert table[SUBDIAGONAL, packed_index(n, n - 1)] == math.sqrt(2.0 * (n - 1) + 3.0)
     for n in range(top + 1):
         for m in range(n + 1):
             k = packed_index(n, m)

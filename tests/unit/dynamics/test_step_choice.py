@@ -155,8 +155,10 @@ def test_the_truth_stops_halving_where_its_error_estimate_is_the_arithmetics():
     """A 100 km orbit under a degree-30 field, sampled every 3600 s for 3 days: the Richardson estimate of the RK8
     truth's growth per interval stays near 1e-5 m whatever the step (the arithmetic's, not the step's), so it was
     halved past TRUTH_MIN_STEP_S, eight halvings from 60 s to 0.23 s, and came out 1.44 mm from DOP853 at rtol
-    1e-13 as the smaller steps' rounding piled up. Two halvings in a row that fail to halve the estimate now stop
-    it (five integrations), keeping the truth of the smallest estimate: 0.38 mm (bound 0.6 mm)."""
+    1e-13 as the smaller steps' rounding piled up. Two halvings in a row that fail to halve the smallest estimate
+    so far now stop it, keeping the truth of the smallest estimate: four integrations, 0.46 mm (bound 0.6 mm).
+    Against the estimate before instead, a fall from a high one in the rounding (3.5e-5 to 1.5e-5 m) restarted
+    the count: six integrations."""
     steps, apart_m, _ = _truth_against_dop853(30, 100.0, 100.0, 60.0, 3, 3600.0)
     assert len(steps) <= 5, steps
     assert apart_m < 6e-4, apart_m
@@ -164,8 +166,11 @@ def test_the_truth_stops_halving_where_its_error_estimate_is_the_arithmetics():
 
 def test_one_halving_that_fails_to_halve_the_estimate_does_not_stop_it():
     """A 15 km perilune (8,000 km apolune) sampled every 1800 s: the estimate goes 1.64e-4, 8.82e-5, 1.57e-5 m
-    from 60 s down, its first halving short of halving it while truncation still rules (a reviewer's case).
-    Stopped there, the 30 s truth drifted from DOP853 by 7.7e-5 m per interval; carried on, by 1.09e-5 m, the
-    tolerance (bound 1.5e-5 m)."""
-    steps, _, growth_m = _truth_against_dop853(30, 15.0, 8000.0, 85.0, 1, 1800.0)
-    assert growth_m < 1.5e-5, (steps, growth_m)
+    from 60 s down, its first halving short of halving it while truncation still rules (a reviewer's case): the
+    halving carries on past that one miss. How close what it keeps comes to DOP853 is not asked at the 1e-5 m level:
+    the truth is the same on every OpenBLAS kernel, but DOP853 at rtol 1e-13 is not, and on this orbit it moves by
+    as much (the kept truth's drift from it per interval: 0.6e-5 m on the host, 2.3e-5 under Sandybridge, 4.0e-5
+    under Nehalem; the 30 s truth's: 4.8e-5 to 9.3e-5). Both stay within a millimetre of it."""
+    steps, apart_m, _ = _truth_against_dop853(30, 15.0, 8000.0, 85.0, 1, 1800.0)
+    assert len(steps) >= 4 and steps[3] < 8.0, steps  # 60, 30 (the miss), 15, 7.5 s and on
+    assert apart_m < 1e-3, apart_m
