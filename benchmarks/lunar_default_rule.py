@@ -9,15 +9,19 @@ per rule and seed. A rule is
   effect at 0.07-0.6 of 2 a_rms^2 tau), and
 - a share s: every spacecraft linked to one with an omitted field also gets s times that one's density (its
   coloured error reaches the other through the crosslink; benchmarks.lunar_noise_coupling: without it, the
-  relay's NEES leaves its band), the default's being COUPLING_SHARE.
+  relay's NEES leaves its band), the default's being COUPLING_SHARE;
+and then the shipped default as every command sets it up: the rule (FIELD_PART_FACTOR, COUPLING_SHARE) with its
+LinCov check (campaign.engine.noise_check), which raises a spacecraft's field part where LinCov finds it optimistic.
 Per formation, seed, rule and spacecraft: the PSD, the position error RMS after the settle time, err/σ with its 95 %
 interval, the own-NEES share in its band, the verdict's side and the tests that fail
 (analysis.consistency.campaign_verdict); then per rule the count of spacecraft consistent, optimistic, pessimistic
 and diverged, and the RMS against the best rule's for the same spacecraft.
 
 The formations: the lunar-relay template's (NRHO relay + 100 km polar orbiter, 60 s) at filter degrees 10, 20 and
-50; the three shipped lunar scenarios without their tuned keys; and four that no one tuned, drawn across the
-catalogue's lunar kinds, altitudes, intervals (60-600 s), noise and truncations.
+50; the three shipped lunar scenarios without their tuned keys; four that no one tuned, drawn across the
+catalogue's lunar kinds, altitudes, intervals (60-600 s), noise and truncations; and, tried after the rule was
+chosen, an EML2 halo with an 80 km orbiter at two nodes (90 deg, where the rule leaves the orbiter optimistic, and
+0 deg).
 """
 
 import argparse
@@ -59,7 +63,12 @@ UNTUNED = (
           60, 10),
     _pair("elfo_llo100_120s", ELFO, _llo(100.0, 90.0), 120, 1.0, 0.001, 60, 20),
     _pair("nrho_elfo_600s", {"orbit": "nrho_gateway"}, ELFO, 600, 5.0, 0.005, 50, 10),
+    # an EML2 halo with an 80 km orbiter, whose err/sigma under the rule moves with the orbiter's node alone
+    # (campaign.engine.noise_check): tried after the rule was chosen
+    _pair("halo_llo80_node90_60s", {"orbit": "eml2_halo"}, _llo(80.0, 75.0, 90.0), 60, 3.0, 0.005, 60, 15),
+    _pair("halo_llo80_node0_60s", {"orbit": "eml2_halo"}, _llo(80.0, 75.0, 0.0), 60, 3.0, 0.005, 60, 15),
 )
+CHECKED = "the default, LinCov-checked (shipped)"
 SHIPPED = ("lunar/relay_nrho_llo.yaml", "lunar/elfo_pair.yaml", "lunar/dro_elfo.yaml")
 
 
@@ -122,27 +131,40 @@ def evaluate(mapping: dict, runs: int) -> list[tuple]:
     from liaison_cli.scenario.setup import prepare_problem
 
     truth_cache: dict = {}
-    defaults = prepare_problem(validate_scenario(mapping, mapping["name"]), truth_cache).default_noises
+    unkeyed = prepare_problem(validate_scenario(mapping, mapping["name"]), truth_cache)
     rows = []
-    for factor, share in RULES:
-        psds = rule_psds(defaults, _linked(mapping), factor, share)
-        variant = {**mapping, "spacecraft": [{**sc, "process_noise_psd_m2_s3": psds[sc["name"]]}
-                                             if sc["name"] in psds else sc for sc in mapping["spacecraft"]]}
-        problem = prepare_problem(validate_scenario(variant, mapping["name"]), truth_cache)
+    for label, problem, psds in _rule_problems(mapping, unkeyed, truth_cache):
         summary = summary_table(CampaignResult(problem, tuple(iter_outcomes(problem, runs, jobs=2, progress=False))))
         for name, group in summary.groupby("spacecraft", sort=False):
             ok = group[group.status == "ok"]
             cells = _cells(ok) if len(ok) == len(group) else ("–",) * 4 + ("diverged", "")
             rms = float(np.sqrt(np.mean(ok.rms_position_settled_m ** 2))) if len(ok) else float("nan")
-            rows.append((rule_label(factor, share), name, psds[name], rms, cells))
+            rows.append((label, name, psds[name], rms, cells))
     return rows
+
+
+def _rule_problems(mapping: dict, unkeyed, truth_cache: dict):
+    """(label, problem, {spacecraft: PSD}) of each rule (RULES, each spacecraft's PSD as a key), then the shipped
+    default as a campaign sets it up: the rule's, checked by LinCov (campaign.engine.noise_check)."""
+    from liaison_cli.campaign.engine.noise_check import checked_problem
+    from liaison_cli.scenario.loading import validate_scenario
+    from liaison_cli.scenario.setup import prepare_problem
+
+    for factor, share in RULES:
+        psds = rule_psds(unkeyed.default_noises, _linked(mapping), factor, share)
+        variant = {**mapping, "spacecraft": [{**sc, "process_noise_psd_m2_s3": psds[sc["name"]]}
+                                             if sc["name"] in psds else sc for sc in mapping["spacecraft"]]}
+        problem = prepare_problem(validate_scenario(variant, mapping["name"]), truth_cache)
+        yield rule_label(factor, share), problem, psds
+    checked = checked_problem(unkeyed)
+    yield CHECKED, checked, {name: noise.psd_m2_s3 for name, noise in checked.default_noises.items()}
 
 
 def rule_label(factor: float, share: float) -> str:
     from liaison_cli.scenario.default_noise import COUPLING_SHARE, FIELD_PART_FACTOR
 
     shipped = (factor, share) == (FIELD_PART_FACTOR, COUPLING_SHARE)
-    return f"×{factor:g}, share {share:g}" + (" (the default)" if shipped else "")
+    return f"×{factor:g}, share {share:g}" + (" (the rule)" if shipped else "")
 
 
 def tally(results: dict, seeds) -> list[str]:
@@ -154,8 +176,7 @@ def tally(results: dict, seeds) -> list[str]:
     for key, rows in results.items():
         for _, spacecraft, _, rms, _ in rows:
             best[key, spacecraft] = min(best.get((key, spacecraft), np.inf), rms)
-    for factor, share in RULES:
-        label = rule_label(factor, share)
+    for label in [rule_label(factor, share) for factor, share in RULES] + [CHECKED]:
         for seed in (*seeds, "all"):
             verdicts, ratios = [], []
             for key, rows in results.items():

@@ -35,7 +35,7 @@ def errors(
     from liaison_cli.campaign.studies.output import StudyOutput, write_folder
     from liaison_cli.report.error_budget import draw_budget, format_budget_consistency, format_shares
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
-    from liaison_cli.scenario.setup import prepare_problem
+    from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
 
     common.check_runs(check_runs, "--check-runs")
     # The scheduler is asked only when the check will use it; a wrong backend is refused either way.
@@ -45,7 +45,7 @@ def errors(
     data, text = read_scenario_text(scenario_path)
     scenario = validate_scenario(data, str(scenario_path))  # the filter `run` would build, defaults included
     progress = not quiet and not as_json and sys.stderr.isatty()
-    study = budget_study(prepare_problem(scenario), chosen, check_runs, jobs, where, progress)
+    study = budget_study(prepare_checked_problem(scenario), chosen, check_runs, jobs, where, progress)
     table = format_shares(study.rows_all, study.rows_late)
     consistency_text = format_budget_consistency(study.consistency_rows, scenario.settle_days(), study.nees_share,
                                           check_runs)

@@ -57,6 +57,7 @@ FLOWN_REVOLUTIONS = 3.0
 # The rule for a truncated field (module docstring), checked by benchmarks.lunar_default_rule.
 FIELD_PART_FACTOR = 0.3
 COUPLING_SHARE = 1e-4
+FIELD_PART_PREFIX = "lunar field"  # the parts' labels that come from the field (campaign.engine.noise_check)
 FINE_ARC_S = 86400.0
 FINE_STEP_S = 10.0
 
@@ -208,7 +209,7 @@ def default_psd(scenario: Scenario, model, states, times_s, field_psd: float | N
         field_psd = field_truncation_psd(scenario, model, states, times_s)
     field = FIELD_PART_FACTOR * field_psd
     if field > NEGLIGIBLE_PSD_M2_S3:
-        parts[f"lunar field beyond {scenario.moon_gravity.filter_field_label}"] = field
+        parts[f"{FIELD_PART_PREFIX} beyond {scenario.moon_gravity.filter_field_label}"] = field
     return DefaultNoise(float(sum(parts.values())), parts)
 
 
@@ -231,7 +232,7 @@ def with_field_coupling(defaults: dict, field_psds: dict, linked: dict) -> dict:
         parts = dict(noise.parts)
         for other in sorted(linked.get(name, ())):
             if field_psds.get(other, 0.0) >= FLOOR_PSD_M2_S3:
-                parts[f"lunar field via {other}"] = COUPLING_SHARE * field_psds[other]
+                parts[f"{FIELD_PART_PREFIX} via {other}"] = COUPLING_SHARE * field_psds[other]
         out[name] = DefaultNoise(float(sum(parts.values())), parts)
     return out
 

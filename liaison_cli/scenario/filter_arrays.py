@@ -164,6 +164,12 @@ def biased_filter_params(scenario: Scenario, model, cr_draw: float = 0.0, moon_g
     return model.scaled_filter_params(cr_factor, gm_factor)
 
 
+def process_noise_matrix(scenario: Scenario, layout: StateLayout, defaults: dict) -> np.ndarray:
+    """Q (n, n) with these defaults {spacecraft: DefaultNoise} for the spacecraft that name no process noise (what
+    estimator_setup built, with other defaults: campaign.engine.noise_check raises some)."""
+    return _matrices(scenario, layout, defaults)[1]
+
+
 def _matrices(scenario: Scenario, layout: StateLayout, defaults: dict):
     """P0 and Q (n, n), block by block; defaults: {spacecraft: DefaultNoise} for those that name no process
     noise (scenario.default_noise)."""

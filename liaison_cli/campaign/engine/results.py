@@ -22,7 +22,8 @@ from liaison_cli.campaign.engine.worker import RunOutcome
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.scenario_model import Scenario
-from liaison_cli.scenario.setup import Problem, prepare_problem
+from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
+from liaison_cli.scenario.setup import Problem
 from liaison_cli.storage import ParquetStream, write_columns_atomic, write_text_atomic
 
 if TYPE_CHECKING:
@@ -390,7 +391,7 @@ def stream_campaign(scenario: Scenario, out_dir, scenario_text: str, runs: int |
     """Run a campaign and write its tables as runs finish: memory does not grow with the run count.
     Returns the problem and the summary rows."""
     started = time.perf_counter()
-    problem = prepare_problem(scenario)
+    problem = prepare_checked_problem(scenario)
     prepared = time.perf_counter()
     log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
@@ -408,7 +409,7 @@ def summarise_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 
                        where: Backend = LOCAL) -> tuple[Problem, "pd.DataFrame"]:
     """Run a campaign and keep only its summary rows (for tables across scenarios: compare, Table 3)."""
     started = time.perf_counter()
-    problem = prepare_problem(scenario, truth_cache)
+    problem = prepare_checked_problem(scenario, truth_cache)
     prepared = time.perf_counter()
     log.info("%s: truth, measurement plan and filter set up in %.2f s", scenario.name, prepared - started)
     n_runs = scenario.monte_carlo.runs if runs is None else runs

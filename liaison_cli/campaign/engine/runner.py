@@ -9,7 +9,8 @@ from dataclasses import dataclass
 
 from tqdm import tqdm
 
-from liaison_cli.scenario.setup import Problem, prepare_problem
+from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
+from liaison_cli.scenario.setup import Problem
 from liaison_cli.scenario.scenario_model import Scenario
 from liaison_cli.campaign.engine.backends import LOCAL, Backend, map_batches
 from liaison_cli.campaign.engine.worker import RunOutcome, RunTask, execute_run
@@ -127,10 +128,10 @@ def run_campaign(scenario: Scenario, runs: int | None = None, jobs: int = 2, pro
     run index (for studies of a few hundred runs; `liaison run` streams instead, see results.stream_campaign).
 
     The numbers of a run depend only on (scenario, seed, run index), never on `jobs` or the backend.
-    `truth_cache`: see `prepare_problem`.
+    `truth_cache`: see `scenario.setup.prepare_problem`; the default noise is LinCov-checked (engine.noise_check).
     """
     check_campaign_arguments(scenario, runs, jobs)
-    problem = prepare_problem(scenario, truth_cache)
+    problem = prepare_checked_problem(scenario, truth_cache)
     n_runs = scenario.monte_carlo.runs if runs is None else runs
     outcomes = tuple(iter_outcomes(problem, n_runs, jobs, progress, description, where))
     return CampaignResult(problem=problem, outcomes=outcomes)

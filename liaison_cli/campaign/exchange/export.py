@@ -31,7 +31,8 @@ from liaison_cli.exchange.timetags import met_tags, tags_to_seconds, tdb_tags
 from liaison_cli.scenario.observed import channel_track
 from liaison_cli.scenario.loading import validate_scenario
 from liaison_cli.scenario.scenario_model import Scenario
-from liaison_cli.scenario.setup import Problem, prepare_problem
+from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
+from liaison_cli.scenario.setup import Problem
 from liaison_cli.storage import read_metadata, write_text_atomic
 
 KM_PER_SCALED = np.array([LU_KM] * 3 + [VU_KM_S] * 3)  # scaled state -> km, km/s (both dynamics)
@@ -263,7 +264,7 @@ def export_run(result_dir, run: int, formats: tuple, out_dir, request: FrameRequ
     scenario = result_scenario(result_dir)
     if scenario.measurements is not None:
         run = 0
-    problem = prepare_problem(scenario)
+    problem = prepare_checked_problem(scenario)
     frame = export_frame(problem, request)  # a request the run cannot take is refused before the run is redone
     recomputed = recompute_run(problem, run)
     difference_m, within = check_against_stored(result_dir, recomputed)

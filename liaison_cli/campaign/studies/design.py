@@ -274,7 +274,7 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
     measured, the score (the objective's RMS), or `error` with the reason. Never raises."""
     from liaison_cli.campaign.studies.error_budget import error_budget
     from liaison_cli.scenario.loading import validate_scenario
-    from liaison_cli.scenario.setup import prepare_problem
+    from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
     from liaison_cli.scenario.truth import SPACECRAFT_CACHE
 
     row = {"candidate": candidate.index, "family": candidate.family, "period_days": candidate.period_days,
@@ -284,7 +284,7 @@ def score_candidate(design: Design, candidate: Candidate) -> dict:
         scenario = validate_scenario(candidate_mapping(design, candidate), "design candidate")
         if len(_FLOWN) > FLOWN_MAX_ENTRIES:
             _FLOWN.clear()
-        problem = prepare_problem(scenario, {SPACECRAFT_CACHE: _FLOWN})
+        problem = prepare_checked_problem(scenario, {SPACECRAFT_CACHE: _FLOWN})
         budget = error_budget(problem)
         settled = budget.times_s >= scenario.settle_days() * SECONDS_PER_DAY
         rms = {}

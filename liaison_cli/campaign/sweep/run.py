@@ -17,7 +17,7 @@ from liaison_cli.campaign.sweep.plan import SweepInterrupted, SweepPlan, SweepTa
 from liaison_cli.campaign.sweep.tables import build_curve_table, build_runs_table, write_sweep_tables
 from liaison_cli.campaign.sweep.worker import execute_sweep_batch  # the workers import that light module, not this one
 from liaison_cli import interrupts
-from liaison_cli.scenario.setup import prepare_problem
+from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
 
 
 def _batches(pending: list[SweepTask], batch_runs: int) -> list[tuple[int, list[SweepTask]]]:
@@ -96,7 +96,7 @@ class _Problems(dict):
         self.plan, self.left, self.truth_cache = plan, set(points), {}
 
     def __missing__(self, point: int):
-        problem = self[point] = prepare_problem(self.plan.points[point].scenario, self.truth_cache)
+        problem = self[point] = prepare_checked_problem(self.plan.points[point].scenario, self.truth_cache)
         self.left.discard(point)
         if not self.left:
             self.truth_cache = {}
