@@ -135,12 +135,24 @@ def evaluate(mapping: dict, runs: int) -> list[tuple]:
     rows = []
     for label, problem, psds in _rule_problems(mapping, unkeyed, truth_cache):
         summary = summary_table(CampaignResult(problem, tuple(iter_outcomes(problem, runs, jobs=2, progress=False))))
+        predicted = _lincov_position_ratios(problem)
         for name, group in summary.groupby("spacecraft", sort=False):
             ok = group[group.status == "ok"]
             cells = _cells(ok) if len(ok) == len(group) else ("–",) * 4 + ("diverged", "")
+            cells = (*cells[:3], f"{predicted[name]:.2f}", *cells[3:])
             rms = float(np.sqrt(np.mean(ok.rms_position_settled_m ** 2))) if len(ok) else float("nan")
             rows.append((label, name, psds[name], rms, cells))
     return rows
+
+
+def _lincov_position_ratios(problem) -> dict:
+    """{spacecraft: LinCov's position err/sigma after the settle time} (campaign.studies.lincov_budget, the statistic
+    the Monte Carlo's err/sigma column estimates)."""
+    from liaison_cli.campaign.studies.lincov_budget import consistency, error_budget
+    from liaison_cli.dynamics.constants import SECONDS_PER_DAY
+
+    rows = consistency(error_budget(problem), problem.scenario.settle_days() * SECONDS_PER_DAY)
+    return {row["spacecraft"]: row["position_error_to_sigma"] for row in rows}
 
 
 def _rule_problems(mapping: dict, unkeyed, truth_cache: dict):
@@ -202,7 +214,8 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     started = time.perf_counter()
     lines = ["| formation | seed | rule | spacecraft | PSD, m²/s³ | pos RMS after settle, m | σ RMS, m | err/σ | "
-             "own NEES in band | verdict | failed tests |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "LinCov's err/σ | own NEES in band | verdict | failed tests |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     results = {}
     for seed in args.seeds:
         for mapping in formations(args.days, args.runs, seed):

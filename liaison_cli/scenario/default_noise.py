@@ -32,8 +32,10 @@ The factor and the share were picked on benchmarks.lunar_noise_coupling's relay 
 formations, six of them out of sample, with two campaign seeds (benchmarks.lunar_default_rule,
 results/reference/lunar_default_rule.md): never optimistic there, 22 of 40 spacecraft consistent against 7 with the
 part at 2 a_rms^2 tau and no share.
-Not a bound: an EML2 halo with an 80 km orbiter (truth degree 60, filter 15, at 60 and 600 s) leaves the orbiter
-optimistic, err/sigma 2.9 (1.6 with 2 a_rms^2 tau); the run's verdict and advice say so.
+Not a bound by itself: an EML2 halo with an 80 km orbiter (truth degree 60, filter 15) leaves the orbiter optimistic
+or pessimistic with its node alone (LinCov err/sigma 0.64 to 2.3). So every command that flies a filter has LinCov
+check these defaults first and raise a field part it finds optimistic (campaign.engine.noise_check); what is here
+is the rule before that check.
 Each part is kept so the run can say where the default came from (default_noise_line).
 """
 

@@ -9,6 +9,8 @@
 - runner: its ordered layer (run_tasks_in_order): a small job in this process, else its first task here and the
   rest through the fan-out in task order; a scenario's runs (iter_outcomes, run_campaign) and the error
   budget's check runs go through it;
+- noise_check: a scenario's problem as every command sets it up (prepare_checked_problem): the derived default
+  process noise checked by LinCov, a lunar-field part it finds optimistic raised;
 - results: a scenario's campaign streamed to Parquet with provenance, and its tables as DataFrames;
 - warmup: compiling every kernel specialisation the shipped scenarios need, ahead of the first run.
 """

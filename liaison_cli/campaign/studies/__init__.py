@@ -12,7 +12,8 @@ beside a sweep or a named table).
 - design: `liaison design`, candidates scored by LinCov, ranked and the best verified by Monte Carlo, with
   design_choices (its --choices file read and checked) and design_store (finished batches kept, so a search
   resumes);
-- error_budget: the EKF's error split by source, with its Monte Carlo check; budget_tables: its tables;
+- error_budget: the EKF's error split by source, with its Monte Carlo check (lincov_budget: its LinCov half,
+  which the engine's default-noise check reads too); budget_tables: its tables;
 - output: StudyOutput and the writers (write_folder, write_files, fill_folder), the one place results are
   written from.
 """
