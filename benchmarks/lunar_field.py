@@ -194,7 +194,6 @@ def filter_study(runs: int = 8) -> list[str]:
     from liaison_cli.campaign.engine.results import summary_table
     from liaison_cli.campaign.engine.runner import run_campaign
     from liaison_cli.scenario.loading import validate_scenario
-    from liaison_cli.scenario.setup import prepare_problem
 
     lines = ["| filter degree | spacecraft | pos RMS >1 d m | err/σ | NEES own in band | consistent | "
              "default q m²/s³ |",
@@ -210,8 +209,9 @@ def filter_study(runs: int = 8) -> list[str]:
                    "moon_gravity": {"degree": TRUTH_DEGREE, "filter_degree": degree},
                    "monte_carlo": {"runs": runs, "seed": 1}}
         scenario = validate_scenario(mapping, mapping["name"])
-        noises = prepare_problem(scenario).default_noises
-        summary = summary_table(run_campaign(scenario, jobs=2, progress=False))
+        result = run_campaign(scenario, jobs=2, progress=False)
+        noises = result.problem.default_noises  # as the campaign flew it: the rule, LinCov-checked
+        summary = summary_table(result)
         for name, rms_m, ratio, halfwidth, in_band, consistent in settled_figures(summary):
             lines.append(f"| {degree} | {name} | {rms_m:.3g} | {ratio:.2f}±{halfwidth:.2f} | {100 * in_band:.0f} % | "
                          f"{'yes' if consistent else 'no'} | {noises[name].psd_m2_s3:.2g} |")

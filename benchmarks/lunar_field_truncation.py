@@ -8,8 +8,9 @@ degree 0 (a point-mass Moon), 10, 20, 50 and 100, every filter setting left to i
 and spacecraft, over the epochs after day 1: the position error RMS and the filter's sigma RMS, err/sigma with
 its 95 % interval, the spacecraft's own-NEES share in its band, the verdict, and the process noise the default
 chose (scenario.default_noise: its floor, its "lunar field beyond degree N" part and, for the relay, its share
-"lunar field via User"). Then, per filter degree, the factor on that default (every spacecraft's alike) that the
-consistency verdict needs (scale_scan), with the figures there. `liaison tune`'s rule cannot answer this: it gives every spacecraft one SNC from a ladder that
+"lunar field via User"; then campaign.engine.noise_check's LinCov check, which raises a field part LinCov finds
+optimistic, as every command does). Then, per filter degree, the factor on the rule's default before that check
+(every spacecraft's alike) that the consistency verdict needs (scale_scan), with the figures there. `liaison tune`'s rule cannot answer this: it gives every spacecraft one SNC from a ladder that
 ends at 1e-5 m/s^2, and a 100 km orbiter under a truncated field needs far more than its relay.
 """
 
@@ -54,9 +55,9 @@ def _verdict_cells(rows) -> tuple[str, str, str, str, str]:
 
 def defaults_table(days: float, runs: int, truth_cache: dict) -> tuple[list[str], dict]:
     from liaison_cli.campaign.engine.results import summary_table
+    from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
     from liaison_cli.campaign.engine.runner import CampaignResult, iter_outcomes
     from liaison_cli.scenario.loading import validate_scenario
-    from liaison_cli.scenario.setup import prepare_problem
 
     lines = ["| filter degree | spacecraft | pos RMS after day 1, m | σ RMS, m | err/σ | own NEES in band | verdict | "
              "default q, m²/s³ | run s |",
@@ -66,7 +67,7 @@ def defaults_table(days: float, runs: int, truth_cache: dict) -> tuple[list[str]
         mapping = formation(degree, days, runs)
         scenario = validate_scenario(mapping, mapping["name"])
         scenarios[degree] = (scenario, yaml.safe_dump(mapping, sort_keys=False))
-        problem = prepare_problem(scenario, truth_cache)
+        problem = prepare_checked_problem(scenario, truth_cache)  # as a campaign sets it up
         started = time.perf_counter()
         outcomes = tuple(iter_outcomes(problem, runs, jobs=2, progress=False))
         seconds = (time.perf_counter() - started) / runs
@@ -94,7 +95,7 @@ def scaled_noise(scenario, factor: float, defaults: dict):
 
 def scale_scan(scenario, runs: int, truth_cache: dict, jobs: int = 2) -> tuple[float | None, list, float]:
     """(the smallest factor of SCALES at which every estimated spacecraft passes the consistency verdict with
-    its default PSD times it, None if none; [(spacecraft, pos RMS, err/σ ± hw, own NEES in band)] at that factor,
+    its default PSD (the rule's, before the LinCov check) times it, None if none; [(spacecraft, pos RMS, err/σ ± hw, own NEES in band)] at that factor,
     or at the factor whose worst own-NEES share is best; seconds). Factors run from 1 down while they pass, else
     up from 1 when a spacecraft's NEES lies mostly above its band (one campaign of `runs` per factor)."""
     from liaison_cli.analysis.consistency import campaign_verdict
@@ -213,8 +214,9 @@ def main(argv=None) -> None:
         f"edit by hand. NRHO relay (9:2 southern, Gateway) + 100 km polar orbiter, two-way range + range-rate every "
         f"60 s (2.21 m, 11 mm/s), {args.days:g} d, {args.runs} runs, truth GRGM1200A at degree {TRUTH_DEGREE}, every "
         "filter setting at its default; statistics over the epochs after day 1 (the settle time).", "",
-        "With the defaults:", "", *defaults, "",
-        "The default process noise scaled, every spacecraft's by one factor (1-2-5 steps from 1e-4 to 10; from 1 "
+        "With the defaults, as a campaign flies them (the rule, checked by LinCov):", "", *defaults, "",
+        "The rule's default process noise (before the LinCov check) scaled, every spacecraft's by one factor (1-2-5 "
+        "steps from 1e-4 to 10; from 1 "
         "down while the verdict passes, else down, or up when a spacecraft's NEES lies mostly above its band): the smallest factor at which every spacecraft passes "
         "the consistency verdict, and the figures there (or, when none passes, at the factor whose worst own-NEES "
         "share is best):", "", *tuned, "",

@@ -24,6 +24,10 @@ def __getattr__(name: str):
 
 # Compiled (numba) modules; their on-disk cache must be invalidated when any of them changes.
 COMPILED_PACKAGES = ("dynamics", "measurements", "estimation", "analysis")
+# Every package whose code shapes a run's numbers (the derived default noise and its LinCov check included): a
+# resumable result (a sweep's manifest) is keyed on their hash, so a resume never mixes runs of different code.
+RESULT_PACKAGES = ("dynamics", "radio", "orbits", "measurements", "estimation", "analysis", "exchange", "scenario",
+                   "campaign")
 
 
 def core_source_hash(packages=COMPILED_PACKAGES) -> str:

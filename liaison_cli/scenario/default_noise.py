@@ -33,9 +33,9 @@ formations, six of them out of sample, with two campaign seeds (benchmarks.lunar
 results/reference/lunar_default_rule.md): never optimistic there, 22 of 40 spacecraft consistent against 7 with the
 part at 2 a_rms^2 tau and no share.
 Not a bound by itself: an EML2 halo with an 80 km orbiter (truth degree 60, filter 15) leaves the orbiter optimistic
-or pessimistic with its node alone (LinCov err/sigma 0.64 to 2.3). So every command that flies a filter has LinCov
-check these defaults first and raise a field part it finds optimistic (campaign.engine.noise_check); what is here
-is the rule before that check.
+or pessimistic with its node alone (LinCov err/sigma 0.64 to 2.3). So every command that flies a filter on a
+scenario has LinCov check these defaults first, where LinCov has a budget for the scenario, and raise a field part
+it finds optimistic (campaign.engine.noise_check); what is here is the rule before that check.
 Each part is kept so the run can say where the default came from (default_noise_line).
 """
 

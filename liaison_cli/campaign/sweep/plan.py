@@ -7,7 +7,7 @@ import itertools
 import json
 from dataclasses import dataclass, field
 
-from liaison_cli import core_source_hash
+from liaison_cli import RESULT_PACKAGES, core_source_hash
 from liaison_cli.errors import LiaisonError
 from liaison_cli.scenario.loading import apply_overrides
 from liaison_cli.scenario.scenario_model import Scenario
@@ -111,7 +111,7 @@ class SweepPlan:
             "kind": "header",
             "format": MANIFEST_FORMAT,
             "sweep": self.name,
-            "core_hash": core_source_hash(),
+            "core_hash": core_source_hash(RESULT_PACKAGES),  # the code that shapes its numbers
             "points": [p.header_entry() for p in self.points],
         }
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from liaison_cli import __version__, core_source_hash
+from liaison_cli import RESULT_PACKAGES, __version__, core_source_hash
 from liaison_cli.analysis.consistency import campaign_verdict
 from liaison_cli.analysis.metrics import campaign_error_to_sigma
 from liaison_cli.campaign.sweep.plan import SweepPlan, SweepPoint
@@ -114,7 +114,7 @@ def sweep_metadata(plan: SweepPlan) -> dict:
         "package": "liaison",
         "package_version": __version__,
         "arithmetic": arithmetic_provenance(),
-        "core_hash": core_source_hash(),
+        "core_hash": core_source_hash(RESULT_PACKAGES),
         "sweep": plan.name,
         "runs_per_point": plan.runs,
         "grid": [[key, list(values)] for key, values in plan.grid],

@@ -1,6 +1,6 @@
 """The derived default noise's LinCov check (campaign.engine.noise_check): a truncated lunar field leaves the rule's
 default optimistic on some formations and not on others; LinCov says which, the check raises the field's part
-until LinCov's err/sigma is 1, and the Monte Carlo agrees. An EML2 halo + 80 km, 75 deg orbiter, truth degree 60,
+until LinCov's err/sigma is the check's target, and the Monte Carlo agrees. An EML2 halo + 80 km, 75 deg orbiter, truth degree 60,
 filter 15, range + range-rate every 120 s, 2 d: with the node at 90 deg the rule's default is optimistic (LinCov
 err/sigma 2.30, the Monte Carlo's 2.33 +- 0.04 at 60 s); at 30 deg it is pessimistic (0.64) and stays as it is.
 The check raises to campaign.engine.noise_check.TARGET_RATIO (1.25)."""
@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from liaison_cli.analysis.consistency import campaign_verdict
-from liaison_cli.campaign.engine.noise_check import (RAISE_PART, TARGET_RATIO, checked_problem,
+from liaison_cli.campaign.engine.noise_check import (CLOSE_ENOUGH, RAISE_PART, TARGET_RATIO, checked_problem,
                                                      lincov_error_to_sigma, prepare_checked_problem)
 from liaison_cli.campaign.engine.runner import run_campaign
 from liaison_cli.scenario.loading import validate_scenario
@@ -37,7 +37,8 @@ def test_an_optimistic_default_is_raised_until_lincov_says_the_target(optimistic
     assert before["Lunar"] > 2.0 and before["EML2"] < 1.0
     checked = checked_problem(optimistic)
     after = lincov_error_to_sigma(checked)
-    assert TARGET_RATIO - 0.03 < after["Lunar"] <= TARGET_RATIO + 1e-3 and after["EML2"] < 1.0
+    assert TARGET_RATIO - 0.03 < after["Lunar"] <= TARGET_RATIO * CLOSE_ENOUGH and after["EML2"] < 1.0
+    assert checked_problem(checked) is checked  # checked once: a second check adds nothing
     lunar = checked.default_noises["Lunar"]
     raises = [what for what in lunar.parts if what.startswith(RAISE_PART)]
     assert raises == [f"{RAISE_PART} {before['Lunar']:.2f} -> {after['Lunar']:.2f}"]
