@@ -36,6 +36,7 @@ def errors(
     from liaison_cli.report.error_budget import draw_budget, format_budget_consistency, format_shares
     from liaison_cli.scenario.loading import read_scenario_text, scenario_file, validate_scenario
     from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
+    from liaison_cli.scenario.default_noise import default_noise_line
 
     common.check_runs(check_runs, "--check-runs")
     # The scheduler is asked only when the check will use it; a wrong backend is refused either way.
@@ -45,11 +46,14 @@ def errors(
     data, text = read_scenario_text(scenario_path)
     scenario = validate_scenario(data, str(scenario_path))  # the filter `run` would build, defaults included
     progress = not quiet and not as_json and sys.stderr.isatty()
-    study = budget_study(prepare_checked_problem(scenario), chosen, check_runs, jobs, where, progress)
+    problem = prepare_checked_problem(scenario)  # the default noise as `run` flies it, LinCov-checked
+    study = budget_study(problem, chosen, check_runs, jobs, where, progress)
     table = format_shares(study.rows_all, study.rows_late)
     consistency_text = format_budget_consistency(study.consistency_rows, scenario.settle_days(), study.nees_share,
                                           check_runs)
     if not as_json:
+        if problem.default_noises:  # the same line as `run`'s: where the budget's process noise came from
+            typer.echo(default_noise_line(problem.default_noises))
         _print_budget(scenario, table, study.checks, check_runs)
         typer.echo(consistency_text, nl=False)
     out_dir = output or Path("results") / f"{scenario.name}-errors"

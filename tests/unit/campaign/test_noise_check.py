@@ -72,3 +72,26 @@ def test_a_pessimistic_default_and_a_users_key_are_left_as_they_are():
     keyed, unchecked = prepare_checked_problem(spec), prepare_problem(spec)
     assert "Lunar" not in keyed.default_noises
     assert np.array_equal(keyed.Q[6:12, 6:12], unchecked.Q[6:12, 6:12])
+
+
+def test_run_and_errors_say_what_the_check_raised(tmp_path):
+    """`liaison errors` (as `run`) prints the default's parts, the raise among them, and the result's provenance
+    keeps them."""
+    import re
+
+    import yaml
+
+    from liaison_cli.api import provenance
+    from tests.conftest import run_cli_in_process
+
+    path = tmp_path / "optimistic.yaml"
+    path.write_text(yaml.safe_dump(formation(90.0), sort_keys=False))
+    errors = run_cli_in_process("errors", path, "--output", tmp_path / "budget")
+    assert errors.returncode == 0, errors.stderr
+    line = next(row for row in errors.stdout.splitlines() if row.startswith("process noise: default PSD"))
+    assert re.search(rf"{RAISE_PART} 2\.3\d -> 1\.2[56] ", line), line  # from the rule's 2.3 to the target
+    run = run_cli_in_process("run", path, "--runs", "2", "--output", tmp_path / "run")
+    assert run.returncode == 0, run.stderr
+    assert RAISE_PART in run.stdout
+    parts = provenance(tmp_path / "run")["chosen_settings"]["default_process_noise"]["Lunar"]["parts_m2_s3"]
+    assert any(what.startswith(RAISE_PART) for what in parts)
