@@ -28,12 +28,12 @@ q (m^2/s^3, isotropic white acceleration; estimation.process_noise) is the sum o
   2 a_rms^2 tau (with_field_coupling). The linked one's coloured error leaks through the crosslink into a relay
   that has no field error of its own; with the user's part lowered and the relay at the floor, the relay's NEES
   left its band entirely (benchmarks.lunar_noise_coupling).
-The factor and the share were picked on benchmarks.lunar_noise_coupling's relay formation and checked on ten
-formations, six of them out of sample, with two campaign seeds (benchmarks.lunar_default_rule,
-results/reference/lunar_default_rule.md): never optimistic there, 22 of 40 spacecraft consistent against 7 with the
-part at 2 a_rms^2 tau and no share.
-Not a bound by itself: an EML2 halo with an 80 km orbiter (truth degree 60, filter 15) leaves the orbiter optimistic
-or pessimistic with its node alone (LinCov err/sigma 0.64 to 2.3). So every command that flies a filter on a
+The factor and the share were picked on benchmarks.lunar_noise_coupling's relay formation and checked on twelve
+formations, eight of them out of sample, with two campaign seeds (benchmarks.lunar_default_rule,
+results/reference/lunar_default_rule.md): 24 of 48 spacecraft consistent, against 11 with the part at 2 a_rms^2 tau
+and no share; 4 optimistic, the EML2 halo + 80 km orbiter at node 90 deg.
+Not a bound by itself: that formation's orbiter (truth degree 60, filter 15) runs at err/sigma 0.71-0.75 at node 0
+deg and 2.20-2.23 at node 90 deg under the rule (the table). So every command that flies a filter on a
 scenario has LinCov check these defaults first, where LinCov has a budget for the scenario, and raise a field part
 it finds optimistic (campaign.engine.noise_check); what is here is the rule before that check.
 Each part is kept so the run can say where the default came from (default_noise_line).
