@@ -12,9 +12,9 @@ Parts, each with its acceleration and its gradient (the STM's):
 Parameter vector (plain data, so one compiled body serves every field; issue 49's "specialise on data"):
 params[0] = mu; with added terms, params[1] = their count T, then T pairs (kind, start of its payload), then the
 payloads. TERM_HARMONICS: spherical_harmonics.field_payload with the reference radius in LU (degree, radius, the
-recursions' factors and the field's weight tables); TERM_J2: J2, reference radius (LU). A point-mass CRTBP is [mu] alone (the golden record's arithmetic, bit for bit). Every
-term's GM is the CRTBP's Moon, mu (LU^3/TU^2); GRGM1200A's own GM differs from it by 2e-7 relative, which scales
-the terms' small accelerations by as much.
+recursions' factors and the field's weight tables); TERM_J2: J2, reference radius (LU). A point-mass CRTBP is
+[mu] alone (the golden record's arithmetic, bit for bit). Every term's GM is the CRTBP's Moon, mu (LU^3/TU^2);
+GRGM1200A's own GM differs from it by 2e-7 relative, which scales the terms' small accelerations by as much.
 
 Frame: the Moon is tidally locked with its principal axes on the rotating frame: x_PA = -x (towards the Earth),
 y_PA = -y (against the orbital motion), z_PA = z. What that leaves out (the physical and optical librations, up to

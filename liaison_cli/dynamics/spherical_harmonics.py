@@ -115,19 +115,6 @@ def solid_harmonics_into(x, y, z, radius, degree, factors, v, w):
         w[row + n] = f * (xr * wc + yr * vc)
 
 
-def solid_harmonics(x, y, z, radius, degree):
-    """Normalised V̄_nm, W̄_nm (degree + 1, degree + 1) at (x, y, z) (solid_harmonics_into, unpacked; zero where
-    m > n)."""
-    size = packed_index(degree, degree) + 1
-    v, w = np.empty(size), np.empty(size)
-    solid_harmonics_into(float(x), float(y), float(z), float(radius), degree, harmonic_factors(degree), v, w)
-    v2, w2 = np.zeros((degree + 1, degree + 1)), np.zeros((degree + 1, degree + 1))
-    for n in range(degree + 1):
-        for m in range(n + 1):
-            v2[n, m], w2[n, m] = v[packed_index(n, m)], w[packed_index(n, m)]
-    return v2, w2
-
-
 @njit(cache=True, inline="always")
 def effective_degree(degree, radius, r2):
     """The degree the sum needs at squared distance r2 (module docstring): degree itself inside 1.5 R."""

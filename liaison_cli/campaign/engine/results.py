@@ -18,11 +18,11 @@ from liaison_cli.analysis.metrics import chi2_quantile, nees_band
 from liaison_cli.campaign.engine.backends import LOCAL, Backend
 from liaison_cli.campaign.engine.runner import CampaignResult, iter_outcomes
 from liaison_cli.campaign.engine.clock_record import clock_record_names
+from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
 from liaison_cli.campaign.engine.worker import RunOutcome
 from liaison_cli.dynamics.constants import SECONDS_PER_DAY
 from liaison_cli.provenance import arithmetic_provenance
 from liaison_cli.scenario.scenario_model import Scenario
-from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
 from liaison_cli.scenario.setup import Problem
 from liaison_cli.storage import ParquetStream, write_columns_atomic, write_text_atomic
 

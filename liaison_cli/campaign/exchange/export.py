@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
 from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU, TU_S, VU_KM_S
 from liaison_cli.errors import ExchangeFileError, UnreadableFileError
@@ -31,7 +32,6 @@ from liaison_cli.exchange.timetags import met_tags, tags_to_seconds, tdb_tags
 from liaison_cli.scenario.observed import channel_track
 from liaison_cli.scenario.loading import validate_scenario
 from liaison_cli.scenario.scenario_model import Scenario
-from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
 from liaison_cli.scenario.setup import Problem
 from liaison_cli.storage import read_metadata, write_text_atomic
 
