@@ -149,7 +149,7 @@ def field_state_stm_rhs(y, params, out):
 def _add_terms_to_derivative(y, params, out):
     """out[3:6] += the added terms' acceleration at y's position (field_derivative_into)."""
     acc, grad = np.empty(3), np.empty(6)
-    added_terms_into(params, y[0], y[1], y[2], False, acc, grad)
+    added_terms_into(params, y[0], y[1], y[2], np.bool_(False), acc, grad)  # no literal: one compile
     for i in range(3):
         out[3 + i] += acc[i]
 
@@ -158,7 +158,7 @@ def _add_terms_to_derivative(y, params, out):
 def _add_terms_to_state_stm_rhs(y, params, out):
     """out (42,) += the added terms' acceleration and their gradient times Phi's position rows (field_state_stm_rhs)."""
     acc, grad = np.empty(3), np.empty(6)
-    added_terms_into(params, y[0], y[1], y[2], True, acc, grad)
+    added_terms_into(params, y[0], y[1], y[2], np.bool_(True), acc, grad)  # no literal: one compile
     gxx, gyy, gzz, gxy, gxz, gyz = grad[0], grad[1], grad[2], grad[3], grad[4], grad[5]
     for i in range(3):
         out[3 + i] += acc[i]

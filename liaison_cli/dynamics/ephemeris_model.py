@@ -144,7 +144,7 @@ def ephemeris_accelerations_scaled(params, states, times_tu):
         for i in range(6):
             y[i] = states[k, i] * SCALE[i]
         ephemeris_derivative(epoch + times_tu[k] * TU_S, y, coeffs, start_s, interval_s, n_records, bodies, gms,
-                             gm_earth, cr_am, terms, False, dy)
+                             gm_earth, cr_am, terms, np.bool_(False), dy)  # no literal: one compile
         for i in range(3):
             out[k, i] = dy[3 + i] / AU_KM_S2
     return out

@@ -201,9 +201,8 @@ def field_weights(c, s, degree, factors):
             # d/dx and d/dy: combinations of the (n + 1, m +- 1) harmonics' derivatives (gxx, gxy, gyy)
             a = factors[SLOPE_A, k]
             if m == 0:  # dV̄_n0/dx = -a V̄_{n+1,1}, dV̄_n0/dy = -a W̄_{n+1,1}
-                _add_derivative(grad_weights, 0, factors, n + 1, 1, 0, -a * cnm)
-                _add_derivative(grad_weights, 3, factors, n + 1, 1, 1, -a * cnm)
-                _add_derivative(grad_weights, 1, factors, n + 1, 1, 4, -a * cnm)
+                for output, component in ((0, 0), (3, 1), (1, 4)):  # a loop: literal indices compile a callee again
+                    _add_derivative(grad_weights, output, factors, n + 1, m + 1, component, -a * cnm)
                 continue
             half_a, half_b = 0.5 * a, 0.5 * factors[SLOPE_B, k]
             # d/dx: dV̄/dx = (-a V̄p + b V̄m) / 2, dW̄/dx = (-a W̄p + b W̄m) / 2 (p, m: orders m + 1, m - 1)
@@ -213,10 +212,9 @@ def field_weights(c, s, degree, factors):
                 _add_derivative(grad_weights, output, factors, n + 1, m + 1, w_part, -half_a * snm)
                 _add_derivative(grad_weights, output, factors, n + 1, m - 1, w_part, half_b * snm)
             # gyy: dV̄/dy = (-a W̄p - b W̄m) / 2, dW̄/dy = (a V̄p + b V̄m) / 2, their y derivatives
-            _add_derivative(grad_weights, 1, factors, n + 1, m + 1, 4, -half_a * cnm)
-            _add_derivative(grad_weights, 1, factors, n + 1, m - 1, 4, -half_b * cnm)
-            _add_derivative(grad_weights, 1, factors, n + 1, m + 1, 1, half_a * snm)
-            _add_derivative(grad_weights, 1, factors, n + 1, m - 1, 1, half_b * snm)
+            for output, order, component, weight in ((1, m + 1, 4, -half_a * cnm), (1, m - 1, 4, -half_b * cnm),
+                                                     (1, m + 1, 1, half_a * snm), (1, m - 1, 1, half_b * snm)):
+                _add_derivative(grad_weights, output, factors, n + 1, order, component, weight)
     return acc_weights, grad_weights
 
 

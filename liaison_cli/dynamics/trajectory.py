@@ -36,7 +36,7 @@ class CrtbpTrajectory:
     def accelerations(self) -> np.ndarray:
         """(m, 3) rotating-frame accelerations (Eq. 6-8, Coriolis and centrifugal terms included, and the lunar
         field when the parameters carry it)."""
-        return field_accelerations(np.ascontiguousarray(self.states), self.params)
+        return field_accelerations(np.require(self.states, float, ("C", "W")), self.params)  # writable: one signature
 
     def inertial_position_before(self, dt_back_tu):
         states, acc = self.states, self.accelerations  # computed once per trajectory: light-time iterations reuse it

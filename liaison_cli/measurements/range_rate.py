@@ -50,7 +50,8 @@ def predict_range_rate(x_receiver, x_transponder, flags, g_receiver, g_transpond
 
 
 def _simulate(code, receiver, transponder, light_time: bool):
-    return np.array([range_rate(a, b) for a, b in zip(receiver.states, transponder.states)])
+    # Writable copies: a read-only array would compile range_rate once more for its own signature.
+    return np.array([range_rate(a, b) for a, b in zip(np.array(receiver.states), np.array(transponder.states))])
 
 
 def _sigma(noise, receiver):

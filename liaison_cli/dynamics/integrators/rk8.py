@@ -24,6 +24,9 @@ from liaison_cli.dynamics.integrators.rk4 import steps_between
 RK8_A = np.ascontiguousarray(_dop853.A, dtype=np.float64)
 RK8_B = np.ascontiguousarray(_dop853.B, dtype=np.float64)
 RK8_C = np.ascontiguousarray(_dop853.C, dtype=np.float64)
+# Read-only, as numba sees a global array: one compiled signature whether a caller is compiled or Python.
+for _table in (RK8_A, RK8_B, RK8_C):
+    _table.setflags(write=False)
 STEP_FRACTION = 0.08
 
 
