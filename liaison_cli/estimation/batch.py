@@ -33,7 +33,7 @@ from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_S
                                                 channel_states)
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, conditioned_solve,
                                                  negligible_correction, position_indices)
-from liaison_cli.measurements.registry import predict, residual
+from liaison_cli.measurements.registry import predict_shared, residual
 
 JACOBIAN_EVERY = 0
 JACOBIAN_FIRST = 1
@@ -91,7 +91,7 @@ def _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g
         h[i] = 0.0
     ends = channel_ends[c]
     x_r, x_t, x_s = channel_states(traj[k], known_states[k], ends)
-    value = predict(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_r, g_t, g_s)
+    value = predict_shared(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_r, g_t, g_s)
     for end, g in ((ends[END_RECEIVER_STATE], g_r), (ends[END_TRANSMITTER_STATE], g_t),
                    (ends[END_SECOND_STATE], g_s)):
         if end < 0:

@@ -37,7 +37,7 @@ from liaison_cli.estimation.filter_loop import (
     measurement_row,
     time_update,
 )
-from liaison_cli.measurements.registry import predict
+from liaison_cli.measurements.registry import predict_shared
 
 PART_INITIAL, PART_NOISE, PART_PROCESS = 0, 1, 2
 N_RANDOM_PARTS = 3
@@ -73,7 +73,7 @@ def _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, bloc
         mu_dyn[i] = column[i] - d_dyn[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: four inlined copies were seconds of LinCov's compiling
 def _apply_into(M, v, out):
     """out = M v (M (n, n), v and out (n,)), summed in column order."""
     n = M.shape[0]
@@ -110,7 +110,7 @@ def _update_parts(D, S, mu_meas, K, H, R_true, bias_column, d_meas):
         mu_meas[i] += K[i] * (d_meas - hm)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: fifteen inlined copies were seconds of LinCov's compiling
 def _dot(a, b):
     acc = 0.0
     for i in range(a.shape[0]):
@@ -123,7 +123,7 @@ def _model_on_truth(truth_k, known_k, ends, kind, flags, g_r, g_t, g_s):
     """The filter's model of one channel on the true states of its ends at one epoch (partials into g_r, g_t
     and, for a three-end channel, g_s)."""
     x_r, x_t, x_s = channel_states(truth_k, known_k, ends)
-    return predict(kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
+    return predict_shared(kind, x_r, x_t, x_s, flags, g_r, g_t, g_s)
 
 
 @njit(cache=True, inline="always")

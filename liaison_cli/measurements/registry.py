@@ -83,6 +83,14 @@ def predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_tran
     return np.nan
 
 
+@njit(cache=True)
+def predict_shared(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second):
+    """predict() behind one compiled, cached call, for every caller but the EKF's measurement row (the batch's
+    row, LinCov's model on the truth, predict_along): there a call per measurement costs nothing measurable,
+    and each inlined copy of predict (range, range-rate, TDoA and FDoA written in) was seconds of compiling."""
+    return predict(kind, x_receiver, x_transmitter, x_second, flags, g_receiver, g_transmitter, g_second)
+
+
 @njit(cache=True, inline="always")
 def residual(kind, observed, predicted):
     """Observed minus predicted, angles wrapped into (-pi, pi]."""
@@ -100,7 +108,7 @@ def _predict_along(kind, receiver_states, transmitter_states, flags):
     g_transmitter = np.empty((m, 6))
     g_unused = np.empty(6)
     for k in range(m):
-        values[k] = predict(kind, receiver_states[k], transmitter_states[k], receiver_states[k], flags,
+        values[k] = predict_shared(kind, receiver_states[k], transmitter_states[k], receiver_states[k], flags,
                             g_receiver[k], g_transmitter[k], g_unused)
     return values, g_receiver, g_transmitter
 
