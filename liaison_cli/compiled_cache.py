@@ -19,6 +19,12 @@ entries that heal.
 - **Saves in turn.** numba reads an index, adds its entry and writes it back with no lock: two processes
   saving one function at once (test workers, warm-up's processes) could lose an entry or point one signature
   at the other's data file. A save holds an exclusive lock on the index's `.lock` file.
+- **Compiles in turn.** Two processes that miss one function at once (warm-up's processes, test workers, pool
+  workers on a cold cache) compiled it side by side, the same seconds twice. A process that misses a function
+  now holds an exclusive lock on its `<index>.compiling` file until it has saved it; another that misses it
+  meanwhile waits (at most COMPILE_WAIT_S), then loads what the first saved. Locks follow calls (a caller's is
+  held while its callees are compiled), and calls do not form cycles, so no two processes wait on each other;
+  a process that dies releases its locks with it, and a compile that fails releases its lock at once.
 
 `install()` is called by each package that compiles (dynamics, measurements, estimation, analysis) before its
 first `@njit(cache=True)`: numba picks a function's locator when the decorator runs.
@@ -27,13 +33,17 @@ first `@njit(cache=True)`: numba picks a function's locator when the decorator r
 import os
 import pickle
 import sys
+import time
 from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
 PACKAGE_ROOT = Path(__file__).resolve().parent
 DAMAGED_NOTICE = "liaison: a damaged compiled-code cache entry was removed and is compiled again"
+COMPILE_WAIT_S = 600.0  # the longest a process waits for another's compile of a function before compiling it too
+COMPILE_POLL_S = 0.05
 _installed = False
+_compiling: dict[str, list] = {}  # this process's held compile locks: path -> [open file, depth]
 
 
 def _package_folder(py_file: str) -> tuple[str, ...] | None:
@@ -109,6 +119,7 @@ def install() -> None:
     impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
     impl._locator_classes = [PackageLocator, *impl._locator_classes]
     _heal_damaged_entries(caching.Cache, PackageLocator)
+    _release_after_failed_compiles(PackageLocator)
     _installed = True
 
 
@@ -123,9 +134,7 @@ def _heal_damaged_entries(cache_class, locator_class) -> None:
     def ours(cache) -> bool:
         return isinstance(getattr(cache._impl, "locator", None), locator_class)
 
-    def load_overload(self, sig, target_context):
-        if not ours(self):
-            return load(self, sig, target_context)
+    def load_one(self, sig, target_context):
         try:
             result = load(self, sig, target_context)
         except DAMAGE as exc:
@@ -137,6 +146,16 @@ def _heal_damaged_entries(cache_class, locator_class) -> None:
         if result is not None and signature is not None and tuple(signature.args) != tuple(sig):
             return None  # an index that points this signature at another's data: compile it
         return result
+
+    def load_overload(self, sig, target_context):
+        if not ours(self):
+            return load(self, sig, target_context)
+        result = load_one(self, sig, target_context)
+        if result is None and _acquire_compile_lock(self):
+            result = load_one(self, sig, target_context)  # saved by the process we waited for, if any
+            if result is not None:
+                _release_compile_lock(self)
+        return result  # a miss: numba compiles it now, and save_overload releases the lock
 
     def save_overload(self, sig, data):
         if not ours(self):
@@ -150,8 +169,78 @@ def _heal_damaged_entries(cache_class, locator_class) -> None:
                 save(self, sig, data)  # numba's own errors (an interrupted compile) stay numba's
         except OSError:
             pass  # a folder that cannot be written: nothing cached, the compiled code serves this process
+        finally:
+            _release_compile_lock(self)
 
     cache_class.load_overload, cache_class.save_overload = load_overload, save_overload
+
+
+def _compile_lock_path(cache) -> str:
+    return f"{cache._cache_file._index_path}.compiling"
+
+
+def _acquire_compile_lock(cache) -> bool:
+    """Hold the function's compile lock (module docstring, "Compiles in turn"), waiting while another process
+    holds it; again in a process that holds it already (a second signature compiled while the first is): one
+    more depth. False, and no lock, where there is no lock to take (no fcntl, a folder that cannot be written)
+    or after COMPILE_WAIT_S: the function is then compiled as numba would."""
+    try:
+        import fcntl
+    except ImportError:
+        return False
+    path = _compile_lock_path(cache)
+    if path in _compiling:
+        _compiling[path][1] += 1
+        return True
+    try:
+        os.makedirs(cache._cache_path, exist_ok=True)
+        handle = open(path, "a")
+    except OSError:
+        return False
+    deadline = time.monotonic() + COMPILE_WAIT_S
+    while True:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            break
+        except BlockingIOError:  # another process compiles it: wait for its save
+            if time.monotonic() > deadline:
+                handle.close()
+                return False
+            time.sleep(COMPILE_POLL_S)
+        except OSError:
+            handle.close()
+            return False
+    _compiling[path] = [handle, 1]
+    return True
+
+
+def _release_compile_lock(cache) -> None:
+    """One depth of the function's compile lock, if this process holds it; the lock itself at the last."""
+    held = _compiling.get(_compile_lock_path(cache))
+    if held is None:
+        return
+    held[1] -= 1
+    if held[1] == 0:
+        del _compiling[_compile_lock_path(cache)]
+        held[0].close()  # closing the file releases its flock
+
+
+def _release_after_failed_compiles(locator_class) -> None:
+    """A compile that raises (a typing error, Ctrl-C) never reaches save_overload: its lock is released when
+    numba's compile event ends with the exception."""
+    from numba.core import event
+
+    class ReleaseOnFailure(event.Listener):
+        def on_start(self, ev):
+            pass
+
+        def on_end(self, ev):
+            cache = getattr(ev.data.get("dispatcher"), "_cache", None)
+            failed = getattr(ev, "_exc_details", None) is not None  # Event.is_failed answers the opposite
+            if failed and isinstance(getattr(getattr(cache, "_impl", None), "locator", None), locator_class):
+                _release_compile_lock(cache)
+
+    event.register("numba:compile", ReleaseOnFailure())
 
 
 @contextmanager

@@ -192,3 +192,86 @@ def test_warm_up_into_a_folder_it_cannot_write_is_one_line_before_compiling(tmp_
     (line,) = stderr_lines(proc.stderr)
     assert str(blocker) in line and "Not a directory" in line
     assert proc.stdout == ""
+
+
+# Holds jacobi_constant's compile lock as a process that has missed it and is compiling it would, until told
+# on stdin to compile it (and save it) or until it is killed.
+_HOLDER = """
+import sys
+import liaison_cli
+import numpy as np
+from liaison_cli import compiled_cache
+from liaison_cli.dynamics.crtbp import jacobi_constant
+assert compiled_cache._acquire_compile_lock(jacobi_constant._cache)
+print("held", flush=True)
+sys.stdin.readline()
+print(repr(float(jacobi_constant(np.array([0.8, 0.1, 0.05, 0.01, 0.2, 0.0]), 0.0121505856))), flush=True)
+"""
+
+
+def _holding(checkout: Path, cache: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(checkout), "LIAISON_CACHE_DIR": str(cache)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("NUMBA_CPU_NAME", None)
+    holder = subprocess.Popen([sys.executable, "-c", _HOLDER], env=env, cwd=checkout, stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert holder.stdout.readline().strip() == "held", holder.stderr.read()
+    return holder
+
+
+def _waiting(checkout: Path, cache: Path) -> subprocess.Popen:
+    """The _JACOBI process, started while the holder compiles; it is still waiting 4 s later (unheld, it would
+    have compiled the kernel and left in about a second)."""
+    env = {**os.environ, "PYTHONPATH": str(checkout), "LIAISON_CACHE_DIR": str(cache)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("NUMBA_CPU_NAME", None)
+    waiter = subprocess.Popen([sys.executable, "-c", _JACOBI], env=env, cwd=checkout, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
+    try:
+        waiter.wait(timeout=4)
+    except subprocess.TimeoutExpired:
+        return waiter
+    raise AssertionError(f"it did not wait for the compiling process: {waiter.communicate()}")
+
+
+def test_a_function_another_process_is_compiling_is_waited_for_and_loaded(tmp_path):
+    """Two processes that miss one function at once compile it once: the second waits for the first's save and
+    loads it (warm-up's processes and test workers compiled the same kernels side by side)."""
+    checkout, cache = _package_at(tmp_path / "checkout"), tmp_path / "cache"
+    holder = _holding(checkout, cache)
+    waiter = _waiting(checkout, cache)
+    value, _ = holder.communicate("go\n", timeout=120)
+    out, err = waiter.communicate(timeout=120)
+    assert holder.returncode == 0 and waiter.returncode == 0 and err == "", err
+    assert out.split() == [value.strip(), "loaded"]
+
+
+def test_a_compiling_process_that_dies_releases_the_function(tmp_path):
+    """A process killed while it compiles (its lock goes with it) leaves the waiting one to compile the
+    function itself, with the same number as an undisturbed compile."""
+    checkout, cache = _package_at(tmp_path / "checkout"), tmp_path / "cache"
+    reference = _jacobi_in(checkout, tmp_path / "another-cache")
+    holder = _holding(checkout, cache)
+    waiter = _waiting(checkout, cache)
+    holder.kill()
+    holder.communicate()
+    out, err = waiter.communicate(timeout=120)
+    assert waiter.returncode == 0 and err == "", err
+    assert out.split() == [reference.stdout.split()[0], "compiled"]
+
+
+def test_a_compile_that_fails_releases_its_lock_at_once():
+    """A compile that raises (a typing error here) never saves; its lock is released when the compile ends,
+    not held until the process leaves (a later process would wait COMPILE_WAIT_S for nothing)."""
+    import numpy as np
+    import pytest
+    from numba import njit
+
+    from liaison_cli import compiled_cache
+    from liaison_cli.dynamics import crtbp
+
+    held_before = dict(compiled_cache._compiling)
+    kernel = njit(cache=True)(crtbp.jacobi_constant.py_func)  # the same module's cache, a fresh dispatcher
+    with pytest.raises(Exception):
+        kernel("not a state", np.float64(0.1))  # typing fails: strings have no arithmetic here
+    assert compiled_cache._compiling == held_before

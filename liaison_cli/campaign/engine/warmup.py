@@ -300,25 +300,24 @@ def _compile_recorder():
 
 
 def warm_up(specs: list[Specialisation], jobs: int = 2):
-    """Yield the WarmUpResult of every specialisation as its chain finishes. The first specialisation (the
-    most used, whose kernels the others share most) runs alone first, so no two processes compile the common
-    kernels at once; then the chains run side by side in up to `jobs` processes."""
+    """Yield the WarmUpResult of every specialisation as its chain finishes: the chains side by side in up to
+    `jobs` processes, each taking the next as it finishes one. The most used specialisation (whose kernels the
+    others share most) goes first, beside the other estimator's run (the batch: kernels of its own), then the
+    longest chains. Two processes never compile one function side by side: the second waits for the first's
+    save and loads it (compiled_cache, "Compiles in turn")."""
     from liaison_cli.campaign.engine.backends import LOCAL, map_batches
 
     if not specs:
         return
     groups = chains(specs)
-    # First, the most used combination (it compiles the kernels every run shares) beside another estimator's
-    # chain (the batch: kernels of its own); then the rest, which mostly load what the first phase compiled.
-    first, rest = [groups[0][:1]], [chain for chain in [groups[0][1:], *groups[1:]] if chain]
+    first, rest = groups[0][:1], [chain for chain in [groups[0][1:], *groups[1:]] if chain]
     batch = [chain for chain in rest if chain[0].estimator != groups[0][0].estimator and chain[0].command == "run"][:1]
-    first += batch
     rest = [chain for chain in rest if chain not in batch]
     rest.sort(key=len, reverse=True)  # the longest chain first, so it does not start last and finish alone
-    for phase in (first, rest):
-        for results in map_batches(warm_up_chain, {0: None}, ((0, tuple(chain)) for chain in phase), LOCAL,
-                                   min(jobs, max(len(phase), 1)) if jobs > 1 else 1):
-            yield from results
+    phase = [first, *batch, *rest]
+    yield from (result for results in map_batches(warm_up_chain, {0: None}, ((0, tuple(chain)) for chain in phase),
+                                                    LOCAL, min(jobs, len(phase)) if jobs > 1 else 1)
+                for result in results)
 
 
 def unloadable(entries) -> list[str]:
