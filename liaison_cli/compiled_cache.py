@@ -22,9 +22,14 @@ entries that heal.
 - **Compiles in turn.** Two processes that miss one function at once (warm-up's processes, test workers, pool
   workers on a cold cache) compiled it side by side, the same seconds twice. A process that misses a function
   now holds an exclusive lock on its `<index>.compiling` file until it has saved it; another that misses it
-  meanwhile waits (at most COMPILE_WAIT_S), then loads what the first saved. Locks follow calls (a caller's is
-  held while its callees are compiled), and calls do not form cycles, so no two processes wait on each other;
-  a process that dies releases its locks with it, and a compile that fails releases its lock at once.
+  meanwhile waits (at most COMPILE_WAIT_S), then loads what the first saved (or, for another signature,
+  compiles its own). Locks follow calls (a caller's is held while its callees are compiled), and calls do not
+  form cycles, so no two processes wait on each other; a process that dies releases its locks with it, a forked
+  child holds none of its parent's, and a compile that fails releases its lock at once. Where the folder cannot
+  be locked (no fcntl, a file system without flock, a lock file that cannot be made) the function is compiled
+  as numba would, side by side. Left open: a Ctrl-C in the few statements between numba's load and its compile
+  event, or between that event and its save, keeps the lock until the process leaves (a CLI process leaves on
+  Ctrl-C; another process waits for it at most COMPILE_WAIT_S).
 
 `install()` is called by each package that compiles (dynamics, measurements, estimation, analysis) before its
 first `@njit(cache=True)`: numba picks a function's locator when the decorator runs.
@@ -152,10 +157,16 @@ def _heal_damaged_entries(cache_class, locator_class) -> None:
             return load(self, sig, target_context)
         result = load_one(self, sig, target_context)
         if result is None and _acquire_compile_lock(self):
-            result = load_one(self, sig, target_context)  # saved by the process we waited for, if any
+            try:
+                result = load_one(self, sig, target_context)  # saved by the process we waited for, if any
+            except BaseException:  # Ctrl-C while it loads: no compile follows to release the lock
+                _release_compile_lock(self)
+                raise
             if result is not None:
                 _release_compile_lock(self)
         return result  # a miss: numba compiles it now, and save_overload releases the lock
+
+    cache_class.probe_overload = load_one  # a load that takes no lock (warm-up's read-back: no compile follows)
 
     def save_overload(self, sig, data):
         if not ours(self):
@@ -192,9 +203,9 @@ def _acquire_compile_lock(cache) -> bool:
     if path in _compiling:
         _compiling[path][1] += 1
         return True
-    try:
+    try:  # read-only suffices for flock: a shared cache another user filled can still be locked
         os.makedirs(cache._cache_path, exist_ok=True)
-        handle = open(path, "a")
+        handle = os.open(path, os.O_RDONLY | os.O_CREAT, 0o666)
     except OSError:
         return False
     deadline = time.monotonic() + COMPILE_WAIT_S
@@ -204,11 +215,11 @@ def _acquire_compile_lock(cache) -> bool:
             break
         except BlockingIOError:  # another process compiles it: wait for its save
             if time.monotonic() > deadline:
-                handle.close()
+                os.close(handle)
                 return False
             time.sleep(COMPILE_POLL_S)
         except OSError:
-            handle.close()
+            os.close(handle)
             return False
     _compiling[path] = [handle, 1]
     return True
@@ -222,7 +233,22 @@ def _release_compile_lock(cache) -> None:
     held[1] -= 1
     if held[1] == 0:
         del _compiling[_compile_lock_path(cache)]
-        held[0].close()  # closing the file releases its flock
+        os.close(held[0])  # closing the file releases its flock
+
+
+def _forget_inherited_locks() -> None:
+    """In a forked child: the parent's compile locks are the parent's (a flock belongs to the open file, which the
+    child shares); the child closes its copies and holds none."""
+    for handle, _ in _compiling.values():
+        try:
+            os.close(handle)
+        except OSError:
+            pass
+    _compiling.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_inherited_locks)
 
 
 def _release_after_failed_compiles(locator_class) -> None:

@@ -206,7 +206,11 @@ assert compiled_cache._acquire_compile_lock(jacobi_constant._cache)
 print("held", flush=True)
 sys.stdin.readline()
 print(repr(float(jacobi_constant(np.array([0.8, 0.1, 0.05, 0.01, 0.2, 0.0]), 0.0121505856))), flush=True)
+print(sum(depth for _, depth in compiled_cache._compiling.values()), flush=True)  # its own hold only: 1
 """
+# _JACOBI, then how many compile locks the process still holds once its call returned (a load after waiting
+# releases the lock it took).
+_WAITER = _JACOBI + "from liaison_cli import compiled_cache\nprint(len(compiled_cache._compiling))\n"
 
 
 def _holding(checkout: Path, cache: Path) -> subprocess.Popen:
@@ -225,7 +229,7 @@ def _waiting(checkout: Path, cache: Path) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(checkout), "LIAISON_CACHE_DIR": str(cache)}
     env.pop("NUMBA_CACHE_DIR", None)
     env.pop("NUMBA_CPU_NAME", None)
-    waiter = subprocess.Popen([sys.executable, "-c", _JACOBI], env=env, cwd=checkout, stdout=subprocess.PIPE,
+    waiter = subprocess.Popen([sys.executable, "-c", _WAITER], env=env, cwd=checkout, stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
     try:
         waiter.wait(timeout=4)
@@ -240,10 +244,11 @@ def test_a_function_another_process_is_compiling_is_waited_for_and_loaded(tmp_pa
     checkout, cache = _package_at(tmp_path / "checkout"), tmp_path / "cache"
     holder = _holding(checkout, cache)
     waiter = _waiting(checkout, cache)
-    value, _ = holder.communicate("go\n", timeout=120)
+    held, _ = holder.communicate("go\n", timeout=120)
+    value, holder_locks = held.split()
     out, err = waiter.communicate(timeout=120)
     assert holder.returncode == 0 and waiter.returncode == 0 and err == "", err
-    assert out.split() == [value.strip(), "loaded"]
+    assert out.split() == [value, "loaded", "0"] and holder_locks == "1"  # the save released the compile's
 
 
 def test_a_compiling_process_that_dies_releases_the_function(tmp_path):
@@ -257,10 +262,10 @@ def test_a_compiling_process_that_dies_releases_the_function(tmp_path):
     holder.communicate()
     out, err = waiter.communicate(timeout=120)
     assert waiter.returncode == 0 and err == "", err
-    assert out.split() == [reference.stdout.split()[0], "compiled"]
+    assert out.split() == [reference.stdout.split()[0], "compiled", "0"]
 
 
-def test_a_compile_that_fails_releases_its_lock_at_once():
+def test_a_compile_that_fails_releases_its_lock_at_once(monkeypatch):
     """A compile that raises (a typing error here) never saves; its lock is released when the compile ends,
     not held until the process leaves (a later process would wait COMPILE_WAIT_S for nothing)."""
     import numpy as np
@@ -270,8 +275,26 @@ def test_a_compile_that_fails_releases_its_lock_at_once():
     from liaison_cli import compiled_cache
     from liaison_cli.dynamics import crtbp
 
+    taken = []
+    acquire = compiled_cache._acquire_compile_lock
+    monkeypatch.setattr(compiled_cache, "_acquire_compile_lock", lambda cache: taken.append(acquire(cache)) or taken[-1])
     held_before = dict(compiled_cache._compiling)
     kernel = njit(cache=True)(crtbp.jacobi_constant.py_func)  # the same module's cache, a fresh dispatcher
     with pytest.raises(Exception):
         kernel("not a state", np.float64(0.1))  # typing fails: strings have no arithmetic here
+    assert True in taken, "the compile took no lock: nothing was tested"
     assert compiled_cache._compiling == held_before
+
+
+def test_reading_an_entry_back_takes_no_lock():
+    """warm-up's read-back (unloadable) probes the cache; a miss there is no compile, so it must hold nothing
+    after it (nothing would release it)."""
+    from liaison_cli import compiled_cache
+    from liaison_cli.campaign.engine.warmup import unloadable
+
+    from numba import types
+
+    held_before = dict(compiled_cache._compiling)
+    never_compiled = (types.float64, types.float64)  # jacobi_constant takes a state array
+    missing = unloadable([("liaison_cli.dynamics.crtbp", "jacobi_constant", never_compiled)])
+    assert len(missing) == 1 and compiled_cache._compiling == held_before

@@ -332,7 +332,7 @@ def unloadable(entries) -> list[str]:
             dispatcher = getattr(dispatcher, part)
         cache = getattr(dispatcher, "_cache", None)
         try:
-            loaded = cache is not None and cache.load_overload(tuple(args), dispatcher.targetctx) is not None
+            loaded = cache is not None and cache.probe_overload(tuple(args), dispatcher.targetctx) is not None
         except Exception:  # noqa: BLE001 - unreadable is missing
             loaded = False
         if not loaded:
