@@ -86,22 +86,29 @@ def test_bad_jobs_is_one_line_and_exit_2(value):
 @pytest.mark.slow
 def test_after_warm_up_no_shipped_scenario_or_template_compiles(tmp_path):
     """Warm-up into an empty cache, then every source at its smallest in a new process: numba compiles
-    nothing more. About 2-3 min on 2 cores (the warm-up), plus the 004 scenarios' orbit corrections."""
+    nothing more; and each command warm-up covers (`liaison errors`, `liaison observability`) on its
+    representative. About 2-3 min on 2 cores (the warm-up), plus the 004 scenarios' orbit corrections."""
+    from liaison_cli.campaign.engine.warmup import COMMANDS
+
     env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path / "cache")}
     env.pop("NUMBA_CACHE_DIR", None)
     warm = subprocess.run([sys.executable, "-m", "liaison_cli", "warm-up", "--jobs", "2"], cwd=tmp_path, env=env,
                           capture_output=True, text=True, timeout=1800)
     assert warm.returncode == 0, warm.stderr
     assert "warm-up: compiled" in warm.stdout and "compiled twice" not in warm.stdout, warm.stdout
+    # Each scenario and template as a run (the combination's other fields, command "run"), then each command once
+    # on its representative; "|" between fields (a template's label has a space in it).
     check = ("from liaison_cli.campaign.engine.warmup import Specialisation, plan, warm_up_one\n"
              "for spec in plan():\n"
-             "    for source in spec.sources:\n"
-             "        one = warm_up_one(Specialisation(*[getattr(spec, f) for f in "
-             "('estimator', 'dynamics', 'observables', 'initial_batch')], (source,)))\n"
-             "        print(source.label, len(one.compiled), one.error or 'ok', sorted(set(one.compiled)))\n")
+             "    fields = [getattr(spec, f) for f in ('estimator', 'dynamics', 'observables', 'initial_batch')]\n"
+             "    for source in (spec.sources if spec.command == 'run' else spec.sources[:1]):\n"
+             "        one = warm_up_one(Specialisation(*fields, (source,), spec.command))\n"
+             "        print(spec.command, source.label, len(one.compiled), one.error or 'ok', sorted(set(one.compiled)),"
+             " sep='|')\n")
     proc = subprocess.run([sys.executable, "-c", check], cwd=REPO, env=env, capture_output=True, text=True,
                           timeout=1800)
     assert proc.returncode == 0, proc.stderr
-    rows = [line.split(" ", 3) for line in proc.stdout.splitlines()]
-    assert len(rows) == len(_scenarios_and_templates())
-    assert all(compiled == "0" and status == "ok" for _, compiled, status, _ in rows), proc.stdout
+    rows = [line.split("|") for line in proc.stdout.splitlines()]
+    assert sorted(label for command, label, *_ in rows if command == "run") == sorted(_scenarios_and_templates())
+    assert sorted(command for command, *_ in rows if command != "run") == sorted(COMMANDS)
+    assert all(compiled == "0" and status == "ok" for _, _, compiled, status, _ in rows), proc.stdout
