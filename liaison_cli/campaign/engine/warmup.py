@@ -181,13 +181,30 @@ def cut(scenario, days: tuple[float, ...]):
     return None
 
 
-def warm_up_chain(_shared, chain) -> list[WarmUpResult]:
-    """Worker side: each specialisation of the chain in turn (see `chains`)."""
+def warm_up_chain(ahead, chain) -> list[WarmUpResult]:
+    """Worker side: each specialisation of the chain in turn (see `chains`), the first after the steps `ahead`."""
     from liaison_cli import interrupts
 
     interrupts.ignore_in_worker_process()  # in a pool: the main process stops it on Ctrl-C
     _thread_lock_for_progress_bars()
-    return [warm_up_one(spec) for spec in chain]
+    return [warm_up_one(spec, ahead if i == 0 else ()) for i, spec in enumerate(chain)]
+
+
+def compile_dated_propagators() -> str:
+    """The dated model's propagators (dynamics.model), compiled with the signature the step choice and every
+    estimator call them with: the parameter vector, the state, the epoch and the interval, the substeps, the
+    output and the scratch. Run ahead in the process beside the first combination: they are about 16 s of that
+    combination's compiling, a branch of it no earlier step needs, so the first process loads them instead of
+    compiling them after its CRTBP propagator (docs/performance.md)."""
+    import numpy as np
+    from numba import typeof
+
+    from liaison_cli.dynamics import model
+
+    vector, scalar, steps, scratch = typeof(np.empty(1)), typeof(0.0), typeof(np.int64(1)), typeof(np.empty((5, 1)))
+    model._ephemeris_state_stm_into.compile((vector, vector, scalar, scalar, steps, vector, scratch))
+    model._ephemeris_parameter_into.compile((vector, scalar, vector, scalar, scalar, steps, vector))
+    return ""
 
 
 def _thread_lock_for_progress_bars() -> None:
@@ -201,17 +218,19 @@ def _thread_lock_for_progress_bars() -> None:
     tqdm.set_lock(threading.RLock())
 
 
-def warm_up_one(spec: Specialisation) -> WarmUpResult:
-    """One run of the representative at its smallest, then the problem setup of every other scenario of the
-    combination at its smallest, here, recording what numba compiles meanwhile. The setups cost little and
-    catch what a scenario needs before its estimator runs (an orbit family's corrector, say)."""
+def warm_up_one(spec: Specialisation, ahead=()) -> WarmUpResult:
+    """The steps `ahead` (callables, e.g. compile_dated_propagators), one run of the representative at its
+    smallest, then the problem setup of every other scenario of the combination at its smallest, here, recording
+    what numba compiles meanwhile. The setups cost little and catch what a scenario needs before its estimator
+    runs (an orbit family's corrector, say)."""
     from numba.core import event
 
     recorder = _compile_recorder()
     started = time.perf_counter()
     first = {"run": _run_smallest, "errors": _errors_smallest, "observability": _observability_smallest}[spec.command]
     with event.install_listener("numba:compile", recorder):
-        errors = [_reported(first, spec.representative),
+        errors = [*(_reported(lambda _source, step=step: step(), spec.representative) for step in ahead),
+                  _reported(first, spec.representative),
                   *(_reported(_set_up_smallest, source) for source in spec.sources[1:])]
     error = "; ".join(e for e in errors if e)
     return WarmUpResult(spec, tuple(name for name, _ in recorder.compiled), time.perf_counter() - started, error,
@@ -315,7 +334,11 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     rest = [chain for chain in rest if chain not in batch]
     rest.sort(key=len, reverse=True)  # the longest chain first, so it does not start last and finish alone
     phase = [first, *batch, *rest]
-    yield from (result for results in map_batches(warm_up_chain, {0: None}, ((0, tuple(chain)) for chain in phase),
+    # The second chain starts by compiling the dated model's propagators, which the first would reach only after
+    # its CRTBP propagator (compile_dated_propagators); with one process, nothing is ahead of anything.
+    ahead = {0: (), 1: (compile_dated_propagators,) if jobs > 1 else ()}
+    yield from (result for results in map_batches(warm_up_chain, ahead, ((int(i == 1), tuple(chain))
+                                                                         for i, chain in enumerate(phase)),
                                                     LOCAL, min(jobs, len(phase)) if jobs > 1 else 1)
                 for result in results)
 
