@@ -277,7 +277,12 @@ def test_a_compile_that_fails_releases_its_lock_at_once(monkeypatch):
 
     taken = []
     acquire = compiled_cache._acquire_compile_lock
-    monkeypatch.setattr(compiled_cache, "_acquire_compile_lock", lambda cache: taken.append(acquire(cache)) or taken[-1])
+
+    def recorded(cache):
+        taken.append(acquire(cache))
+        return taken[-1]
+
+    monkeypatch.setattr(compiled_cache, "_acquire_compile_lock", recorded)
     held_before = dict(compiled_cache._compiling)
     kernel = njit(cache=True)(crtbp.jacobi_constant.py_func)  # the same module's cache, a fresh dispatcher
     with pytest.raises(Exception):

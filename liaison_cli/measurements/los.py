@@ -69,7 +69,8 @@ def los_sigma_rad(path_sigma_m: float, baseline_m: float, off_boresight_deg: flo
 
 
 def _simulate(code, receiver, transponder, light_time: bool):
-    receivers, transponders = np.array(receiver.states), np.array(transponder.states)  # writable: one signature
+    # Writable (copied only if read-only): one compiled signature of azimuth_elevation.
+    receivers, transponders = (np.require(end.states, float, ("C", "W")) for end in (receiver, transponder))
     angles = np.array([azimuth_elevation(a[:3], b[:3]) for a, b in zip(receivers, transponders)])
     return angles[:, 0] if code == KIND_AZIMUTH else angles[:, 1]
 

@@ -50,8 +50,9 @@ def predict_range_rate(x_receiver, x_transponder, flags, g_receiver, g_transpond
 
 
 def _simulate(code, receiver, transponder, light_time: bool):
-    # Writable copies: a read-only array would compile range_rate once more for its own signature.
-    return np.array([range_rate(a, b) for a, b in zip(np.array(receiver.states), np.array(transponder.states))])
+    # Writable (copied only if read-only): a read-only array would compile range_rate once more for its own signature.
+    receivers, transponders = (np.require(end.states, float, ("C", "W")) for end in (receiver, transponder))
+    return np.array([range_rate(a, b) for a, b in zip(receivers, transponders)])
 
 
 def _sigma(noise, receiver):

@@ -103,8 +103,8 @@ def test_after_warm_up_no_shipped_scenario_or_template_compiles(tmp_path):
              "    fields = [getattr(spec, f) for f in ('estimator', 'dynamics', 'observables', 'initial_batch')]\n"
              "    for source in (spec.sources if spec.command == 'run' else spec.sources[:1]):\n"
              "        one = warm_up_one(Specialisation(*fields, (source,), spec.command))\n"
-             "        print(spec.command, source.label, len(one.compiled), one.error or 'ok', sorted(set(one.compiled)),"
-             " sep='|')\n")
+             "        print(spec.command, source.label, len(one.compiled), one.error or 'ok',"
+             " sorted(set(one.compiled)), sep='|')\n")
     proc = subprocess.run([sys.executable, "-c", check], cwd=REPO, env=env, capture_output=True, text=True,
                           timeout=1800)
     assert proc.returncode == 0, proc.stderr
