@@ -2,7 +2,7 @@
 
 Layers, lowest first; a module may import from its own layer or lower ones only, counting imports inside
 functions too (a lazy import hides a dependency, it does not remove it):
-base (package root, errors, storage, interrupts, provenance, compiled_cache) -> dynamics, radio -> orbits -> measurements -> estimation -> analysis
+base (package root, errors, storage, interrupts, provenance, compiled_cache, compiled_calls) -> dynamics, radio -> orbits -> measurements -> estimation -> analysis
 -> exchange -> scenario -> campaign -> report -> cli.
 """
 
@@ -19,7 +19,7 @@ PACKAGE = Path(liaison_cli.__file__).parent
 CORE_PACKAGES = ["dynamics", "orbits", "radio", "measurements", "estimation"]
 FORBIDDEN = {"yaml", "pandas", "typer", "joblib", "pyarrow", "tqdm", "pydantic", "json", "pickle"}
 LAYERS = [
-    {"__init__", "errors", "storage", "interrupts", "provenance", "compiled_cache"},
+    {"__init__", "errors", "storage", "interrupts", "provenance", "compiled_cache", "compiled_calls"},
     {"dynamics", "radio"},
     {"orbits"},
     {"measurements"},

@@ -15,7 +15,7 @@ from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.estimation.estimator import Estimator
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
-                                                STATUS_NAMES, STATUS_OK, run_ekf)
+                                                STATUS_NAMES, STATUS_OK, run_ekf, shared_calls)
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
                                                 ProcessNoise, SmootherRecord, channels_of, direction_record,
                                                 dynamics_of, process_noise_of)
@@ -180,7 +180,8 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, reco
     directions = direction_record(*arrays.direction_starts(), m)
     args = (int(arrays.model), x0_hat, P0, arrays.process_noise(m), truth, y_obs,
             arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
-            arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices), directions)
+            arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices), directions,
+            shared_calls(arrays.channels(), arrays.block_layout(), arrays.dynamics(t0_tu)))
     err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = run_ekf(*args)
     ok = status == STATUS_OK
     smoothed_err = smoothed_sigma = None

@@ -8,14 +8,15 @@ ends and modifiers. The EKF algebra lives in `estimation.ekf`.
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
+from liaison_cli.compiled_calls import shared_call
 from liaison_cli.dynamics.model import (PROPAGATION_SIZE, STM_SIZE, propagate_parameter_into,
                                        propagate_state_stm_into)
 from liaison_cli.estimation.blocks import (BLOCK_CLOCK, BLOCK_CONSTANT, BLOCK_EMPIRICAL, BLOCK_PARAMETER,
                                           BLOCK_SPACECRAFT)
 from liaison_cli.estimation.ekf import apply_update_into, nees_into, predict_covariance_into, prefit_into
-from liaison_cli.estimation.kernel_args import Buffers
+from liaison_cli.estimation.kernel_args import Buffers, SharedCalls
 from liaison_cli.estimation.process_noise import gauss_markov_gains
 from liaison_cli.estimation.ric_noise import step_process_noise
 from liaison_cli.measurements.registry import predict, residual
@@ -92,6 +93,19 @@ def measurement_row(channels, c, x, known_k, H, g_receiver, g_transmitter, g_sec
             modified += channel_mod_coeff[c, j] * x[index]
             H[index] += channel_mod_coeff[c, j]
     return modified, value
+
+
+def shared_calls(channels, layout, dynamics) -> SharedCalls:
+    """The time update, the measurement row and the covariance prediction (ekf.predict_covariance_into) as
+    compiled_calls.SharedCall arguments for the estimators' bodies (kernel_args.SharedCalls), typed for these
+    groups: each body calls their one cached copy by address instead of carrying its own (compiled_calls)."""
+    n, nn, blocks = np.empty(1), np.empty((1, 1)), layout.kind
+    return SharedCalls(
+        shared_call(time_update, types.none, n, n, np.empty((1, 1)), layout, 0, dynamics, 0.0,
+                    np.empty(PROPAGATION_SIZE), np.empty((5, STM_SIZE))),
+        shared_call(measurement_row, types.UniTuple(types.float64, 2), channels, 0, n, np.empty((1, 6)), n,
+                    np.empty(6), np.empty(6), np.empty(6)),
+        shared_call(predict_covariance_into, types.float64[:, ::1], nn, nn, nn, nn, nn, blocks, blocks, blocks))
 
 
 @njit(cache=True)
@@ -382,7 +396,7 @@ def run_outputs(m, n, n_channels):
 
 @njit(cache=True)
 def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
-            record, directions):
+            record, directions, calls):
     """Run one EKF pass. model: the dynamics model code, read at run time like the channels' kinds (one
     compiled body for every scenario). x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12;
     kernel_args.ProcessNoise, step_process_noise); truth (m, n) at the epochs
@@ -415,11 +429,12 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
     for k in range(1, m):
         apply_burns(x_hat, P, burns, k - 1)  # a manoeuvre after the last epoch: its estimated Delta-v
         # Time update: reference trajectory and STM from the last estimate (Eq. 10-12).
-        time_update(x_hat, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, buf.y_stm, buf.work_stm)
+        calls.time_update(x_hat, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, buf.y_stm,
+                          buf.work_stm)
         Q = noise.Q if ric_steps == 0 else step_process_noise(noise, Q_work, x_hat, k - 1, block_kind, block_start,
                                                              ric_axes)
-        P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, buf.work_block, block_kind, block_start,
-                                             block_size), P
+        P, P_spare = calls.predict_covariance(P, Phi, Q, P_spare, buf.work_block, block_kind, block_start,
+                                              block_size), P
         if storing:
             _store_prediction(store_states, store_matrices, k, x_bar, P, Phi, block_kind, block_start, block_size)
         # Measurement update, one scalar channel at a time, all linearised at x_bar (Eq. 13, 17, 20-24), not in
@@ -430,8 +445,8 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            predicted = measurement_row(channels, c, x_bar, known_states[k], H, buf.g_receiver, buf.g_transmitter,
-                                        buf.g_second)[0]
+            predicted = calls.measurement_row(channels, c, x_bar, known_states[k], H, buf.g_receiver,
+                                              buf.g_transmitter, buf.g_second)[0]
             y = residual(channel_kind[c], y_meas, predicted)
             R = sigma[c] ** 2
             innovation, S = prefit_into(dx, P, y, H, R, h)

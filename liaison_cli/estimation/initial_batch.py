@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
-from liaison_cli.estimation.filter_loop import measurement_row, time_update
+from liaison_cli.estimation.filter_loop import shared_calls
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, equilibrated_solve,
                                                  negligible_correction, position_indices)
 from liaison_cli.measurements.registry import residual
@@ -55,7 +55,7 @@ class InitialBatchSettings:
 
 
 @njit(cache=True)
-def reference_and_normal_equations(model, x0, y_obs, known_states, channels, layout, dynamics, Q, traj, phi):
+def reference_and_normal_equations(model, x0, y_obs, known_states, channels, layout, dynamics, Q, traj, phi, calls):
     """One Gauss-Newton pass over the window: traj (w, n) the reference from x0 (n,), phi (w, n, n) its
     Phi(t_k, t_0), and the normal equations Lambda (n, n), N (n,) of the measurements y_obs (w, C) at epochs
     1..w-1; also Q_w (n, n), the process noise accumulated to the last epoch, and the residual sum of squares
@@ -84,14 +84,14 @@ def reference_and_normal_equations(model, x0, y_obs, known_states, channels, lay
         for j in range(n):
             phi[0, i, j] = 1.0 if i == j else 0.0
     for k in range(1, w):
-        time_update(traj[k - 1], traj[k], phi_step, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
+        calls.time_update(traj[k - 1], traj[k], phi_step, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
         _propagate_products(phi_step, phi[k - 1], phi[k], q_acc, q_tmp, Q)
         for c in range(n_channels):
             y_meas = y_obs[k, c]
             if not np.isfinite(y_meas):
                 continue
-            predicted = measurement_row(channels, c, traj[k], known_states[k], H, g_receiver, g_transmitter,
-                                        g_second)[0]
+            predicted = calls.measurement_row(channels, c, traj[k], known_states[k], H, g_receiver, g_transmitter,
+                                              g_second)[0]
             r = residual(channel_kind[c], y_meas, predicted)
             weight = 1.0 / (sigma[c] * sigma[c])
             weighted_ss += r * r * weight
@@ -187,7 +187,8 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     position = position_indices(*arrays.layout.arrays()[:2])
     args = [int(arrays.model), x_start, np.ascontiguousarray(y_obs[:w]),
             np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
-            arrays.dynamics(), arrays.dense_process_noise(), traj, phi]
+            arrays.dynamics(), arrays.dense_process_noise(), traj, phi,
+            shared_calls(arrays.channels(), arrays.block_layout(), arrays.dynamics())]
 
     def linearise(x):
         args[1] = x

@@ -43,6 +43,9 @@ SmootherRecord = namedtuple("SmootherRecord", ["states", "matrices"])
 Buffers = namedtuple("Buffers", ["x_bar", "dx", "dx_spare", "e", "H", "h", "K", "P_spare", "Phi", "g_receiver",
                                  "g_transmitter", "g_second", "y_stm", "work_stm", "work_block", "work_nees", "z_nees",
                                  "work6", "z6", "u", "v"])
+# Compiled functions an estimator's body calls by address (compiled_calls.SharedCall; filter_loop.shared_calls):
+# the time update, the measurement row and the covariance prediction, one cached copy for every estimator.
+SharedCalls = namedtuple("SharedCalls", ["time_update", "measurement_row", "predict_covariance"])
 DirectionRecord = namedtuple("DirectionRecord", ["spacecraft_starts", "pair_starts", "nees_spacecraft", "time_shift",
                                                  "along_pair", "covariance", "stride"])
 # The direction record samples every stride-th epoch, stride chosen so that a run keeps at most this many: its

@@ -28,14 +28,12 @@ from numba import njit
 
 from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.blocks import BLOCK_CONSTANT, BLOCK_SPACECRAFT
-from liaison_cli.estimation.ekf import predict_covariance_blocks, predict_covariance_into, update_scalar_into
+from liaison_cli.estimation.ekf import update_scalar_into
 from liaison_cli.estimation.filter_loop import (
     apply_burn_covariance,
     apply_burn_rows,
     apply_burns,
     channel_states,
-    measurement_row,
-    time_update,
 )
 from liaison_cli.measurements.registry import predict_shared
 
@@ -47,16 +45,18 @@ TruthErrors = namedtuple("TruthErrors", ["D_initial", "Q_true", "S0", "d_dyn_ext
 
 
 @njit(cache=True)
-def _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size, scratch):
+def _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size, scratch,
+                     work_block, predict_covariance):
     """Predict step of every part: D <- Phi D Phi^T (+ Q_true for the process part), S <- Phi S,
-    mu <- Phi mu (minus the dynamics mismatch for mu_dyn)."""
+    mu <- Phi mu (minus the dynamics mismatch for mu_dyn); predict_covariance: the shared
+    ekf.predict_covariance_into (kernel_args.SharedCalls), scratch (n, n) and work_block (6, 6) its scratch."""
     n = Phi.shape[0]
     zero = np.zeros((n, n))
     # Element loops, no array expressions or slice assignment: those made numba compile their shape-error
     # paths (string formatting), 10 s of `liaison errors`' first run.
     for p in range(D.shape[0]):
         q = Q_true if p == PART_PROCESS else zero
-        predicted = predict_covariance_blocks(D[p], Phi, q, scratch, block_kind, block_start, block_size)
+        predicted = predict_covariance(D[p], Phi, q, scratch, work_block, block_kind, block_start, block_size)
         for i in range(n):
             for j in range(n):
                 D[p, i, j] = predicted[i, j]
@@ -170,7 +170,7 @@ def _dynamics_mismatch(truth_k, x_bar, d_dyn_extra, Phi, layout):
 
 @njit(cache=True, inline="always")
 def _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underweight, channel_bias_link, P,
-                        P_spare, D, S, mu_meas, mu_dyn, vectors):
+                        P_spare, D, S, mu_meas, mu_dyn, vectors, measurement_row):
     """Epoch k's update, one scalar channel at a time as the EKF does: the filter's covariance P (its own
     update_scalar_into on a zero residual, dx staying zero) and, with its gain K from the P before it, every
     error part (_update_parts; mu_dyn <- mu_dyn - K H mu_dyn). vectors: dx, dx_spare, H, h, K (n,) and the
@@ -207,7 +207,7 @@ def _record_parts(k, P, D, S, mu_meas, mu_dyn, P_diag, D_diag, S_out, mu_meas_ou
 
 @njit(cache=True)
 def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dynamics, P0, Q, n_gain,
-                       underweight, burns, truth_errors):
+                       underweight, burns, truth_errors, calls):
     """The filter's covariance and the error parts at every epoch, after the update.
 
     model: the dynamics model code, read at run time (as the EKF's: filter_loop.run_ekf). truth (m, n): the true filter states (clock /
@@ -248,14 +248,15 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
         if k > 0:
             linearisation = truth[k - 1].copy()
             _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k - 1)
-            time_update(linearisation, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
+            calls.time_update(linearisation, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
             d_dyn = _dynamics_mismatch(truth[k], x_bar, d_dyn_extra, Phi, layout)
-            P, P_spare = predict_covariance_into(P, Phi, Q, P_spare, work_block, block_kind, block_start,
-                                                 block_size), P
+            P, P_spare = calls.predict_covariance(P, Phi, Q, P_spare, work_block, block_kind, block_start,
+                                                  block_size), P
             _propagate_parts(D, S, mu_meas, mu_dyn, Phi, Q_true, d_dyn, block_kind, block_start, block_size,
-                             scratch)
+                             scratch, work_block, calls.predict_covariance)
             P, P_spare = _update_along_truth(k, truth, y_true, known_states, channels, n_gain, underweight,
-                                             channel_bias_link, P, P_spare, D, S, mu_meas, mu_dyn, vectors)
+                                             channel_bias_link, P, P_spare, D, S, mu_meas, mu_dyn, vectors,
+                                             calls.measurement_row)
         _record_parts(k, P, D, S, mu_meas, mu_dyn, P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out)
     return P_diag, D_diag, S_out, mu_meas_out, mu_dyn_out
 

@@ -1,0 +1,73 @@
+"""Compiled functions handed to compiled functions by address, so a caller's compiled code holds no copy of
+theirs.
+
+numba links the machine code of every function a compiled function calls into the caller's own library, and
+its cache keeps each library whole: `run_ekf`, LinCov and the batch each carried, and compiled again, the
+whole propagator and measurement tree (LinCov's cache entry was 911 KB, 494 KB of it the time update's tree;
+`liaison errors` after `liaison run` spent 4.5 of its 8 s of compiling in LinCov's own lowering, mostly LLVM
+generating code it already had). A `SharedCall` is an argument instead: numba types it as a first-class
+function of one signature (`numba.types.FunctionType`), and the caller calls it through the address of the
+function's own cached code, in numba's calling convention, so an exception raised in it still reaches the
+caller. The callee is compiled, or loaded from the cache, once, and every estimator shares it.
+
+numba fills in that address (a FunctionType value's `jit_addr`) only for its own dispatchers at the boundary
+from Python (numba.experimental.function_type._get_jit_address); `install()` teaches it a SharedCall's. Without
+the address numba would call the function's C wrapper, which cannot pass an exception on.
+
+A SharedCall's signature is built from example arguments (`numba.typeof`), so it names exactly the types the
+caller passes; a caller that passes others fails to compile (numba: "mismatch of function types"), never
+silently.
+"""
+
+import numba
+from numba.core.types.function_type import WrapperAddressProtocol
+from numba.experimental import function_type
+
+_shared = {}  # (dispatcher, signature) -> SharedCall: one object, one compile result, per signature
+
+
+class SharedCall(WrapperAddressProtocol):
+    """One compiled signature of a numba dispatcher, passed to compiled code as a function argument."""
+
+    def __init__(self, dispatcher, signature):
+        self.dispatcher, self._signature = dispatcher, signature
+        # By its argument types alone, as a call from compiled code or Python compiles it: numba's cache keys an
+        # entry on the signature it was compiled for, and one with the return type named would be another entry.
+        dispatcher.compile(signature.args)  # compiles it, or loads it from the cache
+        self._result = dispatcher.overloads[signature.args]
+        if self._result.signature.return_type != signature.return_type:
+            raise TypeError(f"{dispatcher.py_func.__qualname__} returns {self._result.signature.return_type}, "
+                            f"not {signature.return_type}")
+
+    def signature(self):
+        return self._signature
+
+    def __wrapper_address__(self):
+        return self._result.library.get_pointer_to_function(self._result.fndesc.llvm_cfunc_wrapper_name)
+
+    def jit_address(self):
+        return self._result.library.get_pointer_to_function(self._result.fndesc.llvm_func_name)
+
+
+def shared_call(dispatcher, return_type, *example_args) -> SharedCall:
+    """The SharedCall of `dispatcher` for arguments of example_args' types (numba.typeof) returning
+    return_type (a numba type)."""
+    signature = return_type(*(numba.typeof(a) for a in example_args))
+    key = (dispatcher, signature)
+    if key not in _shared:
+        _shared[key] = SharedCall(dispatcher, signature)
+    return _shared[key]
+
+
+def _jit_address(func, signature, _numba_own=function_type._get_jit_address):
+    if isinstance(func, SharedCall):
+        return func.jit_address()
+    return _numba_own(func, signature)
+
+
+def install() -> None:
+    """Let numba find a SharedCall's own address when it crosses from Python into compiled code."""
+    function_type._get_jit_address = _jit_address
+
+
+install()
