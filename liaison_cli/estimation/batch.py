@@ -30,10 +30,10 @@ from numba import njit
 from liaison_cli.dynamics.model import propagate_rk8_in_place
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
-                                                channel_states)
+                                                shared_calls)
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, conditioned_solve,
                                                  negligible_correction, position_indices)
-from liaison_cli.measurements.registry import predict_shared, residual
+from liaison_cli.measurements.registry import residual
 
 JACOBIAN_EVERY = 0
 JACOBIAN_FIRST = 1
@@ -81,38 +81,34 @@ def propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts
 
 
 @njit(cache=True)
-def _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g_s):
+def _row(c, k, traj, phi, block_of_start, known_states, channels, h, H, g_r, g_t, g_s, measurement_row):
     """Predicted value of channel c (channels: kernel_args.Channels) at epoch k and its row h (n,) of partials
-    w.r.t. the epoch state; g_r, g_t, g_s (6,) are scratch for the partials w.r.t. the ends' current states
-    (g_s: a three-end channel's second receiver)."""
-    channel_kind, channel_ends, channel_flags = channels.kind, channels.ends, channels.flags
-    channel_mod_index, channel_mod_coeff = channels.mod_index, channels.mod_coeff
+    w.r.t. the epoch state: the EKF's measurement row at the reference (measurement_row, the shared
+    filter_loop.measurement_row: value with modifiers, partials H (n,) w.r.t. the current states) mapped to
+    the epoch by each estimated end's Phi(t_k, t_0) (constant blocks map as the identity); g_r, g_t, g_s (6,)
+    are scratch for the ends' partials."""
+    value = measurement_row(channels, c, traj[k], known_states[k], H, g_r, g_t, g_s)[0]
     for i in range(h.shape[0]):
-        h[i] = 0.0
-    ends = channel_ends[c]
-    x_r, x_t, x_s = channel_states(traj[k], known_states[k], ends)
-    value = predict_shared(channel_kind[c], x_r, x_t, x_s, channel_flags[c], g_r, g_t, g_s)
-    for end, g in ((ends[END_RECEIVER_STATE], g_r), (ends[END_TRANSMITTER_STATE], g_t),
-                   (ends[END_SECOND_STATE], g_s)):
-        if end < 0:
-            continue
+        h[i] = H[i]
+    ends = channels.ends[c]
+    for column in (END_RECEIVER_STATE, END_TRANSMITTER_STATE, END_SECOND_STATE):
+        end = ends[column]
+        if end < 0 or (column != END_RECEIVER_STATE and end == ends[END_RECEIVER_STATE]) or (
+                column == END_SECOND_STATE and end == ends[END_TRANSMITTER_STATE]):
+            continue  # no estimated end, or one already mapped (H holds its partials summed)
         b = block_of_start[end]
         for j in range(6):
             acc = 0.0
             for i in range(6):
-                acc += g[i] * phi[k, b, i, j]
-            h[end + j] += acc
-    for j in range(channel_mod_index.shape[1]):
-        index = channel_mod_index[c, j]
-        if index >= 0:
-            value += channel_mod_coeff[c, j] * traj[k, index]
-            h[index] += channel_mod_coeff[c, j]
+                acc += H[end + i] * phi[k, b, i, j]
+            h[end + j] = acc
     return value
 
 
 @njit(cache=True)
-def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use):
-    """Lambda (n, n), N (n,), and per channel the residual sum of squares and count over epochs 1..n_use-1."""
+def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use, measurement_row):
+    """Lambda (n, n), N (n,), and per channel the residual sum of squares and count over epochs 1..n_use-1
+    (measurement_row: the shared filter_loop.measurement_row, kernel_args.SharedCalls)."""
     channel_kind, sigma = channels.kind, channels.sigma
     n = traj.shape[1]
     n_channels = y_obs.shape[1]
@@ -120,7 +116,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
     rhs = np.zeros(n)
     ss = np.zeros(n_channels)
     count = np.zeros(n_channels, dtype=np.int64)
-    h = np.empty(n)
+    h, H = np.empty(n), np.zeros(n)
     g_r = np.empty(6)
     g_t = np.empty(6)
     g_s = np.empty(6)
@@ -130,7 +126,8 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
             y = y_obs[k, c]
             if not np.isfinite(y):
                 continue
-            value = _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g_s)
+            value = _row(c, k, traj, phi, block_of_start, known_states, channels, h, H, g_r, g_t, g_s,
+                         measurement_row)
             r = residual(channel_kind[c], y, value)
             w = 1.0 / (sigma[c] * sigma[c])
             ss[c] += r * r
@@ -140,7 +137,7 @@ def accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, 
 
 
 @njit(cache=True)
-def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, P, n_use):
+def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, P, n_use, measurement_row):
     """Residuals (m, C) of the final reference at every epoch with data (NaN elsewhere) and their predicted
     spread sqrt(sigma^2 - h P h^T) inside the span (sqrt(sigma^2 + h P h^T) after it, a prediction)."""
     channel_kind, sigma = channels.kind, channels.sigma
@@ -148,7 +145,7 @@ def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, 
     n = traj.shape[1]
     out = np.full((m, n_channels), np.nan)
     spread = np.full((m, n_channels), np.nan)
-    h = np.empty(n)
+    h, H = np.empty(n), np.zeros(n)
     g_r = np.empty(6)
     g_t = np.empty(6)
     g_s = np.empty(6)
@@ -157,9 +154,15 @@ def postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, 
             y = y_obs[k, c]
             if not np.isfinite(y):
                 continue
-            value = _row(c, k, traj, phi, block_of_start, known_states, channels, h, g_r, g_t, g_s)
+            value = _row(c, k, traj, phi, block_of_start, known_states, channels, h, H, g_r, g_t, g_s,
+                         measurement_row)
             out[k, c] = residual(channel_kind[c], y, value)
-            hph = h @ P @ h
+            hph = 0.0  # h P h^T in element loops: `h @ P @ h` compiled numba's BLAS dot paths (0.5 s of a first batch)
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += P[i, j] * h[j]
+                hph += h[i] * acc
             var = sigma[c] * sigma[c] + (-hph if k < n_use else hph)
             spread[k, c] = np.sqrt(max(var, 0.0))
     return out, spread
@@ -203,13 +206,15 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     x = x_apriori.copy()
     position = position_indices(block_kind, block_start)
     corrections, status, cov, cond, iterations = [], BATCH_NOT_CONVERGED, None, np.nan, 0
+    calls = shared_calls(channels, layout, dynamics)
     for iterations in range(1, max_iterations + 1):
         # The STM covers every epoch (the span and the prediction after it), so the frozen Phi also maps the
         # covariance forward; later iterations of the frozen-Jacobian method propagate the state only.
         with_stm = jacobian == JACOBIAN_EVERY or iterations == 1
         propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m if with_stm else n_use,
                             with_stm, traj, phi, t0_tu)
-        lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use)
+        lam, rhs, _, _ = accumulate_normal_equations(traj, phi, block_of_start, y_obs, known_states, channels, n_use,
+                                                     calls.measurement_row)
         if info_apriori is not None:
             lam, rhs = add_apriori(lam, rhs, info_apriori, x, x_apriori)
         if not (np.all(np.isfinite(lam)) and np.all(np.isfinite(rhs))):
@@ -227,7 +232,8 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     # The converged trajectory over every epoch, for errors and post-fit residuals (Phi as last computed).
     propagate_reference(x, block_kind, block_start, model, params, dt_tu, counts, m, False, traj, phi, t0_tu)
     P = cov if cov is not None else np.full((n, n), np.nan)
-    post, spread = postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, P, n_use)
+    post, spread = postfit_residuals(traj, phi, block_of_start, y_obs, known_states, channels, P, n_use,
+                                     calls.measurement_row)
     with np.errstate(invalid="ignore"):
         rms = np.sqrt(np.nanmean(post[:n_use] ** 2, axis=0)) if n_use > 1 else np.full(y_obs.shape[1], np.nan)
     solution = BatchSolution(x, P, iterations, status, cond, rms, tuple(corrections))

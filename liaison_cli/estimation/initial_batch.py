@@ -84,7 +84,8 @@ def reference_and_normal_equations(model, x0, y_obs, known_states, channels, lay
         for j in range(n):
             phi[0, i, j] = 1.0 if i == j else 0.0
     for k in range(1, w):
-        calls.time_update(traj[k - 1], traj[k], phi_step, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
+        calls.time_update(traj[k - 1], traj[k], phi_step, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm,
+                          work_stm)
         _propagate_products(phi_step, phi[k - 1], phi[k], q_acc, q_tmp, Q)
         for c in range(n_channels):
             y_meas = y_obs[k, c]

@@ -248,7 +248,8 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
         if k > 0:
             linearisation = truth[k - 1].copy()
             _burns_on_parts(linearisation, P, D, S, mu_meas, mu_dyn, burns, k - 1)
-            calls.time_update(linearisation, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm, work_stm)
+            calls.time_update(linearisation, x_bar, Phi, layout, model, dynamics, t0_tu + (k - 1) * dt_tu, y_stm,
+                              work_stm)
             d_dyn = _dynamics_mismatch(truth[k], x_bar, d_dyn_extra, Phi, layout)
             P, P_spare = calls.predict_covariance(P, Phi, Q, P_spare, work_block, block_kind, block_start,
                                                   block_size), P
