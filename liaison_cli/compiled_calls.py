@@ -15,8 +15,10 @@ from Python (numba.experimental.function_type._get_jit_address); `install()` tea
 the address numba would call the function's C wrapper, which cannot pass an exception on.
 
 A SharedCall's signature is built from example arguments (`numba.typeof`), so it names exactly the types the
-caller passes; a caller that passes others fails to compile (numba: "mismatch of function types"), never
-silently.
+caller passes; a caller that passes others fails to compile or to call (numba: "mismatch of argument types"),
+never silently. The estimators' shared calls are typed for C-contiguous writable arrays
+(estimation.kernel_args.writable_c at their entry points). Under NUMBA_DISABLE_JIT a dispatcher is the plain
+Python function, which is passed as it is.
 """
 
 import numba
@@ -58,6 +60,8 @@ def shared_call(dispatcher, return_type, *example_args) -> SharedCall:
     """The SharedCall of `dispatcher` for arguments of example_args' types (numba.typeof) returning
     return_type (a numba type). Found again by _type_key, not numba.typeof: an estimator asks at every call,
     and typing its named groups cost 0.7 ms, 4 % of a 10-day eml2_lunar run."""
+    if not hasattr(dispatcher, "overloads"):  # NUMBA_DISABLE_JIT: the plain Python function is its own call
+        return dispatcher
     key = (dispatcher, return_type, tuple(_type_key(a) for a in example_args))
     if key not in _shared:
         _shared[key] = SharedCall(dispatcher, return_type(*(numba.typeof(a) for a in example_args)))

@@ -76,3 +76,62 @@ def test_an_unknown_model_code_raises_through_the_shared_time_update():
     object.__setattr__(broken, "model", 99)
     with pytest.raises(ValueError, match="unknown dynamics model code"):
         estimate(problem.scenario.estimator, broken, inputs.x0_hat, inputs.y_obs, inputs.truth)
+
+
+def test_read_only_inputs_reach_the_shared_calls_as_they_are_typed():
+    """Read-only known states and process noise (a caller's own arrays) are taken as writable copies where the
+    shared calls are typed for writable arrays: the EKF and LinCov run, with the numbers of writable inputs."""
+    from liaison_cli.campaign.engine.worker import draw_run_inputs
+    from liaison_cli.campaign.studies.lincov_budget import error_budget
+    from liaison_cli.estimation.estimators import estimate
+    from liaison_cli.scenario.loading import load_scenario
+    from liaison_cli.scenario.setup import prepare_problem
+    from tests.conftest import SCENARIOS
+
+    problem = prepare_problem(load_scenario(SCENARIOS / "smoke.yaml")[0])
+    inputs = draw_run_inputs(problem, 0)
+    writable = estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
+    writable_budget = error_budget(problem).total
+    for array in (problem.filter.known_states, problem.filter.Q):
+        array.setflags(write=False)
+    read_only = estimate(problem.scenario.estimator, problem.filter, inputs.x0_hat, inputs.y_obs, inputs.truth)
+    np.testing.assert_array_equal(read_only.err, writable.err)
+    np.testing.assert_array_equal(error_budget(problem).total, writable_budget)
+
+
+def test_without_the_compiler_the_plain_functions_are_passed():
+    """NUMBA_DISABLE_JIT=1 (numba's debugging switch): the shared calls are the Python functions themselves."""
+    import os
+    import subprocess
+    import sys
+
+    script = ("from liaison_cli.estimation.filter_loop import shared_calls, time_update, measurement_row\n"
+              "from liaison_cli.estimation.kernel_args import channels_of, dynamics_of, BlockLayout\n"
+              "import numpy as np\n"
+              "i = np.zeros(1, dtype=np.int64)\n"
+              "calls = shared_calls(channels_of(i, np.zeros((1, 6)), i, np.zeros((1, 1)), np.zeros((1, 1)), "
+              "np.ones(1)), BlockLayout(i, i, i, i), dynamics_of([0.01], 0.1, [4]))\n"
+              "print(calls.time_update is time_update, calls.measurement_row is measurement_row)\n")
+    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "NUMBA_DISABLE_JIT": "1"},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.split() == ["True", "True"], out.stderr
+
+
+def test_the_estimator_bodies_call_the_shared_functions_only_by_address():
+    """No estimator body calls the time update, the measurement row or the covariance prediction by name (which
+    would link a copy of its code into the body again): only through its SharedCalls argument."""
+    import ast
+    import inspect
+
+    from liaison_cli.estimation import batch, filter_loop, initial_batch, lincov
+
+    shared = {"time_update", "measurement_row", "predict_covariance_into", "predict_covariance_blocks"}
+    bodies = (filter_loop.run_ekf, lincov.lincov_along_truth, lincov._propagate_parts, lincov._update_along_truth,
+              initial_batch.reference_and_normal_equations, batch._row, batch.accumulate_normal_equations,
+              batch.postfit_residuals)
+    for body in bodies:
+        tree = ast.parse(inspect.getsource(getattr(body, "py_func", body)).lstrip())
+        parameters = {arg.arg for arg in tree.body[0].args.args}  # a SharedCall passed on under its own name
+        by_name = {node.func.id for node in ast.walk(tree)
+                   if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)} & (shared - parameters)
+        assert not by_name, (body.__name__, by_name)

@@ -31,6 +31,7 @@ from liaison_cli.dynamics.model import propagate_rk8_in_place
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
                                                 shared_calls)
+from liaison_cli.estimation.kernel_args import writable_c
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, conditioned_solve,
                                                  negligible_correction, position_indices)
 from liaison_cli.measurements.registry import residual
@@ -194,6 +195,7 @@ def solve_batch(x_apriori, P_apriori, y_obs, known_states, channels, layout, mod
     predicted spread (estimation.batch.postfit_residuals)."""
     block_kind, block_start = layout.kind, layout.start
     params, dt_tu, t0_tu = dynamics.params, dynamics.dt_tu, dynamics.t0_tu
+    known_states = writable_c(known_states)  # as the shared measurement row is typed (filter_loop.shared_calls)
     n = x_apriori.shape[0]
     m = y_obs.shape[0]
     n_blocks = block_kind.shape[0]

@@ -18,7 +18,7 @@ from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_S
                                                 STATUS_NAMES, STATUS_OK, run_ekf, shared_calls)
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
                                                 ProcessNoise, SmootherRecord, channels_of, direction_record,
-                                                dynamics_of, process_noise_of)
+                                                dynamics_of, process_noise_of, writable_c)
 from liaison_cli.estimation.process_noise import uncoupled_process_noise
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth
@@ -179,7 +179,7 @@ def _ekf_pass(arrays: FilterArrays, x0_hat, P0, y_obs, truth, burns, t0_tu, reco
     states, matrices = np.zeros((stored, 2, n)), np.zeros((stored, 3, n, n))
     directions = direction_record(*arrays.direction_starts(), m)
     args = (int(arrays.model), x0_hat, P0, arrays.process_noise(m), truth, y_obs,
-            arrays.known_states[len(arrays.known_states) - m :], arrays.channels(), arrays.block_layout(),
+            writable_c(arrays.known_states[len(arrays.known_states) - m :]), arrays.channels(), arrays.block_layout(),
             arrays.dynamics(t0_tu), arrays.ekf_settings(), burns, SmootherRecord(states, matrices), directions,
             shared_calls(arrays.channels(), arrays.block_layout(), arrays.dynamics(t0_tu)))
     err, sigma, nees, innovation, innovation_std, rejected, status, fail_step = run_ekf(*args)

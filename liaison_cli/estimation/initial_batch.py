@@ -30,6 +30,7 @@ from numba import njit
 
 from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.filter_loop import shared_calls
+from liaison_cli.estimation.kernel_args import writable_c
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, equilibrated_solve,
                                                  negligible_correction, position_indices)
 from liaison_cli.measurements.registry import residual
@@ -187,7 +188,7 @@ def _solve_window(arrays, w, x_start, x_apriori, y_obs) -> InitialBatchResult:
     info_apriori = np.linalg.inv(arrays.P0)
     position = position_indices(*arrays.layout.arrays()[:2])
     args = [int(arrays.model), x_start, np.ascontiguousarray(y_obs[:w]),
-            np.ascontiguousarray(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
+            writable_c(arrays.known_states[:w]), arrays.channels(), arrays.block_layout(),
             arrays.dynamics(), arrays.dense_process_noise(), traj, phi,
             shared_calls(arrays.channels(), arrays.block_layout(), arrays.dynamics())]
 

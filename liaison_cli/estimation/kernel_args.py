@@ -80,9 +80,16 @@ def dynamics_of(params, dt_tu: float, substeps, t0_tu: float = 0.0, empirical_ta
                     float(empirical_tau_tu))
 
 
+def writable_c(array) -> np.ndarray:
+    """array as float64, C-contiguous and writable (a copy only where it is not): the shared calls
+    (filter_loop.shared_calls) are typed for such arrays, and numba passes no read-only or strided array where
+    one is typed writable and contiguous."""
+    return np.require(array, np.float64, ("C", "W"))
+
+
 def process_noise_of(Q, ric=None, primaries=None) -> ProcessNoise:
     """ProcessNoise with the fixed Q alone when ric / primaries are None (no RIC noise)."""
     n_blocks = 0 if ric is None else len(ric)
-    return ProcessNoise(np.ascontiguousarray(Q, dtype=np.float64),
+    return ProcessNoise(writable_c(Q),
                         np.zeros((n_blocks, 3, 3)) if ric is None else np.ascontiguousarray(ric, dtype=np.float64),
                         np.zeros((0, 2, 6)) if primaries is None else np.ascontiguousarray(primaries, dtype=np.float64))

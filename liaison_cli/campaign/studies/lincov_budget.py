@@ -14,6 +14,7 @@ from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.errors import LiaisonError
 from liaison_cli.estimation.filter_loop import shared_calls
+from liaison_cli.estimation.kernel_args import writable_c
 from liaison_cli.estimation.lincov import PART_INITIAL, PART_NOISE, PART_PROCESS, TruthErrors, lincov_along_truth
 from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import Problem
@@ -115,9 +116,12 @@ def error_budget(problem: Problem) -> Budget:
         raise BudgetError(f"{problem.scenario.name}: the error budget splits the EKF's error; this scenario's "
                           f"estimator is {problem.scenario.estimator!r}")
     f = problem.filter
-    args = (int(f.model), _filter_truth(problem), problem.measurements_true, f.known_states,
-            f.channels(), f.block_layout(), f.dynamics(), f.P0, f.Q, int(f.n_gain), float(f.underweight), f.burns,
-            TruthErrors(*_inputs(problem)), shared_calls(f.channels(), f.block_layout(), f.dynamics()))
+    # The arrays the shared calls take, C-contiguous and writable as they are typed (filter_loop.shared_calls).
+    D_initial, Q_true, S0, d_dyn_extra, bias_link = _inputs(problem)
+    args = (int(f.model), _filter_truth(problem), problem.measurements_true, writable_c(f.known_states),
+            f.channels(), f.block_layout(), f.dynamics(), f.P0, writable_c(f.Q), int(f.n_gain), float(f.underweight),
+            f.burns, TruthErrors(D_initial, writable_c(Q_true), S0, d_dyn_extra, bias_link),
+            shared_calls(f.channels(), f.block_layout(), f.dynamics()))
     run_lincov = lincov_along_truth
     P_diag, D_diag, S, mu_meas, mu_dyn = run_lincov(*args)
     n_sc = problem.n_spacecraft
