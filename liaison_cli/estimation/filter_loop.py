@@ -101,7 +101,7 @@ def shared_calls(channels, layout, dynamics) -> SharedCalls:
     groups: each body calls their one cached copy by address instead of carrying its own (compiled_calls)."""
     n, nn, blocks = np.empty(1), np.empty((1, 1)), layout.kind
     return SharedCalls(
-        shared_call(time_update, types.none, n, n, np.empty((1, 1)), layout, 0, dynamics, 0.0,
+        shared_call(time_update, types.none, n, n, nn, layout, 0, dynamics, 0.0,
                     np.empty(PROPAGATION_SIZE), np.empty((5, STM_SIZE))),
         shared_call(measurement_row, types.UniTuple(types.float64, 2), channels, 0, n, np.empty((1, 6)), n,
                     np.empty(6), np.empty(6), np.empty(6)),
@@ -401,7 +401,8 @@ def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layo
     compiled body for every scenario). x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12;
     kernel_args.ProcessNoise, step_process_noise); truth (m, n) at the epochs
     t_k = t0_tu + k dt_tu; y_obs (m, C) (row 0 unused, NaN: none); known_states (m, K, 6); burns (N, 3)
-    (apply_burns); the named groups as estimation.kernel_args describes them. Returns (err, sigma (m, n), nees
+    (apply_burns); the named groups as estimation.kernel_args describes them (calls: the time update, measurement
+    row and covariance prediction by address, shared_calls). Returns (err, sigma (m, n), nees
     (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's update, the
     innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
     block_kind, block_start, block_size = layout.kind, layout.start, layout.size

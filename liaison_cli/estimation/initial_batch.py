@@ -61,7 +61,8 @@ def reference_and_normal_equations(model, x0, y_obs, known_states, channels, lay
     Phi(t_k, t_0), and the normal equations Lambda (n, n), N (n,) of the measurements y_obs (w, C) at epochs
     1..w-1; also Q_w (n, n), the process noise accumulated to the last epoch, and the residual sum of squares
     weighted by 1/sigma^2 (a chi-square with as many degrees of freedom as measurements, at the truth).
-    channels, layout, dynamics: estimation.kernel_args (dynamics.t0_tu is the window's first epoch)."""
+    channels, layout, dynamics: estimation.kernel_args (dynamics.t0_tu is the window's first epoch); calls: the
+    time update and measurement row by address (kernel_args.SharedCalls, filter_loop.shared_calls)."""
     channel_kind, sigma = channels.kind, channels.sigma
     dt_tu, t0_tu = dynamics.dt_tu, dynamics.t0_tu
     w, n = traj.shape

@@ -217,7 +217,8 @@ def lincov_along_truth(model, truth, y_true, known_states, channels, layout, dyn
     truth_errors (TruthErrors): D_initial (n, n) the true initial error covariance; Q_true (n, n) the truth's
     process noise per step; S0 (n, L) the initial bias sensitivity (for biases that are filter states);
     d_dyn_extra (n,) a per-step deterministic truth increment the filter does not model (clock drifts);
-    channel_bias_link (C,): the link whose unmodelled bias enters the channel (-1: none).
+    channel_bias_link (C,): the link whose unmodelled bias enters the channel (-1: none); calls: the time update,
+    measurement row and covariance prediction by address (kernel_args.SharedCalls, filter_loop.shared_calls).
 
     Returns P_diag (m, n), D_diag (m, 3, n) for the initial / noise / process parts, S (m, n, L), mu_meas
     (m, n), mu_dyn (m, n). Each epoch is the module docstring's predict (time_update, the covariance
