@@ -72,9 +72,9 @@ def _type_key(value):
     """What numba.typeof reads of a value, as a hashable key: an array's dtype, dimensions, layout, write flag and
     alignment; a named tuple's class and its fields' keys; a scalar's Python type."""
     if isinstance(value, np.ndarray):
-        flags = value.flags
-        return (value.dtype.str, value.ndim, flags.c_contiguous, flags.f_contiguous, flags.writeable,
-                flags.aligned)
+        flags = value.flags  # numba's layout: C where C-contiguous (a (1, 6) array is F-contiguous too), else F or A
+        layout = "C" if flags.c_contiguous else "F" if flags.f_contiguous else "A"
+        return (value.dtype.str, value.ndim, layout, flags.writeable, flags.aligned)
     if isinstance(value, tuple):
         return (type(value), tuple(_type_key(field) for field in value))
     return type(value)

@@ -135,3 +135,23 @@ def test_the_estimator_bodies_call_the_shared_functions_only_by_address():
         by_name = {node.func.id for node in ast.walk(tree)
                    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)} & (shared - parameters)
         assert not by_name, (body.__name__, by_name)
+
+
+def test_the_warm_up_compiles_ahead_the_calls_a_scenario_uses():
+    """warm-up's compile_shared_calls types the measurement row and the covariance prediction for the named
+    groups' fixed types: a scenario's estimator finds the very same SharedCalls (nothing compiled for nothing)."""
+    from liaison_cli.campaign.engine.warmup import compile_shared_calls
+    from liaison_cli.compiled_calls import _shared
+    from liaison_cli.estimation.filter_loop import shared_covariance_prediction, shared_measurement_row
+    from liaison_cli.scenario.loading import load_scenario
+    from liaison_cli.scenario.setup import prepare_problem
+    from tests.conftest import SCENARIOS
+
+    _shared.clear()
+    compile_shared_calls()
+    ahead = set(map(id, _shared.values()))
+    assert len(ahead) == 2
+    for name in ("smoke.yaml", "eph_eml1_eml2_dsn.yaml", "bias_eml2_lunar.yaml"):
+        arrays = prepare_problem(load_scenario(SCENARIOS / name)[0]).filter
+        used = {id(shared_measurement_row(arrays.channels())), id(shared_covariance_prediction(arrays.block_layout()))}
+        assert used == ahead, name

@@ -99,13 +99,28 @@ def shared_calls(channels, layout, dynamics) -> SharedCalls:
     """The time update, the measurement row and the covariance prediction (ekf.predict_covariance_into) as
     compiled_calls.SharedCall arguments for the estimators' bodies (kernel_args.SharedCalls), typed for these
     groups: each body calls their one cached copy by address instead of carrying its own (compiled_calls)."""
-    n, nn, blocks = np.empty(1), np.empty((1, 1)), layout.kind
-    return SharedCalls(
-        shared_call(time_update, types.none, n, n, nn, layout, 0, dynamics, 0.0,
-                    np.empty(PROPAGATION_SIZE), np.empty((5, STM_SIZE))),
-        shared_call(measurement_row, types.UniTuple(types.float64, 2), channels, 0, n, np.empty((1, 6)), n,
-                    np.empty(6), np.empty(6), np.empty(6)),
-        shared_call(predict_covariance_into, types.float64[:, ::1], nn, nn, nn, nn, nn, blocks, blocks, blocks))
+    return SharedCalls(shared_time_update(layout, dynamics), shared_measurement_row(channels),
+                       shared_covariance_prediction(layout))
+
+
+def shared_time_update(layout, dynamics):
+    """time_update as a SharedCall (shared_calls)."""
+    n = np.empty(1)
+    return shared_call(time_update, types.none, n, n, np.empty((1, 1)), layout, 0, dynamics, 0.0,
+                       np.empty(PROPAGATION_SIZE), np.empty((5, STM_SIZE)))
+
+
+def shared_measurement_row(channels):
+    """measurement_row as a SharedCall (shared_calls)."""
+    n = np.empty(1)
+    return shared_call(measurement_row, types.UniTuple(types.float64, 2), channels, 0, n, np.empty((1, 6)), n,
+                       np.empty(6), np.empty(6), np.empty(6))
+
+
+def shared_covariance_prediction(layout):
+    """ekf.predict_covariance_into as a SharedCall (shared_calls)."""
+    nn, blocks = np.empty((1, 1)), layout.kind
+    return shared_call(predict_covariance_into, types.float64[:, ::1], nn, nn, nn, nn, nn, blocks, blocks, blocks)
 
 
 @njit(cache=True)

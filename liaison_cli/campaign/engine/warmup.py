@@ -207,6 +207,23 @@ def compile_dated_propagators() -> str:
     return ""
 
 
+def compile_shared_calls() -> str:
+    """The measurement row and the covariance prediction every estimator calls by address
+    (estimation.filter_loop.shared_calls), compiled for the named groups' fixed types. Run ahead in the first
+    combination's process: it reaches them only after its step choice, which waits for the dated propagators
+    the process beside it compiles, and neither depends on a dynamics model."""
+    import numpy as np
+
+    from liaison_cli.estimation.filter_loop import shared_covariance_prediction, shared_measurement_row
+    from liaison_cli.estimation.kernel_args import BlockLayout, channels_of
+
+    index = np.zeros(1, dtype=np.int64)
+    shared_measurement_row(channels_of(index, np.zeros((1, 6)), index, np.zeros((1, 1)), np.zeros((1, 1)),
+                                       np.ones(1)))
+    shared_covariance_prediction(BlockLayout(index, index, index, index))
+    return ""
+
+
 def _thread_lock_for_progress_bars() -> None:
     """tqdm makes a multiprocessing lock at its first bar, even a disabled one (the error budget's check has
     one), and in a pool worker the resource tracker reports that lock as leaked when the pool stops: a thread
@@ -335,10 +352,11 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     rest.sort(key=len, reverse=True)  # the longest chain first, so it does not start last and finish alone
     phase = [first, *batch, *rest]
     # The second chain starts by compiling the dated model's propagators, which the first would reach only after
-    # its CRTBP propagator (compile_dated_propagators); with one process, nothing is ahead of anything.
-    ahead = {0: (), 1: (compile_dated_propagators,) if jobs > 1 else ()}
-    yield from (result for results in map_batches(warm_up_chain, ahead, ((int(i == 1), tuple(chain))
-                                                                         for i, chain in enumerate(phase)),
+    # its CRTBP propagator (compile_dated_propagators); the first starts with the shared calls it would reach
+    # only after waiting for them (compile_shared_calls). With one process, nothing is ahead of anything.
+    ahead = {0: (), 1: (compile_dated_propagators,), 2: (compile_shared_calls,)} if jobs > 1 else {0: ()}
+    steps = ({0: 2, 1: 1}.get(i, 0) if jobs > 1 else 0 for i in range(len(phase)))
+    yield from (result for results in map_batches(warm_up_chain, ahead, zip(steps, map(tuple, phase)),
                                                     LOCAL, min(jobs, len(phase)) if jobs > 1 else 1)
                 for result in results)
 
