@@ -412,14 +412,13 @@ def run_outputs(m, n, n_channels):
 @njit(cache=True)
 def run_ekf(model, x0_hat, P0, noise, truth, y_obs, known_states, channels, layout, dynamics, settings, burns,
             record, directions, calls):
-    """Run one EKF pass. model: the dynamics model code, read at run time like the channels' kinds (one
-    compiled body for every scenario). x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12;
-    kernel_args.ProcessNoise, step_process_noise); truth (m, n) at the epochs
-    t_k = t0_tu + k dt_tu; y_obs (m, C) (row 0 unused, NaN: none); known_states (m, K, 6); burns (N, 3)
-    (apply_burns); the named groups as estimation.kernel_args describes them (calls: the time update, measurement
-    row and covariance prediction by address, shared_calls). Returns (err, sigma (m, n), nees
-    (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's update, the
-    innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
+    """Run one EKF pass. model: the dynamics model code, read at run time (one compiled body for every scenario).
+    x0_hat (n,); P0 (n, n); noise: the process noise added at every step (Eq. 12; kernel_args.ProcessNoise,
+    step_process_noise); truth (m, n) at the epochs t_k = t0_tu + k dt_tu; y_obs (m, C) (row 0 unused, NaN: none);
+    known_states (m, K, 6); burns (N, 3) (apply_burns); the named groups as estimation.kernel_args describes them
+    (calls: the time update, measurement row and covariance prediction by address, shared_calls). Returns (err,
+    sigma (m, n), nees (m,), innovation, innovation_std, rejected (m, C), status, fail_step): after each epoch's
+    update, the innovations pre-fit (rejected ones too); rows after a failure stay NaN."""
     block_kind, block_start, block_size = layout.kind, layout.start, layout.size
     dt_tu, t0_tu = dynamics.dt_tu, dynamics.t0_tu
     n_gain, n_nees, divergence_position_lu = settings.n_gain, settings.n_nees, settings.divergence_position_lu
