@@ -80,6 +80,13 @@ def _type_key(value):
     return type(value)
 
 
+def writable_c(array) -> np.ndarray:
+    """array as float64, C-contiguous and writable (a copy only where it is not). numba compiles a function once
+    more for a read-only or strided array, and passes none where a shared call is typed for a writable contiguous
+    one: every Python caller of a compiled kernel hands its arrays over this way."""
+    return np.require(array, np.float64, ("C", "W"))
+
+
 def _jit_address(func, signature, _numba_own=function_type._get_jit_address):
     if isinstance(func, SharedCall):
         return func.jit_address()

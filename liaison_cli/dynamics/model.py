@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.ephemeris_model import ephemeris_state_stm_cr_scaled, ephemeris_state_stm_scaled
@@ -159,7 +160,7 @@ class DynamicsModel:
     def field_accelerations(self, params, states, times_tu) -> np.ndarray:
         """The model's field with parameters `params` at states (m, 6): accelerations (m, 3), LU/TU^2 (the CRTBP's
         rotating-frame terms included; the truth's unmodelled acceleration not)."""
-        return field_accelerations(np.require(states, float, ("C", "W")), np.asarray(params, dtype=float))
+        return field_accelerations(writable_c(states), np.asarray(params, dtype=float))
 
     def moon_relative_states(self, states, times_tu=None) -> np.ndarray:
         """(m, 6): the states (m, 6) about the Moon, which rests at (1 - mu, 0, 0) (rotating frame; times_tu is not

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.ephemeris_dynamics import SENSITIVITY_SIZE, STM_SIZE
 from liaison_cli.dynamics.model import propagate_state_stm_into
 
@@ -88,7 +89,7 @@ def sample_epochs(m: int) -> np.ndarray:
 
 def worst_error_lu(model: int, params, states, dt_tu: float, substeps: int, order: int, samples) -> float:
     """The largest position-equivalent one-step error (position, or velocity x interval) over the samples, LU."""
-    states = np.require(states, np.float64, ("C", "W"))  # one compiled signature: a read-only array is another
+    states = writable_c(states)  # one compiled signature: a read-only array is another
     errors = one_step_errors(np.int64(model), params, states, samples, float(dt_tu), np.int64(substeps),
                              np.int64(order))
     return float(np.max(np.maximum(errors[:, 0], errors[:, 1] * abs(dt_tu)))) if len(errors) else 0.0

@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.crtbp_field import field_accelerations
 
 
@@ -36,7 +37,7 @@ class CrtbpTrajectory:
     def accelerations(self) -> np.ndarray:
         """(m, 3) rotating-frame accelerations (Eq. 6-8, Coriolis and centrifugal terms included, and the lunar
         field when the parameters carry it)."""
-        return field_accelerations(np.require(self.states, float, ("C", "W")), self.params)  # writable: one signature
+        return field_accelerations(writable_c(self.states), self.params)  # writable: one signature
 
     def inertial_position_before(self, dt_back_tu):
         states, acc = self.states, self.accelerations  # computed once per trajectory: light-time iterations reuse it

@@ -27,13 +27,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.model import propagate_rk8_in_place
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT
 from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_STATE, END_TRANSMITTER_STATE,
                                                 shared_calls)
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, conditioned_solve,
                                                  negligible_correction, position_indices)
-from liaison_cli.estimation.kernel_args import writable_c
 from liaison_cli.measurements.registry import residual
 
 JACOBIAN_EVERY = 0

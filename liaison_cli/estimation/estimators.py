@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.estimation.batch import BATCH_OK, solve_batch
 from liaison_cli.estimation.blocks import BLOCK_SPACECRAFT, StateLayout
 from liaison_cli.estimation.estimator import Estimator
@@ -18,7 +19,7 @@ from liaison_cli.estimation.filter_loop import (END_RECEIVER_STATE, END_SECOND_S
                                                 STATUS_NAMES, STATUS_OK, run_ekf, shared_calls)
 from liaison_cli.estimation.kernel_args import (BlockLayout, Channels, DirectionRecord, Dynamics, EkfSettings,
                                                 ProcessNoise, SmootherRecord, channels_of, direction_record,
-                                                dynamics_of, process_noise_of, writable_c)
+                                                dynamics_of, process_noise_of)
 from liaison_cli.estimation.process_noise import uncoupled_process_noise
 from liaison_cli.estimation.initial_batch import INITIAL_BATCH_OK, InitialBatchSettings, solve_initial_batch
 from liaison_cli.estimation.smoother import rts_smooth

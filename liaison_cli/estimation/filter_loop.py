@@ -4,7 +4,9 @@ Everything here is plain arrays: no Python objects in the inner loop, so one 10-
 milliseconds. The loop knows the state only as a layout of blocks (estimation.blocks), the dynamics only
 through `dynamics.model.propagate_state_stm_into` (a model code + parameters), and the measurements only
 through `measurements.registry.predict` / `residual` plus each channel's table of
-ends and modifiers. The EKF algebra lives in `estimation.ekf`.
+ends and modifiers. The EKF algebra lives in `estimation.ekf`. The EKF, LinCov, the initial batch and the batch
+call the time update, the measurement row and the covariance prediction by address (`shared_calls`,
+`liaison_cli.compiled_calls`): one compiled copy of each, not one inside every estimator.
 """
 
 import numpy as np

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.model import PROPAGATION_SIZE, STM_SIZE
 from liaison_cli.estimation.filter_loop import shared_calls
-from liaison_cli.estimation.kernel_args import writable_c
 from liaison_cli.estimation.gauss_newton import (accumulate_row, add_apriori, equilibrated_solve,
                                                  negligible_correction, position_indices)
 from liaison_cli.measurements.registry import residual

@@ -20,6 +20,8 @@ namedtuples of arrays and scalars as typed records, and unpacks them for free).
   no RIC noise in the scenario; filter_loop.step_process_noise);
 - SmootherRecord: the EKF's forward record for the RTS smoother, states (m, 2, n) and matrices (m, 3, n, n)
   (length 0: not recorded);
+- SharedCalls: the time update, the measurement row and the covariance prediction, which the estimators call by
+  address (compiled_calls.SharedCall, built by filter_loop.shared_calls);
 - DirectionRecord: the EKF's consistency by direction (filter_loop.record_directions): per-spacecraft NEES,
   the common time shift, the line of sight of each linked pair.
 Field types are fixed by the builders (int64 / float64), so every scenario reuses one compiled signature.
@@ -28,6 +30,8 @@ Field types are fixed by the builders (int64 / float64), so every scenario reuse
 from collections import namedtuple
 
 import numpy as np
+
+from liaison_cli.compiled_calls import writable_c
 
 Channels = namedtuple("Channels", ["kind", "ends", "flags", "mod_index", "mod_coeff", "sigma"])
 BlockLayout = namedtuple("BlockLayout", ["kind", "start", "size", "parameter"])
@@ -78,13 +82,6 @@ def dynamics_of(params, dt_tu: float, substeps, t0_tu: float = 0.0, empirical_ta
     return Dynamics(np.ascontiguousarray(params, dtype=np.float64), float(dt_tu),
                     np.ascontiguousarray(np.atleast_1d(substeps), dtype=np.int64), float(t0_tu),
                     float(empirical_tau_tu))
-
-
-def writable_c(array) -> np.ndarray:
-    """array as float64, C-contiguous and writable (a copy only where it is not): the shared calls
-    (filter_loop.shared_calls) are typed for such arrays, and numba passes no read-only or strided array where
-    one is typed writable and contiguous."""
-    return np.require(array, np.float64, ("C", "W"))
 
 
 def process_noise_of(Q, ric=None, primaries=None) -> ProcessNoise:

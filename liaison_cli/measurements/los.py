@@ -10,6 +10,7 @@ Truth: the instantaneous geometry at the reception time.
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.measurements.observable import ChannelKind, Observable
 from liaison_cli.measurements.range import write_position_partials
 
@@ -70,7 +71,7 @@ def los_sigma_rad(path_sigma_m: float, baseline_m: float, off_boresight_deg: flo
 
 def _simulate(code, receiver, transponder, light_time: bool):
     # Writable (copied only if read-only): one compiled signature of azimuth_elevation.
-    receivers, transponders = (np.require(end.states, float, ("C", "W")) for end in (receiver, transponder))
+    receivers, transponders = (writable_c(end.states) for end in (receiver, transponder))
     angles = np.array([azimuth_elevation(a[:3], b[:3]) for a, b in zip(receivers, transponders)])
     return angles[:, 0] if code == KIND_AZIMUTH else angles[:, 1]
 

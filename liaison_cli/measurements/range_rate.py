@@ -5,6 +5,7 @@ same geometry at the reception time: its light-time terms are far below the rang
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.constants import M_S_PER_VU
 from liaison_cli.measurements.observable import ChannelKind, Observable
 
@@ -51,7 +52,7 @@ def predict_range_rate(x_receiver, x_transponder, flags, g_receiver, g_transpond
 
 def _simulate(code, receiver, transponder, light_time: bool):
     # Writable (copied only if read-only): a read-only array would compile range_rate once more for its own signature.
-    receivers, transponders = (np.require(end.states, float, ("C", "W")) for end in (receiver, transponder))
+    receivers, transponders = (writable_c(end.states) for end in (receiver, transponder))
     return np.array([range_rate(a, b) for a, b in zip(receivers, transponders)])
 
 

@@ -10,11 +10,11 @@ import numpy as np
 
 from liaison_cli.analysis.consistency import verdict
 from liaison_cli.campaign.engine.worker import true_parameters
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.clock import clock_process_noise
 from liaison_cli.dynamics.constants import M_PER_LU, M_S_PER_VU
 from liaison_cli.errors import LiaisonError
 from liaison_cli.estimation.filter_loop import shared_calls
-from liaison_cli.estimation.kernel_args import writable_c
 from liaison_cli.estimation.lincov import PART_INITIAL, PART_NOISE, PART_PROCESS, TruthErrors, lincov_along_truth
 from liaison_cli.scenario.filter_arrays import biased_filter_params
 from liaison_cli.scenario.setup import Problem
