@@ -322,6 +322,12 @@ def _watch_parent() -> None:
     threading.Thread(target=watch, name="liaison-parent-watch", daemon=True).start()
 
 
+def end_with_parent() -> None:
+    """In a helper process liaison started itself (campaign.engine.ahead): end it when its parent is gone, as a
+    pool worker ends (_watch_parent)."""
+    _watch_parent()
+
+
 @contextmanager
 def sigint_held():
     """SIGINT blocked in this thread for the block, then unblocked: a Ctrl-C meanwhile waits (or goes at once to

@@ -59,9 +59,12 @@ def run(
     quiet: QuietOption = False,
     as_json: bool = json_option(),
 ):
-    """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results.
+    """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results. While it
+    compiles (a first run), a second process compiles on the idle core what `liaison errors` needs for the
+    scenario; --jobs 1 keeps it to one process.
 
     Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2 --epoch-states 5"""
+    from liaison_cli.campaign.engine.ahead import compiling_ahead
     from liaison_cli.campaign.engine.results import stream_campaign
     from liaison_cli.campaign.studies.output import fill_folder
     from liaison_cli.scenario.loading import load_scenario
@@ -79,9 +82,10 @@ def run(
     if output is None and not overwrite and _earlier_run_of(out_dir, config.name):  # an edit-and-rerun cycle
         overwrite = True
         log.warning("replacing %s (an earlier `liaison run` of %s; --output keeps both)", out_dir, config.name)
-    problem, summary = fill_folder(out_dir, overwrite, lambda stage: stream_campaign(  # complete, or not there at all
-        config, stage, text, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
-        float_dtype="float64" if float64 else "float32", where=where))
+    with compiling_ahead(config, jobs, where.name):  # on a cache miss, `errors`' kernels on the idle core
+        problem, summary = fill_folder(out_dir, overwrite, lambda stage: stream_campaign(  # complete, or not at all
+            config, stage, text, runs=runs, jobs=jobs, progress=not quiet and sys.stderr.isatty(),
+            float_dtype="float64" if float64 else "float32", where=where))
     if as_json:
         from liaison_cli.report.json_summary import run_document
 
