@@ -3,13 +3,14 @@
 The filter's state + STM over one measurement interval, the STM on a coarser grid than the state
 (`rk4_state_stm_into`, no allocation; `rk4_state_stm` allocates its result), the state + STM with every step
 (`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by
-steps of at most max_step_tu (`rk4_states`; `rk4_states_forced` with an unmodelled acceleration).
-All numba-compiled and cached on disk.
+steps of at most max_step_tu (`rk4_states_forced`, with an unmodelled acceleration; `rk4_states` calls it with
+none). All numba-compiled and cached on disk but `rk4_states`, a Python call of the compiled one.
 """
 
 import numpy as np
 from numba import njit
 
+from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.constants import TU_S
 from liaison_cli.dynamics.crtbp_field import field_derivative_into, field_state_stm_rhs, field_truth_derivative_into
 
@@ -120,12 +121,15 @@ def _state_steps(state, dt_tu, steps, params, y, work):
         y[i] = s[i]
 
 
-@njit(cache=True)
 def rk4_states(state0, times_tu, max_step_tu, params):
     """Sample one trajectory (6,) -> (m, 6) at times_tu (times_tu[0] = epoch of state0) by fixed RK4 steps
-    of at most max_step_tu between consecutive samples (the compiled truth propagator: no Python in the
-    loop, no scipy import)."""
-    return rk4_states_forced(state0, times_tu, max_step_tu, params, np.zeros((times_tu.shape[0], 3)))
+    of at most max_step_tu between consecutive samples: rk4_states_forced with no extra force, the compiled
+    truth propagator (no Python in the loop, no scipy import). Called from Python, not compiled itself: as a
+    compiled function of its own it was 2 s of a dated scenario's first run (numba compiled its allocation and
+    linked the propagator in again), for the same numbers to the last bit."""
+    times_tu = np.ascontiguousarray(times_tu, dtype=float)
+    return rk4_states_forced(writable_c(state0), times_tu, float(max_step_tu), writable_c(params),
+                             np.zeros((times_tu.shape[0], 3)))
 
 
 @njit(cache=True)
