@@ -297,7 +297,7 @@ def _name_this_thread(name: bytes) -> None:
 _watching = False
 
 
-def _watch_parent() -> None:
+def _watch_parent(parent: int | None = None) -> None:
     """In a pool worker: a daemon thread that ends the worker when its parent is gone (killed with SIGKILL, which
     no handler sees: the worker is handed to another parent, so its parent pid changes). Without it the workers
     went on computing for a command nobody waits for. Started once per worker process, with its first task: a
@@ -308,7 +308,10 @@ def _watch_parent() -> None:
     if _watching:
         return
     _watching = True
-    parent = os.getppid()
+    if parent is None:  # a pool worker: its parent now (a live one started it)
+        parent = os.getppid()
+    elif os.getppid() != parent:  # handed to another parent already
+        os._exit(1)
 
     def watch():
         import time
@@ -322,10 +325,10 @@ def _watch_parent() -> None:
     threading.Thread(target=watch, name="liaison-parent-watch", daemon=True).start()
 
 
-def end_with_parent() -> None:
-    """In a helper process liaison started itself (campaign.engine.ahead): end it when its parent is gone, as a
-    pool worker ends (_watch_parent)."""
-    _watch_parent()
+def end_with_parent(parent_pid: int) -> None:
+    """In a helper process liaison started itself (campaign.engine.ahead): end it when its parent, parent_pid, is
+    gone, as a pool worker ends (_watch_parent), at once if it is gone already."""
+    _watch_parent(parent_pid)
 
 
 @contextmanager

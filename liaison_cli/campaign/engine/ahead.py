@@ -17,6 +17,7 @@ run stops it on the way out, finished or not (a function it was compiling is rel
 ends itself if the run is killed (it watches its parent). `--jobs 1` keeps the run to one process.
 """
 
+import json
 import logging
 import os
 import pickle
@@ -83,9 +84,9 @@ class Helper:
             if self.process is not None:
                 return
             try:
-                self.process = subprocess.Popen([sys.executable, "-c", f"from {__name__} import main; main()"],
-                                                stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                                                stderr=subprocess.DEVNULL, env=_same_code_environment())
+                self.process = subprocess.Popen(_helper_command(), stdin=subprocess.PIPE,
+                                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                                env={**os.environ, "LIAISON_TRUTH_CACHE": "off"})
             except OSError:  # no second process: the run compiles alone, as before
                 self.process = False
                 return
@@ -118,16 +119,14 @@ class Helper:
         return bool(self.process)
 
 
-def _same_code_environment() -> dict:
-    """This process's environment, with the folder this liaison_cli was imported from first on the helper's path:
-    the helper compiles the code the run runs (a checkout on PYTHONPATH, an installed copy), with the same cache
-    settings (LIAISON_CACHE_DIR, the compile target: inherited)."""
-    import liaison_cli
-
-    root = os.path.dirname(os.path.dirname(os.path.abspath(liaison_cli.__file__)))
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)
-    return env
+def _helper_command() -> list:
+    """The helper's command line: this interpreter, its import path set to this process's exact sys.path before
+    anything is imported (-P: not the working folder's modules; so the helper compiles the code the run runs, a
+    checkout or an installed copy, with the same numba and numpy), and this process's id, which it watches from
+    its first instant."""
+    start = ("import sys, json; sys.path[:] = json.loads(sys.argv[1]); "
+             f"from {__name__} import main; main(int(sys.argv[2]))")
+    return [sys.executable, "-P", "-c", start, json.dumps(sys.path), str(os.getpid())]
 
 
 class _FirstLiaisonCompile:
@@ -169,14 +168,20 @@ def compiling_ahead(scenario, jobs: int, where_name: str, steps=None):
         helper.stop()
 
 
-def main() -> None:
+def main(parent_pid: int) -> None:
     """The helper process: read (scenario, steps) from stdin and run each step, skipping one that fails; end at
-    a Ctrl-C (the terminal's, which reaches the run too) or when the run that started it is gone."""
+    a Ctrl-C (the terminal's, which reaches the run too) or when the run that started it, `parent_pid`, is gone
+    (already at its start: a run killed within its first instants). At a lower priority than the run, which
+    keeps the cores it needs when others want them too. The truth cache stays off (its environment): the day's
+    truth it flies is no user's."""
     from liaison_cli import interrupts
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
-
-    interrupts.end_with_parent()
+    interrupts.end_with_parent(parent_pid)
+    try:
+        os.nice(10)
+    except (AttributeError, OSError):  # no nice here: the same priority as the run
+        pass
     scenario, steps = pickle.loads(sys.stdin.buffer.read())
     for step, arguments in steps:
         try:

@@ -29,10 +29,12 @@ def fail_loudly() -> None:
     raise RuntimeError("a step that fails")
 
 
-@pytest.fixture
-def importable_here(monkeypatch):
-    """The helper process finds this test module (its steps are pickled by name)."""
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (str(HERE), os.environ.get("PYTHONPATH")) if p))
+def write_surroundings(path) -> None:
+    """A step that records where the helper's liaison_cli comes from, its truth cache setting and its
+    niceness."""
+    import liaison_cli
+
+    Path(path).write_text(f"{liaison_cli.__file__}|{os.environ.get('LIAISON_TRUTH_CACHE')}|{os.nice(0)}")
 
 
 def _compile_event(module: str) -> None:
@@ -68,8 +70,7 @@ def test_no_helper_on_one_core(monkeypatch):
     assert helper is None
 
 
-def test_the_helper_starts_at_the_first_liaison_compile_runs_its_steps_and_ends_with_the_block(tmp_path,
-                                                                                            importable_here):
+def test_the_helper_starts_at_the_first_liaison_compile_runs_its_steps_and_ends_with_the_block(tmp_path):
     marker = tmp_path / "name"
     steps = [(fail_loudly, ()), (write_name, (ahead.SCENARIO, str(marker))), (time.sleep, (60,))]
     with ahead.compiling_ahead(SCENARIO, 2, "joblib", steps=steps) as helper:
@@ -88,7 +89,7 @@ def test_the_helper_starts_at_the_first_liaison_compile_runs_its_steps_and_ends_
     assert helper.process is False
 
 
-def test_an_interrupted_block_stops_the_helper(importable_here):
+def test_an_interrupted_block_stops_the_helper():
     with pytest.raises(KeyboardInterrupt):
         with ahead.compiling_ahead(SCENARIO, 2, "joblib", steps=[(time.sleep, (60,))]) as helper:
             _compile_event("liaison_cli.dynamics.model")
@@ -97,7 +98,7 @@ def test_an_interrupted_block_stops_the_helper(importable_here):
     assert process.poll() is not None
 
 
-def test_the_helper_ends_when_the_run_that_started_it_is_killed(tmp_path, importable_here):
+def test_the_helper_ends_when_the_run_that_started_it_is_killed(tmp_path):
     """A run killed with SIGKILL (no handler runs) leaves no helper compiling for nobody."""
     pid_file = tmp_path / "helper.pid"
     parent = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
@@ -128,6 +129,35 @@ def test_the_helper_ends_when_the_run_that_started_it_is_killed(tmp_path, import
         assert _wait_for(gone, timeout_s=10.0)
     finally:
         parent.kill()
+
+
+def test_a_helper_whose_run_is_gone_before_it_starts_does_nothing(tmp_path):
+    """A run killed within the helper's first instants: the helper is handed to another parent before it can
+    look, so it checks the run's own process id, not whichever parent it has then."""
+    marker = tmp_path / "ran"
+    command = ahead._helper_command()
+    command[-1] = "1"  # a process that is not its parent: the run is gone
+    helper = subprocess.run(command, input=pickle.dumps((SCENARIO, [(write_name, (ahead.SCENARIO, str(marker)))])),
+                            capture_output=True, timeout=60)
+    assert helper.returncode == 1 and not marker.exists()
+
+
+def test_the_helper_runs_the_runs_code_at_a_lower_priority_without_a_truth_cache(tmp_path, monkeypatch):
+    """Started in a folder holding another liaison_cli, the helper still imports the run's (its exact import
+    path, not the working folder's); the day's truth it flies is not cached; it yields the cores to the run."""
+    import liaison_cli
+
+    impostor = tmp_path / "liaison_cli"
+    impostor.mkdir()
+    (impostor / "__init__.py").write_text("raise SystemExit('another liaison_cli was imported')\n")
+    monkeypatch.chdir(tmp_path)
+    marker = tmp_path / "surroundings"
+    with ahead.compiling_ahead(SCENARIO, 2, "joblib", steps=[(write_surroundings, (str(marker),))]) as helper:
+        _compile_event("liaison_cli.estimation.lincov")
+        assert _wait_for(marker.is_file) and helper.process.wait(timeout=30) == 0
+    location, truth_cache, niceness = marker.read_text().split("|")
+    assert location == liaison_cli.__file__ and truth_cache == "off"
+    assert int(niceness) >= min(19, os.nice(0) + 10)
 
 
 def test_a_dated_scenario_has_its_propagators_compiled_ahead_too():
