@@ -102,7 +102,7 @@ def check_runs(runs, option: str = "--runs") -> None:
 # One constant line (tests match it whole). Its figures are measured, by benchmarks/first_runs.py
 # (results/reference/first_runs.md): a first run's wall time from an empty cache, which is mostly compiling.
 COMPILE_NOTICE = ("liaison: compiling the numeric core, once per machine and liaison version, then cached (a "
-                  "first-ever run took 38-64 s on a shared 2-core machine; every scenario shares most of it, so a "
+                  "first-ever run took 40-62 s on a shared 2-core machine; every scenario shares most of it, so a "
                   "later kind of scenario or command compiles for 0-10 s); `liaison warm-up` compiles it all ahead")
 
 
