@@ -60,8 +60,8 @@ def run(
     as_json: bool = json_option(),
 ):
     """Run a scenario's Monte Carlo campaign (EKF, or batch least squares) and write Parquet results. While it
-    compiles (a first run), a second process compiles on the idle core what `liaison errors` needs for the
-    scenario; --jobs 1 keeps it to one process.
+    compiles (a first run), a second process compiles on the idle core what `liaison errors` and
+    `liaison observability` need for the scenario; --jobs 1 keeps it to one process.
 
     Example: liaison run scenarios/eml2_lunar.yaml --runs 20 --jobs 2 --epoch-states 5"""
     from liaison_cli.campaign.engine.ahead import compiling_ahead

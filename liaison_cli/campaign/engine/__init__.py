@@ -13,6 +13,6 @@
   process noise checked by LinCov, a lunar-field part it finds optimistic raised;
 - results: a scenario's campaign streamed to Parquet with provenance, and its tables as DataFrames;
 - warmup: compiling every kernel specialisation the shipped scenarios need, ahead of the first run;
-- ahead: while `liaison run` compiles, a helper process compiling on the idle core what `liaison errors` needs
-  for the same scenario.
+- ahead: while `liaison run` compiles, a helper process compiling on the idle core what `liaison errors` and
+  `liaison observability` need for the same scenario.
 """

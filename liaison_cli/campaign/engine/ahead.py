@@ -1,20 +1,21 @@
 """Compiling ahead on the idle core: while `liaison run` compiles the numeric core for its scenario (a cache
 miss), a second process compiles what the next commands on the same scenario need and a run never reaches.
 
-A first run on a 2-core machine compiles in one process for most of a minute while the other core waits. The
-helper started here uses it: the shared calls every estimator makes by address (warmup.compile_shared_calls,
-and the dated model's propagators for a dated scenario), then `liaison errors`' kernels (LinCov along the truth,
-the filter's model on it, the default noise's LinCov check) on the scenario cut to a day, as `liaison warm-up`
-does for its shipped combinations. Two processes never compile one function side by side: the one that comes
-second waits for the other's save and loads it (compiled_cache, "Compiles in turn"), so the run loses nothing
-and loads what the helper compiled first.
+A first run on a 2-core machine compiles in one process for most of a minute while the other core waits. The helper
+started here uses it: the shared calls every estimator makes by address (warmup.compile_shared_calls, and the dated
+model's propagators for a dated scenario), then `liaison errors`' kernels (LinCov along the truth, the filter's
+model on it, the default noise's LinCov check) and `liaison observability`'s on the scenario cut to a day, as
+`liaison warm-up` does for its shipped combinations. Two processes never compile one function side by side: the one
+that comes second waits for the other's save and loads it (compiled_cache, "Compiles in turn"), so the run loses
+nothing and loads what the helper compiled first.
 
-Only when it pays: the helper starts at the run's first cache miss of liaison code (a warm cache starts
-nothing), for an EKF scenario, with --jobs 2 or more on the local fan-out and two or more cores this process
-may use. It writes nothing but the cache, prints nothing (its output goes nowhere) and never fails the run: a
-step that fails is skipped, and `liaison errors` then compiles what it needs itself. It ends with the run: the
-run stops it on the way out, finished or not (a function it was compiling is released, compiled_cache), and it
-ends itself if the run is killed (it watches its parent). `--jobs 1` keeps the run to one process.
+Only when it pays: the helper starts at the run's first cache miss of liaison code (a warm cache starts nothing),
+for a scenario whose estimator has an error budget (the EKF), with --jobs 2 or more on the local fan-out and two or
+more cores this process may use. It writes nothing but numba's cache (the truth cache is off in it), prints nothing
+(its output goes nowhere) and never fails the run: a step that fails is skipped, and the command then compiles what
+it needs itself. It ends with the run: the run stops it on the way out, finished or not (a function it was compiling
+is released, compiled_cache), and it ends itself if the run is killed (it watches its parent). `--jobs 1` keeps the
+run to one process.
 """
 
 import json
@@ -34,14 +35,15 @@ class SCENARIO:
 
 def steps_for(scenario) -> list:
     """The helper's steps for `scenario`: the calls by address first (no setup needed, so they are compiled while
-    the run sets its scenario up), then `liaison errors` on the scenario at its smallest."""
+    the run sets its scenario up), then `liaison errors` and `liaison observability` on the scenario at its
+    smallest (warmup.COMMANDS, the commands whose kernels no run reaches)."""
     from liaison_cli.campaign.engine import warmup
     from liaison_cli.dynamics.registry import DYNAMICS
 
     ahead = [(warmup.compile_shared_calls, ())]
     if DYNAMICS[scenario.dynamics].dated:
         ahead.insert(0, (warmup.compile_dated_propagators, ()))
-    return [*ahead, (errors_smallest, (SCENARIO,))]
+    return [*ahead, (errors_smallest, (SCENARIO,)), (observability_smallest, (SCENARIO,))]
 
 
 def errors_smallest(scenario) -> None:
@@ -56,6 +58,17 @@ def errors_smallest(scenario) -> None:
         budget_study(prepare_checked_problem(smallest), check_runs=0)
 
 
+def observability_smallest(scenario) -> None:
+    """What `liaison observability` compiles for `scenario` (the information matrix along the truth), on its first
+    day."""
+    from liaison_cli.campaign.engine.warmup import WARM_UP_DAYS, cut
+    from liaison_cli.campaign.studies.observability_study import observability_study
+
+    smallest = cut(scenario, (WARM_UP_DAYS, float("inf")))
+    if smallest is not None:
+        observability_study(smallest)
+
+
 def usable_cores() -> int:
     """The cores this process may run on (its affinity where the OS tells it)."""
     try:
@@ -65,9 +78,11 @@ def usable_cores() -> int:
 
 
 def worth_it(scenario, jobs: int, where_name: str) -> bool:
-    """A helper is started for an EKF scenario run with --jobs 2 or more on the local fan-out with 2 cores or
-    more (module docstring)."""
-    return scenario.estimator == "ekf" and jobs >= 2 and where_name == "joblib" and usable_cores() >= 2
+    """A helper is started for a scenario whose estimator has an error budget (`liaison errors` then runs on it:
+    the EKF), run with --jobs 2 or more on the local fan-out with 2 cores or more (module docstring)."""
+    from liaison_cli.estimation.estimators import ESTIMATORS
+
+    return ESTIMATORS[scenario.estimator].error_budget and jobs >= 2 and where_name == "joblib" and usable_cores() >= 2
 
 
 class Helper:
@@ -91,7 +106,7 @@ class Helper:
                 self.process = False
                 return
             logging.getLogger("liaison").info("compiling ahead in a second process (pid %d): what `liaison "
-                                              "errors` needs for this scenario", self.process.pid)
+                                              "errors` and `liaison observability` need for this scenario", self.process.pid)
             # Fed from a thread: a payload larger than the pipe would otherwise hold the compiling run.
             threading.Thread(target=self._feed, args=(self.process,), daemon=True).start()
 

@@ -163,15 +163,16 @@ def test_the_helper_runs_the_runs_code_at_a_lower_priority_without_a_truth_cache
 def test_a_dated_scenario_has_its_propagators_compiled_ahead_too():
     crtbp = [step for step, _ in ahead.steps_for(SCENARIO)]
     dated = [step for step, _ in ahead.steps_for(SimpleNamespace(estimator="ekf", dynamics="ephemeris"))]
-    assert crtbp[-1] is dated[-1] is ahead.errors_smallest
+    assert crtbp[-2:] == dated[-2:] == [ahead.errors_smallest, ahead.observability_smallest]
     assert len(dated) == len(crtbp) + 1
     assert pickle.loads(pickle.dumps(ahead.steps_for(SCENARIO))) == ahead.steps_for(SCENARIO)
 
 
 @pytest.mark.slow
-def test_from_an_empty_cache_errors_after_run_compiles_nothing(tmp_path):
+def test_from_an_empty_cache_errors_and_observability_after_run_compile_nothing(tmp_path):
     """The user's path: the first-ever `liaison run` of a scenario (about a minute of compiling on 2 cores), then
-    `liaison errors` on it, which finds LinCov compiled by the helper and announces no compiling."""
+    `liaison errors` and `liaison observability` on it, which find their code compiled by the helper and announce
+    no compiling."""
     from liaison_cli.cli.common import COMPILE_NOTICE
 
     env = {**os.environ, "LIAISON_CACHE_DIR": str(tmp_path / "cache")}
@@ -179,11 +180,13 @@ def test_from_an_empty_cache_errors_after_run_compiles_nothing(tmp_path):
     scenario = str(Path(ahead.__file__).resolve().parents[2] / "shipped_scenarios" / "eml2_lunar.yaml")
 
     def liaison(*args):
+        quiet = ["--quiet"] if args[0] in ("run", "errors") else []
         return subprocess.run([sys.executable, "-m", "liaison_cli", *args, "--output", str(tmp_path / args[0]),
-                               "--quiet"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
+                               *quiet], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
 
     first = liaison("run", scenario, "--runs", "2")
     assert first.returncode == 0 and COMPILE_NOTICE in first.stderr, first.stderr
-    after = liaison("errors", scenario)
-    assert after.returncode == 0, after.stderr
-    assert COMPILE_NOTICE not in after.stderr, after.stderr
+    for command in ("errors", "observability"):
+        after = liaison(command, scenario)
+        assert after.returncode == 0, after.stderr
+        assert COMPILE_NOTICE not in after.stderr, (command, after.stderr)
