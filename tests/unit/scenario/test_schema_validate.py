@@ -94,6 +94,27 @@ def test_exponents_without_a_dot_or_sign_are_numbers():
     assert data["noise"]["carrier_frequency_hz"] == 2.25e9 and data["filter"]["divergence_position_km"] == 1e5
 
 
+def test_libyamls_parser_reads_every_shipped_file_as_the_pure_python_one():
+    """The loader parses with libyaml where PyYAML has it (ten times faster); the resolver and constructor are
+    PyYAML's, so every shipped scenario, link file and template, and the tricky values, read the same."""
+    import math
+
+    import yaml
+
+    from liaison_cli.scenario import loading
+    from liaison_cli.scenario.templates import TEMPLATES, template_text
+
+    pure = type("Pure", (yaml.SafeLoader,), {})
+    pure.yaml_implicit_resolvers = loading._YamlLoader.yaml_implicit_resolvers  # the 1e5 rule too
+    texts = [path.read_text() for path in sorted(SCENARIOS.rglob("*.yaml"))] + [template_text(k) for k in TEMPLATES]
+    values = ["1e5", "1.0e5", "-6e-5", "0x1A", "1_000", "on", "~", ".inf", ".nan", "2026-11-29", "1:20:30",
+              "[1, 2e3]", "{a: 1e-3}", "'1e5'"]
+    assert issubclass(loading._YamlLoader, yaml.CSafeLoader) or not yaml.__with_libyaml__
+    for text in texts + values:
+        fast, slow = yaml.load(text, Loader=loading._YamlLoader), yaml.load(text, Loader=pure)
+        assert fast == slow or (isinstance(fast, float) and math.isnan(fast) and math.isnan(slow)), text
+
+
 DROP = object()
 SMOKE, MESH, STAR, CLOCK, MT, BATCH = ("smoke.yaml", "m4_mesh_eml2_lyapunov.yaml", "c1_star_eml2_hub.yaml",
                                        "clock_one_way_eml2_lunar.yaml", "mt_eml2_lunar_range_rate.yaml",
