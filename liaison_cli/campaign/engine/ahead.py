@@ -105,8 +105,8 @@ class Helper:
             except OSError:  # no second process: the run compiles alone, as before
                 self.process = False
                 return
-            logging.getLogger("liaison").info("compiling ahead in a second process (pid %d): what `liaison "
-                                              "errors` and `liaison observability` need for this scenario", self.process.pid)
+            logging.getLogger("liaison").info("compiling ahead in a second process (pid %d): what `liaison errors` "
+                                              "and `liaison observability` need for this scenario", self.process.pid)
             # Fed from a thread: a payload larger than the pipe would otherwise hold the compiling run.
             threading.Thread(target=self._feed, args=(self.process,), daemon=True).start()
 
