@@ -45,20 +45,21 @@ def warm_up(
             raise LiaisonError(f"--cache-dir {cache_dir}: this process already uses the cache "
                                f"{os.environ['NUMBA_CACHE_DIR']}; allowed: --cache-dir from the command line, or "
                                "LIAISON_CACHE_DIR set before Python starts") from exc
-    from liaison_cli.campaign.engine.warmup import COMMANDS, WARM_UP_DAYS, plan
+    from liaison_cli.campaign.engine.warmup import COMMANDS, WARM_UP_DAYS, compiling_ahead_of_the_plan, plan
 
-    specs = plan()
-    runs = [spec for spec in specs if spec.command == "run"]
-    n_sources = sum(len(spec.sources) for spec in runs)
-    if list_only:
-        typer.echo(f"{len(runs)} combinations (estimator · dynamics, then the observables their scenarios use) for "
-                   f"{n_sources} shipped scenarios and templates; warm-up runs the first scenario of each, cut to 1 "
-                   f"run over at most {WARM_UP_DAYS:g} d, and sets up the others over a few epochs; then "
-                   f"{' and '.join(f'`liaison {c}`' for c in COMMANDS)} once:")
-        for spec in specs:
-            typer.echo(_wrapped(f"{spec.name}: ", [source.label for source in spec.sources]))
-        return
-    _compile_all(specs, n_sources, n_jobs)
+    with compiling_ahead_of_the_plan(1 if list_only else n_jobs):  # the plan's reading beside compiling
+        specs = plan()
+        runs = [spec for spec in specs if spec.command == "run"]
+        n_sources = sum(len(spec.sources) for spec in runs)
+        if list_only:
+            typer.echo(f"{len(runs)} combinations (estimator · dynamics, then the observables their scenarios use) "
+                       f"for {n_sources} shipped scenarios and templates; warm-up runs the first scenario of each, "
+                       f"cut to 1 run over at most {WARM_UP_DAYS:g} d, and sets up the others over a few epochs; "
+                       f"then {' and '.join(f'`liaison {c}`' for c in COMMANDS)} once:")
+            for spec in specs:
+                typer.echo(_wrapped(f"{spec.name}: ", [source.label for source in spec.sources]))
+            return
+        _compile_all(specs, n_sources, n_jobs)
 
 
 def _writable(folder: str) -> None:

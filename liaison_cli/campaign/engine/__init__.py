@@ -12,7 +12,10 @@
 - noise_check: a scenario's problem as every command sets it up (prepare_checked_problem): the derived default
   process noise checked by LinCov, a lunar-field part it finds optimistic raised;
 - results: a scenario's campaign streamed to Parquet with provenance, and its tables as DataFrames;
-- warmup: compiling every kernel specialisation the shipped scenarios need, ahead of the first run;
+- warmup: compiling every kernel specialisation the shipped scenarios need, ahead of the first run (a helper
+  process compiles the calls by address while it reads the scenarios);
 - ahead: while `liaison run` compiles, a helper process compiling on the idle core what `liaison errors` and
   `liaison observability` need for the same scenario.
+- helper_process: the second process both start to compile ahead (silent, lower priority, the run's own code,
+  ending with the process that started it).
 """

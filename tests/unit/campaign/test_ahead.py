@@ -15,6 +15,7 @@ import pytest
 from numba.core import event
 
 from liaison_cli.campaign.engine import ahead
+from liaison_cli.campaign.engine.helper_process import helper_command
 
 HERE = Path(__file__).resolve().parent
 SCENARIO = SimpleNamespace(estimator="ekf", dynamics="crtbp", name="ahead-test")
@@ -135,7 +136,7 @@ def test_a_helper_whose_run_is_gone_before_it_starts_does_nothing(tmp_path):
     """A run killed within the helper's first instants: the helper is handed to another parent before it can
     look, so it checks the run's own process id, not whichever parent it has then."""
     marker = tmp_path / "ran"
-    command = ahead._helper_command()
+    command = helper_command()
     command[-1] = "1"  # a process that is not its parent: the run is gone
     helper = subprocess.run(command, input=pickle.dumps((SCENARIO, [(write_name, (ahead.SCENARIO, str(marker)))])),
                             capture_output=True, timeout=60)
