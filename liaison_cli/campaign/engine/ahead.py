@@ -105,7 +105,8 @@ def compiling_ahead(scenario, jobs: int, where_name: str, steps=None):
         return
     from numba.core import event
 
-    helper = Helper(scenario, steps_for(scenario) if steps is None else steps)
+    helper = Helper(scenario, steps_for(scenario) if steps is None else steps,
+                    "what `liaison errors` and `liaison observability` need for this scenario")
     trigger = _FirstLiaisonCompile(helper.start)
     event.register("numba:compile", trigger.listener)
     try:

@@ -22,8 +22,7 @@ class Helper:
     SCENARIO standing for the scenario; the callables must be importable by name (they are pickled). `what`: what
     it compiles, for -v's line."""
 
-    def __init__(self, scenario, steps, what: str = "what `liaison errors` and `liaison observability` need for "
-                 "this scenario"):
+    def __init__(self, scenario, steps, what: str):
         self.payload = pickle.dumps((scenario, steps))
         self.what = what
         self.process = None
