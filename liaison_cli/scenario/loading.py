@@ -113,8 +113,13 @@ _YamlLoader.add_implicit_resolver("tag:yaml.org,2002:float",
 
 
 def read_yaml_value(text: str):
-    """One YAML value as a scenario file reads it (1e5 and 6e-5 are numbers): a --grid or --set value."""
-    return yaml.load(text, Loader=_YamlLoader)
+    """One YAML value as a scenario file reads it (1e5 and 6e-5 are numbers): a --grid or --set value. A character
+    libyaml cannot take (a bad byte on the command line arrives as a lone surrogate) is a yaml.YAMLError, as the
+    pure-Python parser's "special characters are not allowed" was."""
+    try:
+        return yaml.load(text, Loader=_YamlLoader)
+    except UnicodeEncodeError as exc:
+        raise yaml.YAMLError(f"special characters are not allowed ({exc.reason})") from None
 
 
 def _too_deep(path) -> ScenarioError:

@@ -179,6 +179,9 @@ BAD_GRIDS = {
     "reversed_range": (["--sigma", "700:50"], ["--sigma", "below start"]),
     "bad_value": (["--grid", "measurement.interval_s=fast"], ["measurement.interval_s", "'fast'", "number"]),
     "no_equals": (["--grid", "measurement.interval_s"], ["--grid", "key=value"]),
+    # A bad byte on the command line reaches Python as a lone surrogate, which libyaml's parser cannot encode.
+    "bad_byte": (["--grid", "noise.sigma_m=1,a" + b"\xff".decode("utf-8", "surrogateescape")],
+                 ["--grid", "cannot read value"]),
     "nothing": ([], ["nothing to sweep"]),
     "bad_backend": (["--sigma", "100", "--backend", "spark"], ["--backend", "'spark'", "joblib, dask"]),
 }
