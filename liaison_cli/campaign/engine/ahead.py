@@ -4,8 +4,8 @@ miss), a second process compiles what the next commands on the same scenario nee
 A first run on a 2-core machine compiles in one process for most of a minute while the other core waits. The helper
 started here uses it: the shared calls every estimator makes by address (warmup.compile_shared_calls, and the dated
 model's propagators for a dated scenario), then `liaison errors`' kernels (LinCov along the truth, the filter's
-model on it, the default noise's LinCov check) and `liaison observability`'s on the scenario cut to a day, as
-`liaison warm-up` does for its shipped combinations. Two processes never compile one function side by side: the one
+model on it) and `liaison observability`'s on the scenario cut to a day (warmup.errors_kernels,
+observability_kernels), as `liaison warm-up` does for its shipped combinations. Two processes never compile one function side by side: the one
 that comes second waits for the other's save and loads it (compiled_cache, "Compiles in turn"), so the run loses
 nothing and loads what the helper compiled first.
 
@@ -34,30 +34,7 @@ def steps_for(scenario) -> list:
     ahead = [(warmup.compile_shared_calls, ())]
     if DYNAMICS[scenario.dynamics].dated:
         ahead.insert(0, (warmup.compile_dated_propagators, ()))
-    return [*ahead, (errors_smallest, (SCENARIO,)), (observability_smallest, (SCENARIO,))]
-
-
-def errors_smallest(scenario) -> None:
-    """What `liaison errors` compiles for `scenario`, on its first day (warmup.cut): the problem with the default
-    noise's LinCov check, then the budget along the truth."""
-    from liaison_cli.campaign.engine.noise_check import prepare_checked_problem
-    from liaison_cli.campaign.engine.warmup import WARM_UP_DAYS, cut
-    from liaison_cli.campaign.studies.error_budget import budget_study
-
-    smallest = cut(scenario, (WARM_UP_DAYS, float("inf")))
-    if smallest is not None:
-        budget_study(prepare_checked_problem(smallest), check_runs=0)
-
-
-def observability_smallest(scenario) -> None:
-    """What `liaison observability` compiles for `scenario` (the information matrix along the truth), on its first
-    day."""
-    from liaison_cli.campaign.engine.warmup import WARM_UP_DAYS, cut
-    from liaison_cli.campaign.studies.observability_study import observability_study
-
-    smallest = cut(scenario, (WARM_UP_DAYS, float("inf")))
-    if smallest is not None:
-        observability_study(smallest)
+    return [*ahead, (warmup.errors_kernels, (SCENARIO,)), (warmup.observability_kernels, (SCENARIO,))]
 
 
 def usable_cores() -> int:

@@ -277,21 +277,31 @@ def warm_up_one(spec: Specialisation, ahead=()) -> WarmUpResult:
                         tuple(recorder.entries))
 
 
-def _errors_smallest(source: Source) -> str:
-    """`liaison errors` with a one-run Monte Carlo check on the source at its smallest: LinCov along the truth,
-    the filter model on it, and the check's EKF."""
+def errors_kernels(scenario, check_runs: int = 0) -> None:
+    """`liaison errors` on the scenario at its smallest (one day, cut): LinCov along the truth and the filter model
+    on it, and with check_runs the check's EKF. What the warm-up and the run's helper (campaign.engine.ahead)
+    compile for the command."""
     from liaison_cli.campaign.studies.error_budget import budget_study
     from liaison_cli.scenario.setup import prepare_problem
 
-    budget_study(prepare_problem(cut(source.scenario, (WARM_UP_DAYS, float("inf")))), check_runs=1)
+    budget_study(prepare_problem(cut(scenario, (WARM_UP_DAYS, float("inf")))), check_runs=check_runs)
+
+
+def observability_kernels(scenario) -> None:
+    """`liaison observability` on the scenario at its smallest (the information matrix along the truth)."""
+    from liaison_cli.campaign.studies.observability_study import observability_study
+
+    observability_study(cut(scenario, (WARM_UP_DAYS, float("inf"))))
+
+
+def _errors_smallest(source: Source) -> str:
+    """errors_kernels with a one-run Monte Carlo check on the source."""
+    errors_kernels(source.scenario, check_runs=1)
     return ""
 
 
 def _observability_smallest(source: Source) -> str:
-    """`liaison observability` on the source at its smallest (the information matrix along the truth)."""
-    from liaison_cli.campaign.studies.observability_study import observability_study
-
-    observability_study(cut(source.scenario, (WARM_UP_DAYS, float("inf"))))
+    observability_kernels(source.scenario)
     return ""
 
 

@@ -2,8 +2,8 @@
 
 - `rk4`: fixed-step classical RK4 for the CRTBP: the filter's state + STM, the STM on a coarser grid than the
   state (`rk4_state_stm_into`, and `rk4_state_stm` allocating its result), state + STM with every step
-  (`rk4_variational_into`, `rk4_variational`), and the compiled truth's sampled trajectory (`rk4_states`,
-  `rk4_states_forced` with an unmodelled acceleration, constant or drawn per run).
+  (`rk4_variational_into`, `rk4_variational`), and the compiled truth's sampled trajectory (`rk4_states_forced`,
+  with an unmodelled acceleration, constant or drawn per run; `rk4_states`, a Python call of it with none).
 - `rk8`: fixed-step 8th order Runge-Kutta on DOP853's 12-stage tableau (`dop853_tableau`, vendored as literal
   floats): the stage kernels (`rk8_stage_input`, `rk8_combine`), the CRTBP's (`rk8_advance` in place,
   `rk8_state`, `rk8_state_stm`), the CRTBP truth with the lunar harmonics (`rk8_states_forced`), the dated

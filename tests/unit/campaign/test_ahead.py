@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import pytest
 from numba.core import event
 
-from liaison_cli.campaign.engine import ahead
+from liaison_cli.campaign.engine import ahead, warmup
 from liaison_cli.campaign.engine.helper_process import helper_command
 
 HERE = Path(__file__).resolve().parent
@@ -164,7 +164,7 @@ def test_the_helper_runs_the_runs_code_at_a_lower_priority_without_a_truth_cache
 def test_a_dated_scenario_has_its_propagators_compiled_ahead_too():
     crtbp = [step for step, _ in ahead.steps_for(SCENARIO)]
     dated = [step for step, _ in ahead.steps_for(SimpleNamespace(estimator="ekf", dynamics="ephemeris"))]
-    assert crtbp[-2:] == dated[-2:] == [ahead.errors_smallest, ahead.observability_smallest]
+    assert crtbp[-2:] == dated[-2:] == [warmup.errors_kernels, warmup.observability_kernels]
     assert len(dated) == len(crtbp) + 1
     assert pickle.loads(pickle.dumps(ahead.steps_for(SCENARIO))) == ahead.steps_for(SCENARIO)
 
