@@ -27,7 +27,8 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import LU_KM
 from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs, truth_derivative_into
-from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, field_payload, payload_tables
+from liaison_cli.dynamics.spherical_harmonics import (field_acceleration_scratch_into, field_payload,
+                                                       harmonics_scratch_size, payload_tables)
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
 TERM_HARMONICS = 1  # payload: spherical_harmonics.field_payload, radius in LU
@@ -82,11 +83,18 @@ def field_degree(params) -> int:
 def moon_harmonics_into(params, start, x, y, z, with_gradient, acc, grad):
     """acc (3,) <- the lunar harmonics' acceleration beyond the point mass (payload at params[start:]) at the
     rotating-frame position (x, y, z); with with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz,
-    gyz). LU, TU."""
+    gyz). LU, TU. Allocates its scratch (the integrators' path, added_terms_scratch_into, passes its own)."""
+    size = harmonics_scratch_size(int(params[start]))
+    _moon_harmonics_scratch_into(params, start, x, y, z, with_gradient, acc, grad, np.empty(size), np.empty(size))
+
+
+@njit(cache=True)
+def _moon_harmonics_scratch_into(params, start, x, y, z, with_gradient, acc, grad, v, w):
+    """moon_harmonics_into with the scratch tables v, w (spherical_harmonics.field_acceleration_scratch_into)."""
     mu = params[0]
     degree, radius, tables = payload_tables(params[start:])
     # rotating frame -> principal axes about the Moon: x and y turn over, z stays
-    field_acceleration_into(tables, mu, radius, degree, 1.0 - mu - x, -y, z, with_gradient, acc, grad)
+    field_acceleration_scratch_into(tables, mu, radius, degree, 1.0 - mu - x, -y, z, with_gradient, acc, grad, v, w)
     acc[0], acc[1] = -acc[0], -acc[1]
     if with_gradient:  # D G D with D = diag(-1, -1, 1): the xz and yz terms change sign
         grad[4], grad[5] = -grad[4], -grad[5]
@@ -100,20 +108,44 @@ def moon_j2_into(params, start, x, y, z, with_gradient, acc, grad):
                                   with_gradient, acc, grad)
 
 
+# Scratch of added_terms_scratch_into: one term's acceleration (3) and gradient (6), then the harmonics' two tables
+# (V̄, W̄), each as long as the largest harmonics term needs.
+TERM_SCRATCH = 9
+
+
+@njit(cache=True)
+def terms_scratch_size(params):
+    """The scratch length added_terms_scratch_into needs for the terms of `params`."""
+    tables = 0
+    for t in range(int(params[1])):
+        kind, start = int(params[2 + 2 * t]), int(params[3 + 2 * t])
+        if kind == TERM_HARMONICS:
+            tables = max(tables, harmonics_scratch_size(int(params[start])))
+    return TERM_SCRATCH + 2 * tables
+
+
 @njit(cache=True)
 def added_terms_into(params, x, y, z, with_gradient, acc, grad):
     """acc (3,) <- the sum of the terms beyond the primaries' point masses at (x, y, z); with with_gradient,
     grad (6,) <- their gradient. The one place a CRTBP force is added (docs/architecture.md, "Adding a force"):
-    each term of the vector's table, by its kind."""
+    each term of the vector's table, by its kind (added_terms_scratch_into, with its scratch allocated here)."""
+    added_terms_scratch_into(params, x, y, z, with_gradient, acc, grad, np.empty(terms_scratch_size(params)))
+
+
+@njit(cache=True)
+def added_terms_scratch_into(params, x, y, z, with_gradient, acc, grad, scratch):
+    """added_terms_into with the caller's scratch (at least terms_scratch_size(params) long, overwritten)."""
     for i in range(3):
         acc[i] = 0.0
     for i in range(6):
         grad[i] = 0.0
-    term_acc, term_grad = np.empty(3), np.empty(6)
+    term_acc, term_grad = scratch[0:3], scratch[3:TERM_SCRATCH]
+    tables = (scratch.shape[0] - TERM_SCRATCH) // 2
+    v, w = scratch[TERM_SCRATCH:TERM_SCRATCH + tables], scratch[TERM_SCRATCH + tables:TERM_SCRATCH + 2 * tables]
     for t in range(int(params[1])):
         kind, start = int(params[2 + 2 * t]), int(params[3 + 2 * t])
         if kind == TERM_HARMONICS:
-            moon_harmonics_into(params, start, x, y, z, with_gradient, term_acc, term_grad)
+            _moon_harmonics_scratch_into(params, start, x, y, z, with_gradient, term_acc, term_grad, v, w)
         elif kind == TERM_J2:
             moon_j2_into(params, start, x, y, z, with_gradient, term_acc, term_grad)
         else:
@@ -126,39 +158,58 @@ def added_terms_into(params, x, y, z, with_gradient, acc, grad):
 
 
 @njit(cache=True, inline="always")
-def field_derivative_into(y, params, out):
-    """The state's time derivative (6,) into out[0:6] (derivative_into plus the added terms when params has
-    them)."""
-    derivative_into(y, params[0], out)
+def field_scratch(params, spare):
+    """The integrators' scratch for the added terms' evaluations, allocated once per call of an integrator instead of
+    six times per evaluation (which was an eighth of a degree-20 field's propagation): the sum's acceleration and
+    gradient (TERM_SCRATCH), then added_terms_scratch_into's. With no added terms, an empty view of `spare` (any
+    1-D float array of the caller): no allocation and no call on the point-mass path (inlined; the allocation is
+    a call, see _add_terms_to_derivative)."""
     if params.shape[0] > 1:
-        _add_terms_to_derivative(y, params, out)
+        return _allocated_scratch(params)
+    return spare[0:0]
+
+
+@njit(cache=True)
+def _allocated_scratch(params):
+    return np.empty(TERM_SCRATCH + terms_scratch_size(params))
 
 
 @njit(cache=True, inline="always")
-def field_state_stm_rhs(y, params, out):
+def field_derivative_into(y, params, out, scratch):
+    """The state's time derivative (6,) into out[0:6] (derivative_into plus the added terms when params has
+    them); scratch: field_scratch(params, ...) of the caller."""
+    derivative_into(y, params[0], out)
+    if params.shape[0] > 1:
+        _add_terms_to_derivative(y, params, out, scratch)
+
+
+@njit(cache=True, inline="always")
+def field_state_stm_rhs(y, params, out, scratch):
     """The 42-vector [state, Phi] derivative (crtbp.state_stm_rhs plus the added terms' acceleration and gradient
-    when params has terms)."""
+    when params has terms); scratch: field_scratch(params, ...) of the caller."""
     state_stm_rhs(y, params[0], out)
     if params.shape[0] > 1:
-        _add_terms_to_state_stm_rhs(y, params, out)
+        _add_terms_to_state_stm_rhs(y, params, out, scratch)
 
 
 # The two below are calls, not inlined: with the terms' scratch allocation inlined into the integrators' hot loop,
 # a point-mass CRTBP run (which never takes the branch) was 1.55x slower (eml2_lunar's filter, 31 ms against 20).
 @njit(cache=True)
-def _add_terms_to_derivative(y, params, out):
+def _add_terms_to_derivative(y, params, out, scratch):
     """out[3:6] += the added terms' acceleration at y's position (field_derivative_into)."""
-    acc, grad = np.empty(3), np.empty(6)
-    added_terms_into(params, y[0], y[1], y[2], np.bool_(False), acc, grad)  # no literal: one compile
+    acc, grad = scratch[0:3], scratch[3:TERM_SCRATCH]
+    added_terms_scratch_into(params, y[0], y[1], y[2], np.bool_(False), acc, grad,  # no literal: one compile
+                             scratch[TERM_SCRATCH:])
     for i in range(3):
         out[3 + i] += acc[i]
 
 
 @njit(cache=True)
-def _add_terms_to_state_stm_rhs(y, params, out):
+def _add_terms_to_state_stm_rhs(y, params, out, scratch):
     """out (42,) += the added terms' acceleration and their gradient times Phi's position rows (field_state_stm_rhs)."""
-    acc, grad = np.empty(3), np.empty(6)
-    added_terms_into(params, y[0], y[1], y[2], np.bool_(True), acc, grad)  # no literal: one compile
+    acc, grad = scratch[0:3], scratch[3:TERM_SCRATCH]
+    added_terms_scratch_into(params, y[0], y[1], y[2], np.bool_(True), acc, grad,  # no literal: one compile
+                             scratch[TERM_SCRATCH:])
     gxx, gyy, gzz, gxy, gxz, gyz = grad[0], grad[1], grad[2], grad[3], grad[4], grad[5]
     for i in range(3):
         out[3 + i] += acc[i]
@@ -174,16 +225,16 @@ def field_derivative(state, params):
     """(6,) -> (6,): the truth's derivative (crtbp.derivative's arithmetic, so a point-mass truth is the recorded
     one bit for bit) plus the added terms when params has them."""
     out = np.empty(6)
-    field_truth_derivative_into(state, params, out)
+    field_truth_derivative_into(state, params, out, field_scratch(params, out))
     return out
 
 
 @njit(cache=True, inline="always")
-def field_truth_derivative_into(state, params, out):
-    """field_derivative into out[0:6], no allocation (the truth's RK4 stages)."""
+def field_truth_derivative_into(state, params, out, scratch):
+    """field_derivative into out[0:6], no allocation (the truth's RK4 stages); scratch: field_scratch(params, ...)."""
     truth_derivative_into(state, params[0], out)
     if params.shape[0] > 1:
-        _add_terms_to_derivative(state, params, out)
+        _add_terms_to_derivative(state, params, out, scratch)
 
 
 @njit(cache=True)

@@ -12,7 +12,8 @@ from numba import njit
 
 from liaison_cli.compiled_calls import writable_c
 from liaison_cli.dynamics.constants import TU_S
-from liaison_cli.dynamics.crtbp_field import field_derivative_into, field_state_stm_rhs, field_truth_derivative_into
+from liaison_cli.dynamics.crtbp_field import (field_derivative_into, field_scratch, field_state_stm_rhs,
+                                              field_truth_derivative_into)
 
 
 @njit(cache=True)
@@ -64,8 +65,9 @@ def rk4_state_stm_into(state, dt_tu, substeps, params, y, work):
     times (NRHO: 190 times) more than the coarse step does, interval by interval (benchmarks/bare_loop.py
     --accuracy). The 200 s bound keeps longer intervals there: without it the orbiter's Phi was 5e-6 off at
     600 s and 4e-5 at 1,000 s."""
-    rk4_variational_into(state, dt_tu, stm_steps(dt_tu, substeps), params, y, work)
-    _state_steps(state, dt_tu, substeps, params, y, work)
+    scratch = field_scratch(params, y)  # the added terms' scratch, once per interval (none for point masses)
+    _variational_steps(state, dt_tu, stm_steps(dt_tu, substeps), params, y, work, scratch)
+    _state_steps(state, dt_tu, substeps, params, y, work, scratch)
 
 
 @njit(cache=True, inline="always")
@@ -73,6 +75,12 @@ def rk4_variational_into(state, dt_tu, steps, params, y, work):
     """y (42,) <- `steps` RK4 steps of the 42 state + STM (variational) equations from [state, identity]
     (work (5, 42) scratch): the STM's half of rk4_state_stm_into, and with every substep the scheme it
     replaced (benchmarks/bare_loop.py's yardstick)."""
+    _variational_steps(state, dt_tu, steps, params, y, work, field_scratch(params, y))
+
+
+@njit(cache=True, inline="always")
+def _variational_steps(state, dt_tu, steps, params, y, work, scratch):
+    """rk4_variational_into with the added terms' scratch (crtbp_field.field_scratch) of the caller."""
     h = dt_tu / steps
     k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
     for i in range(6):
@@ -82,39 +90,40 @@ def rk4_variational_into(state, dt_tu, steps, params, y, work):
     for i in range(6):
         y[6 + 7 * i] = 1.0
     for _ in range(steps):
-        field_state_stm_rhs(y, params, k1)
+        field_state_stm_rhs(y, params, k1, scratch)
         for i in range(42):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        field_state_stm_rhs(tmp, params, k2)
+        field_state_stm_rhs(tmp, params, k2, scratch)
         for i in range(42):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        field_state_stm_rhs(tmp, params, k3)
+        field_state_stm_rhs(tmp, params, k3, scratch)
         for i in range(42):
             tmp[i] = y[i] + h * k3[i]
-        field_state_stm_rhs(tmp, params, k4)
+        field_state_stm_rhs(tmp, params, k4, scratch)
         for i in range(42):
             y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @njit(cache=True, inline="always")
-def _state_steps(state, dt_tu, steps, params, y, work):
-    """y[0:6] <- `steps` RK4 steps of the state alone from `state`; work's rows are scratch."""
+def _state_steps(state, dt_tu, steps, params, y, work, scratch):
+    """y[0:6] <- `steps` RK4 steps of the state alone from `state`; work's rows are scratch, and scratch the added
+    terms' (crtbp_field.field_scratch)."""
     h = dt_tu / steps
     s, mid = work[0, 0:6], work[0, 6:12]
     k1, k2, k3, k4 = work[1, 0:6], work[1, 6:12], work[1, 12:18], work[1, 18:24]
     for i in range(6):
         s[i] = state[i]
     for _ in range(steps):
-        field_derivative_into(s, params, k1)
+        field_derivative_into(s, params, k1, scratch)
         for i in range(6):
             mid[i] = s[i] + 0.5 * h * k1[i]
-        field_derivative_into(mid, params, k2)
+        field_derivative_into(mid, params, k2, scratch)
         for i in range(6):
             mid[i] = s[i] + 0.5 * h * k2[i]
-        field_derivative_into(mid, params, k3)
+        field_derivative_into(mid, params, k3, scratch)
         for i in range(6):
             mid[i] = s[i] + h * k3[i]
-        field_derivative_into(mid, params, k4)
+        field_derivative_into(mid, params, k4, scratch)
         for i in range(6):
             s[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
     for i in range(6):
@@ -144,23 +153,24 @@ def rk4_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2
         out[0, i] = y[i]
     tmp = np.empty(6)
     k1, k2, k3, k4 = np.empty(6), np.empty(6), np.empty(6), np.empty(6)  # no allocation per stage (12 % faster)
+    scratch = field_scratch(params, tmp)
     for j in range(1, m):
         substeps, h = steps_between(times_tu, j, max_step_tu)
         for s in range(substeps):
             start, middle, end = s / substeps, (s + 0.5) / substeps, (s + 1.0) / substeps
-            field_truth_derivative_into(y, params, k1)
+            field_truth_derivative_into(y, params, k1, scratch)
             _forced(k1, acceleration_lu_tu2, j, start)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            field_truth_derivative_into(tmp, params, k2)
+            field_truth_derivative_into(tmp, params, k2, scratch)
             _forced(k2, acceleration_lu_tu2, j, middle)
             for i in range(6):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            field_truth_derivative_into(tmp, params, k3)
+            field_truth_derivative_into(tmp, params, k3, scratch)
             _forced(k3, acceleration_lu_tu2, j, middle)
             for i in range(6):
                 tmp[i] = y[i] + h * k3[i]
-            field_truth_derivative_into(tmp, params, k4)
+            field_truth_derivative_into(tmp, params, k4, scratch)
             _forced(k4, acceleration_lu_tu2, j, end)
             for i in range(6):
                 y[i] += (h / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])

@@ -13,7 +13,7 @@ tests/unit/estimation/test_batch.py.
 import numpy as np
 from numba import njit
 
-from liaison_cli.dynamics.crtbp_field import field_derivative_into, field_state_stm_rhs
+from liaison_cli.dynamics.crtbp_field import field_derivative_into, field_scratch, field_state_stm_rhs
 from liaison_cli.dynamics.ephemeris_dynamics import STM_SIZE, ephemeris_derivative
 from liaison_cli.dynamics.integrators import dop853_tableau as _dop853
 from liaison_cli.dynamics.integrators.rk4 import steps_between
@@ -51,14 +51,15 @@ def rk8_combine(y, h, b, k):
 
 
 @njit(cache=True)
-def _rk8_step(y, h, params, a, b, k, tmp):
-    """One RK8 step in place of a 6-state, or of the 42-vector [state, Phi]; k (12, len(y)), tmp scratch."""
+def _rk8_step(y, h, params, a, b, k, tmp, scratch):
+    """One RK8 step in place of a 6-state, or of the 42-vector [state, Phi]; k (12, len(y)), tmp scratch, and
+    scratch the added terms' (crtbp_field.field_scratch)."""
     for s in range(12):
         rk8_stage_input(y, h, a, k, s, tmp)
         if y.shape[0] == 6:
-            field_derivative_into(tmp, params, k[s])
+            field_derivative_into(tmp, params, k[s], scratch)
         else:
-            field_state_stm_rhs(tmp, params, k[s])
+            field_state_stm_rhs(tmp, params, k[s], scratch)
     rk8_combine(y, h, b, k)
 
 
@@ -67,8 +68,9 @@ def rk8_advance(y, dt_tu, n_steps, params, k, tmp):
     """Advance y in place over dt_tu in n_steps RK8 steps: y (6,) a state, or y (42,) [state, Phi row-major]
     carried on from earlier intervals, so Phi stays Phi(t, t0). k (12, len(y)), tmp (len(y),) scratch."""
     h = dt_tu / n_steps
+    scratch = field_scratch(params, tmp)
     for _ in range(n_steps):
-        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp, scratch)
 
 
 @njit(cache=True)
@@ -78,8 +80,9 @@ def rk8_state(state, dt_tu, n_steps, params):
     k = np.empty((12, 6))
     tmp = np.empty(6)
     h = dt_tu / n_steps
+    scratch = field_scratch(params, tmp)
     for _ in range(n_steps):
-        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp, scratch)
     return y
 
 
@@ -93,8 +96,9 @@ def rk8_state_stm(state, dt_tu, n_steps, params):
     k = np.empty((12, 42))
     tmp = np.empty(42)
     h = dt_tu / n_steps
+    scratch = field_scratch(params, tmp)
     for _ in range(n_steps):
-        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp)
+        _rk8_step(y, h, params, RK8_A, RK8_B, k, tmp, scratch)
     phi = np.empty((6, 6))
     for i in range(6):
         for j in range(6):
@@ -115,12 +119,13 @@ def rk8_states_forced(state0, times_tu, max_step_tu, params, acceleration_lu_tu2
         out[0, i] = y[i]
     k = np.empty((12, 6))
     tmp = np.empty(6)
+    scratch = field_scratch(params, tmp)
     for j in range(1, m):
         substeps, h = steps_between(times_tu, j, max_step_tu)
         for s in range(substeps):
             for stage in range(12):
                 rk8_stage_input(y, h, RK8_A, k, stage, tmp)
-                field_derivative_into(tmp, params, k[stage])
+                field_derivative_into(tmp, params, k[stage], scratch)
                 fraction = (s + RK8_C[stage]) / substeps
                 for i in range(3):
                     a0 = acceleration_lu_tu2[j - 1, i]

@@ -9,10 +9,11 @@ from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.constants import LU_KM, MU, TU_S
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant
-from liaison_cli.dynamics.crtbp_field import (crtbp_params, field_degree, field_derivative,
-                                              harmonics_term, moon_harmonics_into)
+from liaison_cli.dynamics.crtbp_field import (added_terms_into, added_terms_scratch_into, crtbp_params, field_degree,
+                                              field_derivative, harmonics_term, j2_term, moon_harmonics_into,
+                                              terms_scratch_size)
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm
-from liaison_cli.dynamics.lunar_gravity import lunar_field
+from liaison_cli.dynamics.lunar_gravity import lunar_field, lunar_j2
 from liaison_cli.dynamics.spherical_harmonics import packed_index, potential
 from liaison_cli.scenario.loading import validate_scenario
 
@@ -99,6 +100,26 @@ def _scenario(**extra):
                "links": [{"receiver": "DRO", "transponder": "LLO"}], "measurement": {"interval_s": 60},
                "noise": {"sigma_m": 5.0}, "monte_carlo": {"runs": 1, "seed": 1}, **extra}
     return validate_scenario(mapping, "field.yaml")
+
+
+def test_the_integrators_scratch_is_written_before_it_is_read_and_is_large_enough():
+    """The integrators pass one scratch to every evaluation (crtbp_field.field_scratch): filled with NaN at exactly
+    terms_scratch_size, it gives the allocating call's acceleration and gradient bit for bit, for two harmonics
+    terms of different degrees (the larger sets the size) and a J2, near the Moon and far from it (fewer degrees
+    summed there). The size is the larger term's two tables to degree 30 + 2 (the gradient's recursion) and the
+    nine of a term's acceleration and gradient."""
+    params = crtbp_params(MU, harmonics_term(lunar_field(8)), j2_term(*lunar_j2()), harmonics_term(lunar_field(30)))
+    size = terms_scratch_size(params)
+    assert size == 9 + 2 * (packed_index(32, 32) + 1)
+    for altitude_km in (50.0, 400.0, 60000.0):
+        x, y, z = low_orbit_state(altitude_km, 70.0)[:3] + np.array([0.0, 300.0, -200.0]) / LU_KM
+        for with_gradient in (False, True):
+            expected_acc, expected_grad = np.zeros(3), np.zeros(6)
+            added_terms_into(params, x, y, z, with_gradient, expected_acc, expected_grad)
+            acc, grad = np.zeros(3), np.zeros(6)
+            added_terms_scratch_into(params, x, y, z, with_gradient, acc, grad, np.full(size, np.nan))
+            assert np.array_equal(acc, expected_acc) and np.array_equal(grad, expected_grad)
+            assert np.all(np.isfinite(acc)) and np.any(acc != 0.0)
 
 
 def test_the_scenario_keys_ask_for_the_field_and_refuse_what_cannot_be():
