@@ -26,7 +26,7 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import (
     AU_KM, EARTH_SHADOW_RADIUS_KM, MOON_RADIUS_KM, SOLAR_FLUX_1AU_W_M2, SPEED_OF_LIGHT_M_S, SUN_RADIUS_KM)
-from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_state
+from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_positions_into, geocentric_state
 from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
 from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, field_payload, payload_tables
@@ -224,14 +224,17 @@ def ephemeris_derivative(t_s, y, coeffs, start_s, interval_s, n_records, bodies,
     lambda = 0): s' = A s + [0; a_srp], since the SRP acceleration is linear in C_R (Tapley, Schutz & Born
     2004, §4.2.1, the variational equations of a dynamic parameter)."""
     r = y[0:3]
-    acc = np.zeros(3)
-    grad = np.zeros((3, 3))
-    _point_mass(acc, grad, r, np.zeros(3), gm_earth, np.bool_(False), with_stm)  # no literal: one compile
-    r_sun = np.zeros(3)
-    r_moon = np.zeros(3)
+    # One allocation for the call's small arrays (an allocation per body and per vector cost a third of the call):
+    # rows 0-2 the gradient, 3 the acceleration, 4 the origin (the Earth), 5-7 scratch, then the bodies' positions.
+    work = np.zeros((8 + bodies.shape[0], 3))
+    grad, acc, origin = work[0:3], work[3], work[4]
+    positions = work[8:]
+    geocentric_positions_into(coeffs, start_s, interval_s, n_records, bodies, t_s, positions, work[5:8])
+    _point_mass(acc, grad, r, origin, gm_earth, np.bool_(False), with_stm)  # no literal: one compile
+    r_sun = origin  # zeros, as before, where the Sun or the Moon is not a body
+    r_moon = origin
     for i in range(bodies.shape[0]):
-        state = geocentric_state(coeffs, start_s, interval_s, n_records, bodies[i], t_s)
-        r_b = state[0:3].copy()
+        r_b = positions[i]
         _point_mass(acc, grad, r, r_b, gms[i], np.bool_(True), with_stm)
         if bodies[i] == BODY_SUN:
             r_sun = r_b
