@@ -27,7 +27,7 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import LU_KM
 from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs, truth_derivative_into
-from liaison_cli.dynamics.spherical_harmonics import (field_acceleration_scratch_into, field_payload,
+from liaison_cli.dynamics.spherical_harmonics import (effective_degree, field_acceleration_scratch_into, field_payload,
                                                        harmonics_scratch_size, payload_tables)
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
@@ -84,7 +84,10 @@ def moon_harmonics_into(params, start, x, y, z, with_gradient, acc, grad):
     """acc (3,) <- the lunar harmonics' acceleration beyond the point mass (payload at params[start:]) at the
     rotating-frame position (x, y, z); with with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz,
     gyz). LU, TU. Allocates its scratch (the integrators' path, added_terms_scratch_into, passes its own)."""
-    size = harmonics_scratch_size(int(params[start]))
+    mu = params[0]
+    degree, radius = int(params[start]), params[start + 1]
+    px = 1.0 - mu - x  # the principal axes' x (_moon_harmonics_scratch_into); y and z only change sign
+    size = harmonics_scratch_size(effective_degree(degree, radius, px * px + y * y + z * z))  # what the point needs
     _moon_harmonics_scratch_into(params, start, x, y, z, with_gradient, acc, grad, np.empty(size), np.empty(size))
 
 
@@ -110,7 +113,7 @@ def moon_j2_into(params, start, x, y, z, with_gradient, acc, grad):
 
 # Scratch of added_terms_scratch_into: one term's acceleration (3) and gradient (6), then the harmonics' two tables
 # (V̄, W̄), each as long as the largest harmonics term needs.
-TERM_SCRATCH = 9
+RESULT_SCRATCH = 9
 
 
 @njit(cache=True)
@@ -121,7 +124,7 @@ def terms_scratch_size(params):
         kind, start = int(params[2 + 2 * t]), int(params[3 + 2 * t])
         if kind == TERM_HARMONICS:
             tables = max(tables, harmonics_scratch_size(int(params[start])))
-    return TERM_SCRATCH + 2 * tables
+    return RESULT_SCRATCH + 2 * tables
 
 
 @njit(cache=True)
@@ -139,9 +142,9 @@ def added_terms_scratch_into(params, x, y, z, with_gradient, acc, grad, scratch)
         acc[i] = 0.0
     for i in range(6):
         grad[i] = 0.0
-    term_acc, term_grad = scratch[0:3], scratch[3:TERM_SCRATCH]
-    tables = (scratch.shape[0] - TERM_SCRATCH) // 2
-    v, w = scratch[TERM_SCRATCH:TERM_SCRATCH + tables], scratch[TERM_SCRATCH + tables:TERM_SCRATCH + 2 * tables]
+    term_acc, term_grad = scratch[0:3], scratch[3:RESULT_SCRATCH]
+    tables = (scratch.shape[0] - RESULT_SCRATCH) // 2
+    v, w = scratch[RESULT_SCRATCH:RESULT_SCRATCH + tables], scratch[RESULT_SCRATCH + tables:RESULT_SCRATCH + 2 * tables]
     for t in range(int(params[1])):
         kind, start = int(params[2 + 2 * t]), int(params[3 + 2 * t])
         if kind == TERM_HARMONICS:
@@ -161,7 +164,7 @@ def added_terms_scratch_into(params, x, y, z, with_gradient, acc, grad, scratch)
 def field_scratch(params, spare):
     """The integrators' scratch for the added terms' evaluations, allocated once per call of an integrator instead of
     six times per evaluation (which was an eighth of a degree-20 field's propagation): the sum's acceleration and
-    gradient (TERM_SCRATCH), then added_terms_scratch_into's. With no added terms, an empty view of `spare` (any
+    gradient (RESULT_SCRATCH), then added_terms_scratch_into's. With no added terms, an empty view of `spare` (any
     1-D float array of the caller): no allocation and no call on the point-mass path (inlined; the allocation is
     a call, see _add_terms_to_derivative)."""
     if params.shape[0] > 1:
@@ -171,7 +174,7 @@ def field_scratch(params, spare):
 
 @njit(cache=True)
 def _allocated_scratch(params):
-    return np.empty(TERM_SCRATCH + terms_scratch_size(params))
+    return np.empty(RESULT_SCRATCH + terms_scratch_size(params))
 
 
 @njit(cache=True, inline="always")
@@ -197,9 +200,9 @@ def field_state_stm_rhs(y, params, out, scratch):
 @njit(cache=True)
 def _add_terms_to_derivative(y, params, out, scratch):
     """out[3:6] += the added terms' acceleration at y's position (field_derivative_into)."""
-    acc, grad = scratch[0:3], scratch[3:TERM_SCRATCH]
+    acc, grad = scratch[0:3], scratch[3:RESULT_SCRATCH]
     added_terms_scratch_into(params, y[0], y[1], y[2], np.bool_(False), acc, grad,  # no literal: one compile
-                             scratch[TERM_SCRATCH:])
+                             scratch[RESULT_SCRATCH:])
     for i in range(3):
         out[3 + i] += acc[i]
 
@@ -207,9 +210,9 @@ def _add_terms_to_derivative(y, params, out, scratch):
 @njit(cache=True)
 def _add_terms_to_state_stm_rhs(y, params, out, scratch):
     """out (42,) += the added terms' acceleration and their gradient times Phi's position rows (field_state_stm_rhs)."""
-    acc, grad = scratch[0:3], scratch[3:TERM_SCRATCH]
+    acc, grad = scratch[0:3], scratch[3:RESULT_SCRATCH]
     added_terms_scratch_into(params, y[0], y[1], y[2], np.bool_(True), acc, grad,  # no literal: one compile
-                             scratch[TERM_SCRATCH:])
+                             scratch[RESULT_SCRATCH:])
     gxx, gyy, gzz, gxy, gxz, gyz = grad[0], grad[1], grad[2], grad[3], grad[4], grad[5]
     for i in range(3):
         out[3 + i] += acc[i]

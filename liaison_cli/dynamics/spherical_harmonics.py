@@ -270,9 +270,10 @@ def field_acceleration_into(tables, gm, radius, degree, x, y, z, with_gradient, 
     """acc (3,) <- the acceleration of the terms of degree 2..degree at (x, y, z) in the body's axes; with
     with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz). tables: (factors, acc_weights,
     grad_weights) of the field (field_weights; payload_tables). Units: those of gm and radius (lengths of x, y, z in
-    radius's unit). Allocates its two scratch tables; the CRTBP's integrators pass theirs
+    radius's unit). Allocates its two scratch tables, as long as the point needs (far from the body the sum stops
+    early: at degree 200 that is a few hundred entries instead of 20,000); the CRTBP's integrators pass theirs
     (field_acceleration_scratch_into)."""
-    size = harmonics_scratch_size(degree)
+    size = harmonics_scratch_size(effective_degree(degree, radius, x * x + y * y + z * z))
     field_acceleration_scratch_into(tables, gm, radius, degree, x, y, z, with_gradient, acc, grad, np.empty(size),
                                     np.empty(size))
 

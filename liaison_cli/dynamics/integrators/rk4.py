@@ -1,7 +1,7 @@
 """Fixed-step classical RK4 for the CRTBP (dynamics.crtbp's right-hand sides, inlined).
 
 The filter's state + STM over one measurement interval, the STM on a coarser grid than the state
-(`rk4_state_stm_into`, no allocation; `rk4_state_stm` allocates its result), the state + STM with every step
+(`rk4_state_stm_into`, no allocation for point masses, one scratch per call with added terms; `rk4_state_stm` allocates its result), the state + STM with every step
 (`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by
 steps of at most max_step_tu (`rk4_states_forced`, with an unmodelled acceleration; `rk4_states` calls it with
 none). All numba-compiled and cached on disk but `rk4_states`, a Python call of the compiled one.
@@ -50,7 +50,8 @@ def stm_steps(dt_tu, substeps):
 @njit(cache=True, inline="always")
 def rk4_state_stm_into(state, dt_tu, substeps, params, y, work):
     """rk4_state_stm without allocation: y (42,) <- [state_end (6), Phi(t + dt, t) row-major (36)];
-    work (5, 42) scratch (the filter calls this for every spacecraft at every epoch: no allocation). `state`
+    work (5, 42) scratch (the filter calls this for every spacecraft at every epoch: no allocation for point masses;
+    with added terms, their scratch once per call, crtbp_field.field_scratch). `state`
     must not share memory with y or work: it is read again after they are written.
 
     The STM on a coarser grid than the state: the state by `substeps` RK4 steps of its own 6 equations (bit
