@@ -29,7 +29,8 @@ from liaison_cli.dynamics.constants import (
 from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_positions_into, geocentric_state
 from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
-from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, field_payload, payload_tables
+from liaison_cli.dynamics.spherical_harmonics import (effective_degree, field_acceleration_scratch_into, field_payload,
+                                                       harmonics_scratch_size, payload_tables)
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
@@ -148,51 +149,67 @@ def moon_field_payload(field) -> np.ndarray:
     return field_payload(field.c, field.s, field.degree, field.radius_km)
 
 
+# add_moon_field's and add_moon_j2's scratch (_frame_scratch): the rotation (9), the position in the principal axes
+# (3), the acceleration (3) and gradient (6) there, and G_PA R (9).
+FRAME_SCRATCH = 30
+
+
 @njit(cache=True)
 def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
     """acc (3,) += the Moon's harmonics beyond its point mass (payload `field`, moon_field_payload) at the geocentric
     ICRF position r (km), the Moon at r_moon, at TDB t_s; with with_grad, grad (3, 3) += their gradient. Evaluated
     in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
-    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well)."""
+    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well). Two allocations:
+    the frame's scratch and the harmonics' tables, as long as the point needs."""
     degree, radius, tables = payload_tables(field)
-    rot, p = _in_principal_axes(t_s, r, r_moon)
-    a_pa, g = np.empty(3), np.empty(6)
-    field_acceleration_into(tables, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
-    _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
+    rot, p, a_pa, g, turned = _frame_scratch(np.empty(FRAME_SCRATCH))
+    _in_principal_axes_into(t_s, r, r_moon, rot, p)
+    size = harmonics_scratch_size(effective_degree(degree, radius, p[0] * p[0] + p[1] * p[1] + p[2] * p[2]))
+    harmonics = np.empty(2 * size)
+    field_acceleration_scratch_into(tables, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g,
+                                    harmonics[0:size], harmonics[size:])
+    _add_turned_back(rot, a_pa, g, with_grad, acc, grad, turned)
 
 
 @njit(cache=True)
 def add_moon_j2(t_s, r, r_moon, gm_moon, payload, with_grad, acc, grad):
     """add_moon_field for the Moon's J2 alone (payload: J2, radius km), about the lunar pole (the principal axes' z;
     J2 is symmetric about it, so the other two axes do not matter)."""
-    rot, p = _in_principal_axes(t_s, r, r_moon)
-    a_pa, g = np.empty(3), np.empty(6)
+    rot, p, a_pa, g, turned = _frame_scratch(np.empty(FRAME_SCRATCH))
+    _in_principal_axes_into(t_s, r, r_moon, rot, p)
     j2_acceleration_gradient_into(gm_moon, payload[0], payload[1], p[0], p[1], p[2], with_grad, a_pa, g)
-    _add_turned_back(rot, a_pa, g, with_grad, acc, grad)
+    _add_turned_back(rot, a_pa, g, with_grad, acc, grad, turned)
+
+
+@njit(cache=True, inline="always")
+def _frame_scratch(work):
+    """(rot (3, 3), p (3,), a_pa (3,), g (6,), turned (3, 3)): views of work (FRAME_SCRATCH,)."""
+    return work[0:9].reshape((3, 3)), work[9:12], work[12:15], work[15:21], work[21:30].reshape((3, 3))
 
 
 @njit(cache=True)
-def _in_principal_axes(t_s, r, r_moon):
-    """(R (3, 3), p (3,)): the ICRF -> lunar principal axes rotation at TDB t_s, and p = R (r - r_moon), km."""
-    rot = np.empty((3, 3))
+def _in_principal_axes_into(t_s, r, r_moon, rot, p):
+    """rot (3, 3) <- the ICRF -> lunar principal axes rotation at TDB t_s, p (3,) <- R (r - r_moon), km."""
     moon_pa_from_icrf_into(t_s, rot)
-    p = np.zeros(3)
     for i in range(3):
+        p[i] = 0.0
         for j in range(3):
             p[i] += rot[i, j] * (r[j] - r_moon[j])
-    return rot, p
 
 
 @njit(cache=True)
-def _add_turned_back(rot, a_pa, g, with_grad, acc, grad):
+def _add_turned_back(rot, a_pa, g, with_grad, acc, grad, turned):
     """acc += R^T a_pa; with with_grad, grad (3, 3) += R^T G R, G the symmetric gradient g (gxx, gyy, gzz, gxy, gxz,
-    gyz) in the principal axes."""
+    gyz) in the principal axes; turned (3, 3) scratch. G R in element loops, not a matrix product: numba's `@`
+    calls BLAS's dgemm (a library call and an allocation for nine sums of three products)."""
     for j in range(3):
         acc[j] += rot[0, j] * a_pa[0] + rot[1, j] * a_pa[1] + rot[2, j] * a_pa[2]
     if not with_grad:
         return
-    g_pa = np.array([[g[0], g[3], g[4]], [g[3], g[1], g[5]], [g[4], g[5], g[2]]])
-    turned = g_pa @ rot  # G_PA R, then R^T (G_PA R)
+    for j in range(3):  # turned = G_PA R, the rows of G_PA being (gxx, gxy, gxz), (gxy, gyy, gyz), (gxz, gyz, gzz)
+        turned[0, j] = g[0] * rot[0, j] + g[3] * rot[1, j] + g[4] * rot[2, j]
+        turned[1, j] = g[3] * rot[0, j] + g[1] * rot[1, j] + g[5] * rot[2, j]
+        turned[2, j] = g[4] * rot[0, j] + g[5] * rot[1, j] + g[2] * rot[2, j]
     for i in range(3):
         for j in range(3):
             grad[i, j] += rot[0, i] * turned[0, j] + rot[1, i] * turned[1, j] + rot[2, i] * turned[2, j]
