@@ -7,7 +7,8 @@ from datetime import datetime
 import numpy as np
 import pytest
 
-from liaison_cli.dynamics.ephemeris import GM_KM3_S2, J2000_JD, de421_path, geocentric_state, load_window
+from liaison_cli.dynamics.ephemeris import (GM_KM3_S2, J2000_JD, de421_path, geocentric_positions_into, geocentric_state,
+                                           load_window)
 from liaison_cli.dynamics.ephemeris_dynamics import (
     AU_KM,
     NO_TERMS,
@@ -110,6 +111,24 @@ def msl_window():
     window = load_window(t0, t0 + 10 * 86400)
     moon = geocentric_state(window.coeffs, window.start_s, window.interval_s, window.n_records, 301, t0)
     return t0, window, np.concatenate([0.85 * moon[:3], 0.85 * moon[3:]])  # near EML1
+
+
+def test_the_right_hand_sides_positions_are_geocentric_states_bit_for_bit(msl_window):
+    """geocentric_positions_into (the dynamics' per-stage evaluation: the Earth's and the EMB's segments once, no
+    velocities) gives geocentric_state's positions to the last bit for every third body, in any order, the Moon
+    first, last or alone, across record boundaries and at the window's ends."""
+    t0, w, _ = msl_window
+    span = (t0, t0 + 10 * 86400)
+    times = np.concatenate([np.linspace(span[0], span[1], 97), [span[0] + 1e-3, span[1] - 1e-3]])
+    orders = (THIRD_BODIES, THIRD_BODIES[::-1], np.array([301]), np.array([10, 5]))
+    work = np.empty((3, 3))
+    for bodies in orders:
+        out = np.empty((len(bodies), 3))
+        for t in times:
+            geocentric_positions_into(w.coeffs, w.start_s, w.interval_s, w.n_records, bodies, t, out, work)
+            for k, body in enumerate(bodies):
+                expected = geocentric_state(w.coeffs, w.start_s, w.interval_s, w.n_records, body, t)[:3]
+                assert np.array_equal(out[k], expected), (body, t)
 
 
 def test_ephemeris_stm_matches_central_differences(msl_window):
