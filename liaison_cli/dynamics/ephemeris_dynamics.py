@@ -159,8 +159,8 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
     """acc (3,) += the Moon's harmonics beyond its point mass (payload `field`, moon_field_payload) at the geocentric
     ICRF position r (km), the Moon at r_moon, at TDB t_s; with with_grad, grad (3, 3) += their gradient. Evaluated
     in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
-    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well). Two allocations:
-    the frame's scratch and the harmonics' tables, as long as the point needs."""
+    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well). Three allocations:
+    the frame's scratch, the harmonics' tables (as long as the point needs) and the orientation's own."""
     degree, radius, tables = payload_tables(field)
     rot, p, a_pa, g, turned = _frame_scratch(np.empty(FRAME_SCRATCH))
     _in_principal_axes_into(t_s, r, r_moon, rot, p)

@@ -119,7 +119,9 @@ def test_the_right_hand_sides_positions_are_geocentric_states_bit_for_bit(msl_wi
     first, last or alone, across record boundaries and at the window's ends."""
     t0, w, _ = msl_window
     span = (t0, t0 + 10 * 86400)
-    times = np.concatenate([np.linspace(span[0], span[1], 97), [span[0] + 1e-3, span[1] - 1e-3]])
+    # beyond the window's padded records too (load_window adds 2 days): both clamp to the first or last record
+    times = np.concatenate([np.linspace(span[0], span[1], 97), [span[0] + 1e-3, span[1] - 1e-3],
+                            [span[0] - 5 * 86400, span[1] + 5 * 86400]])
     orders = (THIRD_BODIES, THIRD_BODIES[::-1], np.array([301]), np.array([10, 5]))
     work = np.empty((3, 3))
     for bodies in orders:
