@@ -75,8 +75,8 @@ def _ephemeris_parameter_into(params, parameter, state, t_tu, dt_tu, substeps, y
 @njit(cache=True, inline="always")
 def propagate_state_stm_into(model, params, state, t_tu, dt_tu, substeps, y, work):
     """(6,) state at t_tu -> y (42,) = [state (6), Phi(t_tu + dt_tu, t_tu) row-major (36)], with work (5, 42)
-    the caller's scratch (no allocation per interval for the point-mass CRTBP; one for its added terms' scratch): the CRTBP by `substeps` fixed
-    RK4 steps, the ephemeris model by `substeps` fixed RK8 steps.
+    the caller's scratch (no allocation per interval for the point-mass CRTBP; one for its added terms' scratch): the
+    CRTBP by `substeps` fixed RK4 steps, the ephemeris model by `substeps` fixed RK8 steps.
 
     The model code is read at run time: each model's propagator is one compiled, cached function that every
     estimator calls, so an estimator is compiled once for every model (docs/performance.md, "Compile once").

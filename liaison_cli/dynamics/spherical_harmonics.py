@@ -289,7 +289,8 @@ def field_acceleration_scratch_into(tables, gm, radius, degree, x, y, z, with_gr
     solid_harmonics_into(x, y, z, radius, top, factors, v, w)
     ax = ay = az = 0.0
     # unsigned indices, as in solid_harmonics_into's column loop (the sums' order is unchanged)
-    for k in range(np.uint64(packed_index(3, 0)), np.uint64(packed_index(degree + 1, degree + 1) + 1)):  # degree 2: row 3
+    # degree 2's terms start at row 3
+    for k in range(np.uint64(packed_index(3, 0)), np.uint64(packed_index(degree + 1, degree + 1) + 1)):
         vk, wk = v[k], w[k]
         ax += acc_weights[k, 0] * vk + acc_weights[k, 1] * wk
         ay += acc_weights[k, 2] * vk + acc_weights[k, 3] * wk

@@ -1,10 +1,11 @@
 """Fixed-step classical RK4 for the CRTBP (dynamics.crtbp's right-hand sides, inlined).
 
 The filter's state + STM over one measurement interval, the STM on a coarser grid than the state
-(`rk4_state_stm_into`, no allocation for point masses, one scratch per call with added terms; `rk4_state_stm` allocates its result), the state + STM with every step
-(`rk4_variational_into`, `rk4_variational`), and the compiled truth: one trajectory sampled at given times by
-steps of at most max_step_tu (`rk4_states_forced`, with an unmodelled acceleration; `rk4_states` calls it with
-none). All numba-compiled and cached on disk but `rk4_states`, a Python call of the compiled one.
+(`rk4_state_stm_into`, no allocation for point masses, one scratch per call with added terms; `rk4_state_stm`
+allocates its result), the state + STM with every step (`rk4_variational_into`, `rk4_variational`), and the
+compiled truth: one trajectory sampled at given times by steps of at most max_step_tu (`rk4_states_forced`, with
+an unmodelled acceleration; `rk4_states` calls it with none). All numba-compiled and cached on disk but
+`rk4_states`, a Python call of the compiled one.
 """
 
 import numpy as np

@@ -7,8 +7,8 @@ from datetime import datetime
 import numpy as np
 import pytest
 
-from liaison_cli.dynamics.ephemeris import (GM_KM3_S2, J2000_JD, de421_path, geocentric_positions_into, geocentric_state,
-                                           load_window)
+from liaison_cli.dynamics.ephemeris import (GM_KM3_S2, J2000_JD, de421_path, geocentric_positions_into,
+                                           geocentric_state, load_window)
 from liaison_cli.dynamics.ephemeris_dynamics import (
     AU_KM,
     NO_TERMS,
