@@ -124,7 +124,8 @@ def segment_state(coeffs, start_s, interval_s, n_records, seg, t_s, out):
         out[3 + axis] = velocity * 2.0 / interval_s[seg]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # a call, not inlined: three call sites would compile three copies (geocentric_positions_into
+# compiled with its callee in 2.5 s inlined, 1.4 s as a call; the derivative took the same time within noise)
 def _segment_position_into(coeffs, start_s, interval_s, n_records, seg, t_s, out):
     """segment_state's position alone (km) into out (3,), by the same arithmetic (the same numbers to the last bit):
     the Chebyshev series without its derivative's recurrence."""
