@@ -95,17 +95,24 @@ def load_window(start_s: float, end_s: float, margin_s: float = 2 * SECONDS_PER_
                            np.array([p[2].shape[1] for p in parts], dtype=np.int64), lo, hi)
 
 
-@njit(cache=True)
-def segment_state(coeffs, start_s, interval_s, n_records, seg, t_s, out):
-    """Position (km) and velocity (km/s) of segment `seg` at t_s into out (6,): Chebyshev series and its
-    derivative, T_k and dT_k/ds by their recurrences, s in [-1, 1] across the record."""
+@njit(cache=True, inline="always")
+def _record_at(start_s, interval_s, n_records, seg, t_s):
+    """(index, s): segment `seg`'s record holding t_s (the first or last one outside them) and t_s's place in it,
+    s in [-1, 1]."""
     offset = t_s - start_s[seg]
     index = int(np.floor(offset / interval_s[seg]))
     if index < 0:
         index = 0
     if index > n_records[seg] - 1:
         index = n_records[seg] - 1
-    s = 2.0 * (offset - index * interval_s[seg]) / interval_s[seg] - 1.0
+    return index, 2.0 * (offset - index * interval_s[seg]) / interval_s[seg] - 1.0
+
+
+@njit(cache=True)
+def segment_state(coeffs, start_s, interval_s, n_records, seg, t_s, out):
+    """Position (km) and velocity (km/s) of segment `seg` at t_s into out (6,): Chebyshev series and its
+    derivative, T_k and dT_k/ds by their recurrences, s in [-1, 1] across the record."""
+    index, s = _record_at(start_s, interval_s, n_records, seg, t_s)
     n_coef = coeffs.shape[3]
     for axis in range(3):
         t_prev, t_now = 1.0, s  # T_0, T_1
@@ -129,13 +136,7 @@ def segment_state(coeffs, start_s, interval_s, n_records, seg, t_s, out):
 def _segment_position_into(coeffs, start_s, interval_s, n_records, seg, t_s, out):
     """segment_state's position alone (km) into out (3,), by the same arithmetic (the same numbers to the last bit):
     the Chebyshev series without its derivative's recurrence."""
-    offset = t_s - start_s[seg]
-    index = int(np.floor(offset / interval_s[seg]))
-    if index < 0:
-        index = 0
-    if index > n_records[seg] - 1:
-        index = n_records[seg] - 1
-    s = 2.0 * (offset - index * interval_s[seg]) / interval_s[seg] - 1.0
+    index, s = _record_at(start_s, interval_s, n_records, seg, t_s)
     n_coef = coeffs.shape[3]
     for axis in range(3):
         t_prev, t_now = 1.0, s  # T_0, T_1
