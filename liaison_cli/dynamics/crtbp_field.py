@@ -27,8 +27,8 @@ from numba import njit
 
 from liaison_cli.dynamics.constants import LU_KM
 from liaison_cli.dynamics.crtbp import derivative_into, state_stm_rhs, truth_derivative_into
-from liaison_cli.dynamics.spherical_harmonics import (effective_degree, field_acceleration_scratch_into, field_payload,
-                                                       harmonics_scratch_size, payload_tables)
+from liaison_cli.dynamics.spherical_harmonics import (field_acceleration_scratch_into, field_payload,
+                                                       harmonics_scratch_size, payload_tables, point_scratch_size)
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
 TERM_HARMONICS = 1  # payload: spherical_harmonics.field_payload, radius in LU
@@ -86,8 +86,7 @@ def moon_harmonics_into(params, start, x, y, z, with_gradient, acc, grad):
     gyz). LU, TU. Allocates its scratch (the integrators' path, added_terms_scratch_into, passes its own)."""
     mu = params[0]
     degree, radius = int(params[start]), params[start + 1]
-    px = 1.0 - mu - x  # the principal axes' x (_moon_harmonics_scratch_into); y and z only change sign
-    size = harmonics_scratch_size(effective_degree(degree, radius, px * px + y * y + z * z))  # what the point needs
+    size = point_scratch_size(degree, radius, 1.0 - mu - x, -y, z)  # the principal axes (_moon_harmonics_scratch_into)
     _moon_harmonics_scratch_into(params, start, x, y, z, with_gradient, acc, grad, np.empty(size), np.empty(size))
 
 

@@ -29,8 +29,7 @@ from liaison_cli.dynamics.constants import (
 from liaison_cli.dynamics.ephemeris import BODY_EARTH, BODY_MOON, BODY_SUN, geocentric_positions_into, geocentric_state
 from liaison_cli.dynamics.integrators.adaptive import dop853_samples
 from liaison_cli.dynamics.lunar_orientation import moon_pa_from_icrf_into
-from liaison_cli.dynamics.spherical_harmonics import (effective_degree, field_acceleration_scratch_into, field_payload,
-                                                       harmonics_scratch_size, payload_tables)
+from liaison_cli.dynamics.spherical_harmonics import field_acceleration_into, field_payload, payload_tables
 from liaison_cli.dynamics.zonal_j2 import j2_acceleration_gradient_into
 
 P_1AU_N_M2 = SOLAR_FLUX_1AU_W_M2 / SPEED_OF_LIGHT_M_S
@@ -159,15 +158,12 @@ def add_moon_field(t_s, r, r_moon, gm_moon, field, with_grad, acc, grad):
     """acc (3,) += the Moon's harmonics beyond its point mass (payload `field`, moon_field_payload) at the geocentric
     ICRF position r (km), the Moon at r_moon, at TDB t_s; with with_grad, grad (3, 3) += their gradient. Evaluated
     in the lunar principal axes (dynamics.lunar_orientation) and turned back: a = R^T a_PA(R (r - r_moon)),
-    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well). Three allocations:
-    the frame's scratch, the harmonics' tables (as long as the point needs) and the orientation's own."""
+    G = R^T G_PA R. The Moon's GM is the model's (so a scaled Moon GM scales its field as well). Four allocations:
+    the frame's scratch, the harmonics' two tables (as long as the point needs) and the orientation's own."""
     degree, radius, tables = payload_tables(field)
     rot, p, a_pa, g, turned = _frame_scratch(np.empty(FRAME_SCRATCH))
     _in_principal_axes_into(t_s, r, r_moon, rot, p)
-    size = harmonics_scratch_size(effective_degree(degree, radius, p[0] * p[0] + p[1] * p[1] + p[2] * p[2]))
-    harmonics = np.empty(2 * size)
-    field_acceleration_scratch_into(tables, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g,
-                                    harmonics[0:size], harmonics[size:])
+    field_acceleration_into(tables, gm_moon, radius, degree, p[0], p[1], p[2], with_grad, a_pa, g)
     _add_turned_back(rot, a_pa, g, with_grad, acc, grad, turned)
 
 

@@ -103,7 +103,7 @@ def solid_harmonics_into(x, y, z, radius, degree, factors, v, w):
     for n in range(1, degree + 1):
         row, below_row = packed_index(n, 0), packed_index(n - 1, 0)
         # Unsigned indices in the column loop: numba checks every signed index for wraparound (a negative one counts
-        # from the end), which kept LLVM from vectorising the loop; unsigned, the recursion runs about 3 times
+        # from the end), which kept LLVM from vectorising the loop; unsigned, the recursion runs 2-3 times
         # faster, bit for bit (its arithmetic is unchanged).
         urow, ubelow, utwo_below = np.uint64(row), np.uint64(below_row), np.uint64(packed_index(n - 2, 0))
         for m in range(np.uint64(n - 1)):  # the column recursion (M&G Eq. 3.31, normalised)
@@ -265,15 +265,21 @@ def harmonics_scratch_size(degree):
     return packed_index(degree + 2, degree + 2) + 1
 
 
+@njit(cache=True, inline="always")
+def point_scratch_size(degree, radius, x, y, z):
+    """harmonics_scratch_size for the degree the point (x, y, z) needs (effective_degree): far from the body a few
+    hundred entries where the field's whole degree (200) would take 20,000."""
+    return harmonics_scratch_size(effective_degree(degree, radius, x * x + y * y + z * z))
+
+
 @njit(cache=True)
 def field_acceleration_into(tables, gm, radius, degree, x, y, z, with_gradient, acc, grad):
     """acc (3,) <- the acceleration of the terms of degree 2..degree at (x, y, z) in the body's axes; with
     with_gradient, grad (6,) <- its gradient (gxx, gyy, gzz, gxy, gxz, gyz). tables: (factors, acc_weights,
     grad_weights) of the field (field_weights; payload_tables). Units: those of gm and radius (lengths of x, y, z in
-    radius's unit). Allocates its two scratch tables, as long as the point needs (far from the body the sum stops
-    early: at degree 200 that is a few hundred entries instead of 20,000); the CRTBP's integrators pass theirs
-    (field_acceleration_scratch_into)."""
-    size = harmonics_scratch_size(effective_degree(degree, radius, x * x + y * y + z * z))
+    radius's unit). Allocates its two scratch tables, as long as the point needs (point_scratch_size); the CRTBP's
+    integrators pass theirs (field_acceleration_scratch_into)."""
+    size = point_scratch_size(degree, radius, x, y, z)
     field_acceleration_scratch_into(tables, gm, radius, degree, x, y, z, with_gradient, acc, grad, np.empty(size),
                                     np.empty(size))
 

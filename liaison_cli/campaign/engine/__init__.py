@@ -15,7 +15,7 @@
 - warmup: compiling every kernel specialisation the shipped scenarios need, ahead of the first run (a helper
   process compiles the calls by address while it reads the scenarios);
 - ahead: while `liaison run` compiles, a helper process compiling on the idle core what `liaison errors` and
-  `liaison observability` need for the same scenario.
+  `liaison observability` need for the same scenario;
 - helper_process: the second process both start to compile ahead (silent, lower priority, the run's own code,
   ending with the process that started it).
 """
