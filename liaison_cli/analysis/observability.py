@@ -16,7 +16,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import MU, TU_S
 from liaison_cli.dynamics.crtbp import jacobian
-from liaison_cli.dynamics.integrators.adaptive import dop853_state_stm
+from liaison_cli.dynamics.integrators.dop853 import dop853_state_stm
 from liaison_cli.dynamics.integrators.rk4 import rk4_variational
 from liaison_cli.measurements.registry import OBSERVABLES as REGISTERED
 from liaison_cli.measurements.registry import get_observable, predict_along

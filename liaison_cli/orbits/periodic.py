@@ -18,7 +18,7 @@ import numpy as np
 
 from liaison_cli.dynamics.constants import LU_KM, MOON_RADIUS_KM, MU
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant
-from liaison_cli.dynamics.integrators.adaptive import dop853_state_stm
+from liaison_cli.dynamics.integrators.dop853 import dop853_state_stm
 
 RTOL = 1e-13
 ATOL = 1e-14

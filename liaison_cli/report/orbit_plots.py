@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 
 from liaison_cli.dynamics.constants import LU_KM, MU
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.orbits.families import TU_DAYS
 from liaison_cli.orbits.periodic import lagrange_point_x
 

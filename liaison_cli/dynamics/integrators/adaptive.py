@@ -1,7 +1,7 @@
 """scipy's adaptive DOP853 behind one wrapper (`dop853_samples`: a right-hand side, sampled at given times,
-restarted past every terminal event), and the CRTBP's reference propagations through it: `dop853_states`
-(one trajectory) and `dop853_state_stm` (with its STM). The dated ephemeris truth
-(dynamics.ephemeris_dynamics.dop853_ephemeris_states) calls the same wrapper with its shadow-edge events.
+restarted past every terminal event). The dated ephemeris truth
+(dynamics.ephemeris_dynamics.dop853_ephemeris_states) calls it with its shadow-edge events; the CRTBP's
+reference propagations are compiled (integrators.dop853: the same method without Python in the loop).
 
 scipy is imported inside the wrapper, so worker processes, which unpickle problems but never propagate a
 truth, skip its ~0.5 s import.
@@ -9,10 +9,6 @@ truth, skip its ~0.5 s import.
 
 import numpy as np
 
-from liaison_cli.dynamics.crtbp import derivative, state_stm_derivative
-
-TRUTH_RTOL = 1e-12
-TRUTH_ATOL = 1e-13
 RESTART_STEP = 1e-6  # past a terminal event, in the units of t
 
 
@@ -44,23 +40,3 @@ def dop853_samples(rhs, t0, y0, times, rtol, atol, events=(), what="propagation"
         elif done < times.size:
             raise RuntimeError(f"{what} ended early")
     return states
-
-
-def dop853_states(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
-    """One CRTBP state (6,) sampled at times_tu (m,), times_tu[0] = its epoch: (m, 6). Raises RuntimeError
-    if the integrator fails."""
-    times_tu = np.asarray(times_tu, dtype=float)
-    return dop853_samples(lambda t, s: derivative(s, mu), times_tu[0], state0_lu, times_tu, rtol, atol,
-                          what="truth propagation")
-
-
-def dop853_state_stm(state0_lu, times_tu, mu, rtol=TRUTH_RTOL, atol=TRUTH_ATOL):
-    """CRTBP state and STM Phi(t, t0) at times_tu (m,), times_tu[0] = t0: returns ((m, 6), (m, 6, 6))."""
-    times_tu = np.asarray(times_tu, dtype=float)
-    y0 = np.concatenate([np.asarray(state0_lu, dtype=float), np.eye(6).ravel()])
-    if times_tu.size == 1 or times_tu[-1] == times_tu[0]:
-        y = np.repeat(y0[None, :], times_tu.size, axis=0)
-    else:
-        y = dop853_samples(lambda t, y: state_stm_derivative(y, mu), times_tu[0], y0, times_tu, rtol, atol,
-                           what="state+STM propagation")
-    return y[:, :6].copy(), y[:, 6:].reshape(-1, 6, 6).copy()

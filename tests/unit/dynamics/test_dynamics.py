@@ -8,7 +8,7 @@ from liaison_cli.dynamics.constants import MU, TU_S
 
 MU_PARAMS = np.array([MU])  # the point-mass CRTBP's parameter vector (dynamics.crtbp_field)
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, jacobian
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.dynamics.integrators.rk4 import rk4_state_stm
 from liaison_cli.orbits.catalog import CATALOG
 from tests.conftest import LUNAR

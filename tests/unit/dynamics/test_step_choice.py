@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.constants import M_PER_LU, TU_S
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.dynamics.registry import MODEL_CRTBP
 from liaison_cli.dynamics.step_choice import MIN_SUBSTEPS, choose_substeps, one_step_errors
 from liaison_cli.scenario.integration_steps import step_choice_line

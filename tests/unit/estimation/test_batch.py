@@ -13,7 +13,7 @@ from liaison_cli.campaign.engine.worker import draw_run_inputs
 from liaison_cli.dynamics.clock import allan_deviation_model, simulate_clock
 from liaison_cli.dynamics.clock_presets import CLOCK_PRESETS
 from liaison_cli.dynamics.constants import LU_KM, M_PER_LU, MU
-from liaison_cli.dynamics.integrators.adaptive import dop853_state_stm, dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_state_stm, dop853_states
 from liaison_cli.dynamics.integrators.rk8 import rk8_state, rk8_state_stm
 from liaison_cli.estimation.clock_sync import fit_clock_polynomial, sync_errors
 from liaison_cli.estimation.estimators import estimate

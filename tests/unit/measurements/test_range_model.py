@@ -3,7 +3,7 @@
 import numpy as np
 
 from liaison_cli.dynamics.constants import LU_KM, MU, SPEED_OF_LIGHT_LU_TU, TU_S
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.dynamics.trajectory import CrtbpTrajectory
 from liaison_cli.measurements.range import KIND_RANGE, OBSERVABLE as RANGE
 from liaison_cli.measurements.registry import predict

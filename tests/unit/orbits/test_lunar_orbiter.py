@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.constants import GM_MOON_KM3_S2, LU_KM, MU, TU_S, VU_KM_S
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.keplerian import elements_to_moon_inertial, keplerian_period_s
 from tests.conftest import LUNAR

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from liaison_cli.dynamics.constants import MU
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.orbits.catalog import CATALOG
 from liaison_cli.orbits.families import FAMILIES, FamilyError, member_by_period
 from liaison_cli.orbits.periodic import correct, lagrange_point_x

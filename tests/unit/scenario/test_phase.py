@@ -4,7 +4,7 @@ by the dated model only, so a CRTBP phase was silently ignored)."""
 import numpy as np
 
 from liaison_cli.orbits.family_store import member_state
-from liaison_cli.dynamics.integrators.adaptive import dop853_states
+from liaison_cli.dynamics.integrators.dop853 import dop853_states
 from liaison_cli.dynamics.constants import MU
 from liaison_cli.scenario.loading import validate_scenario
 from liaison_cli.scenario.setup import prepare_problem

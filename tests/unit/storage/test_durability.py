@@ -26,11 +26,19 @@ def test_the_vendored_tableau_equals_scipys_exactly():
     assert np.array_equal(RK8_A, scipy_tableau.A[:stages, :stages])
     assert np.array_equal(RK8_B, scipy_tableau.B)
     assert np.array_equal(RK8_C, scipy_tableau.C[:stages])
+    from liaison_cli.dynamics.integrators import dop853, dop853_tableau  # the adaptive one's rows too
+
+    for ours, theirs in ((dop853.A, scipy_tableau.A[:stages, :stages]), (dop853.B, scipy_tableau.B),
+                         (dop853.E5, scipy_tableau.E5), (dop853.E3, scipy_tableau.E3),
+                         (dop853.A_EXTRA, scipy_tableau.A[stages + 1:]), (dop853.D, scipy_tableau.D),
+                         (np.array(dop853_tableau.C_EXTRA), scipy_tableau.C[stages + 1:])):
+        assert ours.shape == theirs.shape and np.array_equal(ours, theirs)
 
 
 def test_the_integrator_imports_without_scipy():
     code = ("import sys\nsys.modules['scipy'] = None  # any scipy import now fails\n"
-            "from liaison_cli.dynamics.integrators.rk8 import RK8_A\nprint(RK8_A.shape)")
+            "from liaison_cli.dynamics.integrators.rk8 import RK8_A\n"
+            "from liaison_cli.dynamics.integrators.dop853 import dop853_states\nprint(RK8_A.shape)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "(12, 12)", out.stderr
 
