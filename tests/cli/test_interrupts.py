@@ -405,6 +405,37 @@ def test_ctrl_c_while_the_core_compiles_exits_130_with_one_line(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_ctrl_c_swallowed_in_a_finaliser_still_stops_the_command_at_once():
+    """A Ctrl-C whose KeyboardInterrupt is raised inside a finaliser or a C callback (llvmlite's objects, freed by
+    the thousand while numba compiles) is swallowed by Python. Only remembered, it let the command compile on to
+    its next check of the request (`errors` on a cold cache stopped after 70 s instead of 4); it is now raised
+    again, a few milliseconds later, where Python can unwind. In a fresh process, SIGINT at its default."""
+    script = """
+import os, signal, time
+from liaison_cli import interrupts
+interrupts.install()
+class Finalised:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGINT)  # the Ctrl-C lands inside the finaliser
+        started = time.monotonic()
+        while time.monotonic() - started < 0.05:
+            pass
+start = time.monotonic()
+Finalised()
+try:
+    while time.monotonic() - start < 5.0:
+        sum(range(100))
+    print("went on")
+except KeyboardInterrupt:
+    print("stopped", time.monotonic() - start)
+"""
+    proc = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=60,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr  # nothing printed of the swallowed one
+    verdict, *seconds = proc.stdout.split()
+    assert verdict == "stopped" and float(seconds[0]) < 1.0, proc.stdout
+
+
 def test_pool_workers_start_with_sigint_blocked():
     """joblib's workers inherit a blocked SIGINT (read from /proc; ignored once their first task runs), so
     Ctrl-C while they start or run reaches only the main process, which stops the pool. In a fresh process: no
