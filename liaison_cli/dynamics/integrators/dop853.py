@@ -16,9 +16,13 @@ and the DOP853 code):
   rejected, the step scaled by max(0.2, 0.9 err^(-1/8)); the last step cut to end on the span's end;
 - every asked time within a step (t_old, t] read from the 7th-order dense output (three extra stages).
 
-The one difference is the order of additions in the stage and error sums (scipy's are BLAS products, whose
-order depends on the BLAS kernel, these a fixed loop), so the two agree to rounding, not bit for bit:
-tests/unit/dynamics/test_dop853.py compares them step count for step count.
+Where it differs: the stage and error sums are added in a fixed order (scipy's are BLAS products, whose order
+depends on the BLAS kernel), so the two agree to rounding, not bit for bit (tests/unit/dynamics/test_dop853.py
+compares them step count for step count); samples at the start time are the start itself, and repeated
+sample times are allowed (scipy refuses them); and the loop is bounded (MAX_STEPS) and stops on a step size
+that is not finite, where scipy would go on for ever. A non-finite field inside a step is rejected and the step
+shrunk, as scipy does, until it fails as too small; samples are returned as computed (a caller checks them, as
+the corrector checks its residual).
 """
 
 import numpy as np
@@ -82,8 +86,8 @@ def _stage_input(y, h, a_row, k, s, out):
 
 
 @njit(cache=True, inline="always")
-def _rms_norm_2(values, n):
-    """|values|^2 as scipy forms it: the Euclidean norm, squared."""
+def _norm_squared(values, n):
+    """|values|^2 as scipy forms it: the Euclidean norm, squared (the square root, then its square)."""
     acc = 0.0
     for i in range(n):
         acc += values[i] * values[i]
@@ -149,8 +153,8 @@ def _error_norm(y, y_new, k, h, rtol, atol, e5, e3):
             acc3 += k[j, i] * E3[j]
         e5[i] = acc5 / scale
         e3[i] = acc3 / scale
-    norm5 = _rms_norm_2(e5, n)
-    norm3 = _rms_norm_2(e3, n)
+    norm5 = _norm_squared(e5, n)
+    norm3 = _norm_squared(e3, n)
     if norm5 == 0.0 and norm3 == 0.0:
         return 0.0
     return abs(h) * norm5 / np.sqrt((norm5 + 0.01 * norm3) * n)
@@ -197,8 +201,9 @@ def dop853_crtbp_into(y0, times, mu, rtol, atol, out):
     """The CRTBP state (6,) or [state, Phi row-major] (42,) y0 at times[0], integrated by adaptive DOP853 and
     sampled at times (m,) (ascending) into out (m, len(y0)). Returns (status, accepted steps, right-hand side
     evaluations): OK; STEP_TOO_SMALL where the step fell below ten units in the last place of t, NOT_FINITE
-    where the field or the step size is not finite, TOO_MANY_STEPS past MAX_STEPS (out then holds the samples
-    reached)."""
+    where the step size is not finite (a field not finite at the start), TOO_MANY_STEPS past MAX_STEPS (out then
+    holds the samples reached). The caller validates: y0 of length 6 or 42, finite ascending times, rtol and atol
+    positive (dop853_samples_crtbp)."""
     n = y0.shape[0]
     m = times.shape[0]
     k = np.empty((N_STAGES_EXTENDED, n))
@@ -237,8 +242,6 @@ def dop853_crtbp_into(y0, times, mu, rtol, atol, out):
             _step(y, f, h, mu, k, y_new, stage)
             evaluations += N_STAGES
             error = _error_norm(y, y_new, k, h, rtol, atol, e5, e3)
-            if np.isnan(error):
-                return NOT_FINITE, steps, evaluations
             if error < 1.0:
                 factor = MAX_FACTOR
                 if error != 0.0:
@@ -268,18 +271,25 @@ def dop853_crtbp_into(y0, times, mu, rtol, atol, out):
 
 
 FAILURES = {STEP_TOO_SMALL: "the step size fell below the spacing of the times",
-            NOT_FINITE: "the field is not finite along the path", TOO_MANY_STEPS: f"more than {MAX_STEPS:,} steps"}
+            NOT_FINITE: "the field is not finite at the start", TOO_MANY_STEPS: f"more than {MAX_STEPS:,} steps"}
+SMALLEST_RTOL = 100.0 * np.finfo(float).eps  # scipy raises a smaller rtol to this (validate_tol)
 
 
 def dop853_samples_crtbp(y0, times_tu, mu, rtol, atol, what: str) -> np.ndarray:
-    """y0 (6,) or (42,) at times_tu[0] sampled at times_tu (m,) (ascending): (m, len(y0)). Raises RuntimeError
-    naming `what` if the step size collapses (as scipy's solve_ivp fails: a singular or non-finite field)."""
+    """y0 (6,) or (42,) at times_tu[0] sampled at times_tu (m,) (ascending): (m, len(y0)). Raises ValueError
+    naming `what` for input the kernel cannot take (it reads 6 or 42 entries unchecked), RuntimeError if the
+    integration fails (FAILURES). rtol below 100 eps is raised to it, as scipy does."""
     times_tu = np.ascontiguousarray(times_tu, dtype=float)
-    if times_tu.ndim != 1 or times_tu.size == 0 or np.any(np.diff(times_tu) < 0.0):
-        raise ValueError(f"{what}: sample times must be a non-empty ascending sequence")
     y0 = np.ascontiguousarray(y0, dtype=float)
+    if y0.ndim != 1 or y0.size not in (6, 42):
+        raise ValueError(f"{what}: the start must be a state (6,) or a state and STM (42,), not shape {y0.shape}")
+    if times_tu.ndim != 1 or times_tu.size == 0 or not np.all(np.isfinite(times_tu)) or np.any(
+            np.diff(times_tu) < 0.0):
+        raise ValueError(f"{what}: sample times must be a non-empty, finite, ascending sequence")
+    if not (np.isfinite(rtol) and np.isfinite(atol) and rtol > 0.0 and atol > 0.0):
+        raise ValueError(f"{what}: rtol and atol must be positive and finite, not {rtol} and {atol}")
     out = np.empty((times_tu.size, y0.size))
-    status = dop853_crtbp_into(y0, times_tu, float(mu), float(rtol), float(atol), out)[0]
+    status = dop853_crtbp_into(y0, times_tu, float(mu), max(float(rtol), SMALLEST_RTOL), float(atol), out)[0]
     if status != OK:
         raise RuntimeError(f"{what} failed: {FAILURES[status]}")
     return out

@@ -15,7 +15,8 @@ from scipy.integrate import solve_ivp
 
 from liaison_cli.dynamics.constants import MU
 from liaison_cli.dynamics.crtbp import derivative, jacobi_constant, state_stm_derivative
-from liaison_cli.dynamics.integrators.dop853 import dop853_crtbp_into, dop853_state_stm, dop853_states
+from liaison_cli.dynamics.integrators.dop853 import (SMALLEST_RTOL, dop853_crtbp_into, dop853_samples_crtbp,
+                                                     dop853_state_stm, dop853_states)
 from liaison_cli.orbits.family_catalogue import shipped_table
 
 RTOL, ATOL = 1e-13, 1e-14  # the corrector's (orbits.periodic)
@@ -30,21 +31,28 @@ def _member(family: str, fraction: float) -> tuple[np.ndarray, float]:
     return state, float(table.period_tu[row])
 
 
-@pytest.mark.parametrize("family, fraction", [("l2_nrho_south", 0.5), ("l1_halo_south", 0.0), ("dro", 1.0),
-                                              ("l2_lyapunov", 0.5)])
+@pytest.mark.parametrize("family, fraction, start, rtol", [("l2_nrho_south", 0.5, 0.0, RTOL),
+                                                           ("l1_halo_south", 0.0, 5.0, RTOL),
+                                                           ("dro", 1.0, 0.0, RTOL),
+                                                           ("l2_lyapunov", 0.5, 0.0, 1e-15)])  # raised to 100 eps
 @pytest.mark.parametrize("with_stm", [False, True])
-def test_the_same_steps_and_samples_as_scipy(family, fraction, with_stm):
+def test_the_same_steps_and_samples_as_scipy(family, fraction, start, rtol, with_stm):
+    import warnings
+
     state = _member(family, fraction)[0]
     y0 = np.concatenate([state, np.eye(6).ravel()]) if with_stm else state
     rhs = (lambda t, y: state_stm_derivative(y, MU)) if with_stm else (lambda t, y: derivative(y, MU))
-    times = np.array([0.0, 0.3, 0.7, 1.2, 2.0])
-    theirs = solve_ivp(rhs, (0.0, 2.0), y0, method="DOP853", t_eval=times[1:], rtol=RTOL, atol=ATOL)
-    ours = np.empty((times.size, y0.size))
-    status, steps, evaluations = dop853_crtbp_into(y0, times, MU, RTOL, ATOL, ours)
-    assert status == 0 and steps > 20
+    times = start + np.array([0.0, 0.3, 0.7, 1.2, 2.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # scipy's note that it raised rtol to 100 eps
+        theirs = solve_ivp(rhs, (times[0], times[-1]), y0, method="DOP853", t_eval=times[1:], rtol=rtol, atol=ATOL)
+    ours = dop853_samples_crtbp(y0, times, MU, rtol, ATOL, "a test")
+    counted = np.empty((times.size, y0.size))
+    status, steps, evaluations = dop853_crtbp_into(y0, times, MU, max(rtol, SMALLEST_RTOL), ATOL, counted)
+    assert status == 0 and steps > 20 and np.array_equal(counted, ours)
     assert evaluations == theirs.nfev
-    assert np.array_equal(ours[0], y0)
     expected = theirs.y.T
+    assert np.array_equal(ours[0], y0)  # the start sample is the start itself
     difference = np.abs(ours[1:] - expected) / np.maximum(1.0, np.abs(expected))
     assert difference.max() < TOLERANCE, difference.max()
 
@@ -80,10 +88,23 @@ def test_repeated_samples_are_the_same_sample():
     assert np.array_equal(repeated, once[[0, 0, 1, 1, 2]])
 
 
-def test_a_field_that_is_not_finite_is_one_message_not_a_silent_nan():
+def test_a_start_that_is_not_finite_is_one_message_not_a_silent_nan():
     broken = np.array([np.nan, 0.0, 0.0, 0.0, 0.1, 0.0])
-    with pytest.raises(RuntimeError, match="truth propagation failed: the field is not finite"):
+    with pytest.raises(RuntimeError, match="truth propagation failed: the field is not finite at the start"):
         dop853_states(broken, np.array([0.0, 1.0]), MU)
+
+
+@pytest.mark.parametrize("y0, times, tolerances, fragment", [
+    (np.zeros(7), [0.0, 1.0], (1e-12, 1e-13), "not shape (7,)"),  # the kernel reads 6 or 42 entries unchecked
+    (np.zeros((2, 6)), [0.0, 1.0], (1e-12, 1e-13), "not shape (2, 6)"),
+    (np.ones(6), [0.0, np.nan], (1e-12, 1e-13), "finite, ascending"),
+    (np.ones(6), [0.0, np.inf], (1e-12, 1e-13), "finite, ascending"),
+    (np.ones(6), [0.0, 1.0], (1e-12, 0.0), "positive and finite"),
+])
+def test_input_the_kernel_cannot_take_is_refused(y0, times, tolerances, fragment):
+    with pytest.raises(ValueError, match="a test") as refused:
+        dop853_samples_crtbp(y0, np.array(times), MU, *tolerances, "a test")
+    assert fragment in str(refused.value)
 
 
 def test_a_path_that_never_ends_is_bounded():

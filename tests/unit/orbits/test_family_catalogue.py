@@ -26,7 +26,7 @@ from liaison_cli.orbits.family_catalogue import (
 STATE_TOLERANCE_LU = 1e-11
 
 
-# Every family regenerated (about 1.3 s of CPU since the corrector's DOP853 is compiled, 20 s through scipy):
+# Every family regenerated (about 1.3 s of CPU since the corrector's DOP853 is compiled, 38-39 s through scipy):
 # a change to the corrector or the propagation moves every family.
 @pytest.fixture(scope="module")
 def regenerated():
