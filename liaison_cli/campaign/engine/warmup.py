@@ -208,6 +208,20 @@ def compile_dated_propagators() -> str:
     return ""
 
 
+def compile_crtbp_dop853() -> str:
+    """The CRTBP's compiled adaptive DOP853 (dynamics.integrators.dop853: one signature for a state and a state +
+    STM), which the orbit-family corrector needs at the setup of every scenario with a family member. Run ahead in
+    the second process after the dated propagators: otherwise the first process, the longest, compiled it (about
+    4 s) at its first family scenario's setup."""
+    import numpy as np
+
+    from liaison_cli.dynamics.constants import MU
+    from liaison_cli.dynamics.integrators.dop853 import dop853_states
+
+    dop853_states(np.array([0.8, 0.0, 0.1, 0.0, 0.2, 0.0]), np.array([0.0, 0.01]), MU)
+    return ""
+
+
 def compile_shared_calls() -> str:
     """The measurement row and the covariance prediction every estimator calls by address
     (estimation.filter_loop.shared_calls), compiled for the named groups' fixed types. Run ahead in the first
@@ -384,9 +398,11 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     rest.sort(key=len, reverse=True)  # the longest chain first, so it does not start last and finish alone
     phase = [first, *batch, *rest]
     # The second chain starts by compiling the dated model's propagators, which the first would reach only after
-    # its CRTBP propagator (compile_dated_propagators); the first starts with the shared calls it would reach
+    # its CRTBP propagator (compile_dated_propagators), then the corrector's DOP853 (compile_crtbp_dop853); the
+    # first starts with the shared calls it would reach
     # only after waiting for them (compile_shared_calls). With one process, nothing is ahead of anything.
-    ahead = {0: (), 1: (compile_dated_propagators,), 2: (compile_shared_calls,)} if jobs > 1 else {0: ()}
+    ahead = ({0: (), 1: (compile_dated_propagators, compile_crtbp_dop853), 2: (compile_shared_calls,)} if jobs > 1
+             else {0: ()})
     steps = ({0: 2, 1: 1}.get(i, 0) if jobs > 1 else 0 for i in range(len(phase)))
     yield from (result for results in map_batches(warm_up_chain, ahead, zip(steps, map(tuple, phase)),
                                                     LOCAL, min(jobs, len(phase)) if jobs > 1 else 1)
