@@ -125,7 +125,8 @@ def _initial_step(y0, f0, span, mu, rtol, atol, y1, f1):
 
 @njit(cache=True)
 def _step(y, f, h, mu, k, y_new, stage):
-    """One DOP853 step of size h from y, f = y' there (the CRTBP is autonomous): y_new, k[0:13] (the 12 stages and y'(t + h))."""
+    """One DOP853 step of size h from y, f = y' there (the CRTBP is autonomous): y_new, and k[0:13] the 12
+    stages and y' at the step's end."""
     n = y.shape[0]
     for i in range(n):
         k[0, i] = f[i]
