@@ -186,9 +186,9 @@ def _quiet_unraisable(unraisable) -> None:
     """A Ctrl-C that lands in a C callback or a finaliser (llvmlite's, while numba compiles on a cold cache)
     cannot propagate: Python would print it as an "Exception ignored ... Traceback". It is not printed; the
     request is remembered (`requested`) and, this CLI's, raised again a few milliseconds later where Python can
-    unwind (`_redeliver_later`). Only remembered, the command went on compiling to its next check of the request:
-    `errors` interrupted on a cold cache took 70 s to stop instead of 4 (once in eight suite runs). Anything else
-    goes to the previous hook."""
+    unwind (`_redeliver_later`). Only remembered, the command went on compiling to its next check of the request
+    (once in eight suite runs, `errors` interrupted on a cold cache stopped after 70 s instead of 4, as a swallowed
+    Ctrl-C would). Anything else goes to the previous hook."""
     if isinstance(unraisable.exc_value, KeyboardInterrupt):
         if _requested and signal.getsignal(signal.SIGINT) is _on_sigint:
             _redeliver_later(signal.SIGINT)

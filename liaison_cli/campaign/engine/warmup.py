@@ -399,8 +399,8 @@ def warm_up(specs: list[Specialisation], jobs: int = 2):
     phase = [first, *batch, *rest]
     # The second chain starts by compiling the dated model's propagators, which the first would reach only after
     # its CRTBP propagator (compile_dated_propagators), then the corrector's DOP853 (compile_crtbp_dop853); the
-    # first starts with the shared calls it would reach
-    # only after waiting for them (compile_shared_calls). With one process, nothing is ahead of anything.
+    # first starts with the shared calls it would reach only after waiting for them (compile_shared_calls). With
+    # one process, nothing is ahead of anything.
     ahead = ({0: (), 1: (compile_dated_propagators, compile_crtbp_dop853), 2: (compile_shared_calls,)} if jobs > 1
              else {0: ()})
     steps = ({0: 2, 1: 1}.get(i, 0) if jobs > 1 else 0 for i in range(len(phase)))
