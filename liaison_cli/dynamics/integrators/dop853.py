@@ -30,6 +30,8 @@ from numba import njit
 
 from liaison_cli.dynamics.crtbp import state_stm_rhs, truth_derivative_into
 from liaison_cli.dynamics.integrators import dop853_tableau as _tableau
+from liaison_cli.dynamics.integrators.rk8 import RK8_A as A
+from liaison_cli.dynamics.integrators.rk8 import RK8_B as B
 
 N_STAGES = 12
 N_STAGES_EXTENDED = 16  # the step's 12, the derivative at its end, the dense output's 3
@@ -56,9 +58,8 @@ def _table(rows):
     return table
 
 
-# The stage times (C, C_EXTRA) are not needed: the CRTBP is autonomous.
-A = _table(_tableau.A)
-B = _table(_tableau.B)
+# A step's stages (A, B) are the fixed-step RK8's tables; the stage times (C, C_EXTRA) are not needed: the CRTBP is
+# autonomous.
 E5 = _table(_tableau.E5)
 E3 = _table(_tableau.E3)
 A_EXTRA = _table(_tableau.A_EXTRA)
